@@ -1,0 +1,51 @@
+# seagen — set-up, demo, tests. Every target creates/updates .venv first.
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+PIP    := $(VENV)/bin/pip
+STAMP  := $(VENV)/.seagen-installed
+DEMO   ?= demo_out
+JOBS   ?= 2
+
+.PHONY: venv toolchain demo test test-slow check format bench clean
+
+$(PY):
+	python3 -m venv $(VENV)
+
+# torch first (the local CPU wheel), then the package with its dev extras.
+$(STAMP): $(PY) pyproject.toml
+	$(PIP) install -q --upgrade pip
+	$(PIP) install -q torch==2.13.0
+	$(PIP) install -q -e '.[dev]'
+	touch $(STAMP)
+
+venv: $(STAMP) toolchain
+
+# The Arm cross compiler, from Debian, when root and missing.
+toolchain:
+	@if ! command -v arm-none-eabi-gcc >/dev/null 2>&1; then \
+	  if [ "$$(id -u)" = "0" ]; then \
+	    echo "installing gcc-arm-none-eabi libnewlib-arm-none-eabi"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq gcc-arm-none-eabi libnewlib-arm-none-eabi >/dev/null; \
+	  else echo "warning: arm-none-eabi-gcc missing and not root; Cortex-M tests will be skipped"; fi; \
+	fi
+
+demo: venv
+	$(VENV)/bin/seagen demo --out $(DEMO)
+
+test: venv
+	$(PY) -m pytest -n $(JOBS) -q
+
+test-slow: venv
+	$(PY) -m pytest -n $(JOBS) -q -m slow
+
+check: venv
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+	$(VENV)/bin/mypy
+
+format: venv
+	$(VENV)/bin/ruff format .
+	$(VENV)/bin/ruff check --fix .
+
+clean:
+	rm -rf $(DEMO) build dist *.egg-info .pytest_cache

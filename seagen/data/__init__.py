@@ -1,0 +1,1 @@
+"""Data sets: the paper's calibration protocol, the CSV schema, validated loading, the feature function."""

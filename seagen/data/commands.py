@@ -1,0 +1,66 @@
+"""`seagen data generate` and `seagen data summary`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import tempfile
+from pathlib import Path
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the `data` command group."""
+    p = sub.add_parser("data", help="generate or summarize calibration data sets")
+    dsub = p.add_subparsers(dest="data_command", metavar="ACTION", required=True)
+    g = dsub.add_parser("generate", help="collect train/test/validation CSVs on the simulated SEA (paper protocol)")
+    g.add_argument("--out", required=True, help="output directory (created)")
+    g.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    g.add_argument("--config", help="plant config TOML (default: the paper's actuator)")
+    g.set_defaults(func=cmd_generate)
+    s = dsub.add_parser("summary", help="rows per split, naive kinematics error, friction by angle")
+    s.add_argument("dir", help="data directory holding train.csv, test.csv, validation.csv")
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.set_defaults(func=cmd_summary)
+
+
+def cmd_generate(args: argparse.Namespace) -> int:
+    """Generate the three splits and write them atomically."""
+    from tqdm import tqdm
+
+    from seagen.data.protocol import generate
+    from seagen.data.schema import save_csv
+    from seagen.plant import PlantConfig, load_config
+
+    cfg = load_config(args.config) if args.config else PlantConfig()
+    out = Path(args.out)
+    with tqdm(total=3, desc="simulating", unit="split") as bar:
+
+        def step(split: str) -> None:
+            bar.set_postfix_str(split)
+            bar.update(0 if split == "train" else 1)
+
+        splits = generate(cfg, seed=args.seed, progress=step)
+        bar.update(1)
+    out.mkdir(parents=True, exist_ok=True)
+    staged = tempfile.mkdtemp(dir=out, prefix=".generate.")
+    try:
+        for name, df in splits.items():
+            save_csv(df, Path(staged) / f"{name}.csv")
+        for name in splits:
+            os.replace(Path(staged) / f"{name}.csv", out / f"{name}.csv")
+    finally:
+        for f in Path(staged).glob("*"):
+            f.unlink()
+        os.rmdir(staged)
+    print(f"wrote {out}/: " + ", ".join(f"{k}.csv ({len(v)} rows)" for k, v in splits.items()))
+    return 0
+
+
+def cmd_summary(args: argparse.Namespace) -> int:
+    """Print the summary of a data directory."""
+    from seagen.data.summary import format_summary, summarize
+
+    s = summarize(args.dir)
+    print(json.dumps(s, indent=2) if args.json else format_summary(s))
+    return 0

@@ -1,0 +1,112 @@
+"""The paper's calibration protocol on the simulated SEA: 12 contact angles, push into the load cell and back."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from seagen.plant import Plant, PlantConfig
+from seagen.plant import geometry as g
+
+TRAIN_ANGLES_DEG = tuple(float(a) for a in np.linspace(6.0, 26.0, 12))  # the 12 contact angles
+ROWS = {"train": 10_400, "test": 2_416, "validation": 140}  # paper §VIII-A
+SAMPLE_EVERY = 10  # 1 kHz plant, 100 Hz samples
+FREE_DRIVE_V = 4.0  # approach speed until the linkage reaches the load cell
+# (push volts, peak force at the shaft N, retract volts): "several speeds" (chosen)
+TRAIN_MOVES = ((2.5, 17.0, -5.0), (4.0, 12.0, -7.0), (3.0, 19.0, -6.0), (5.0, 9.0, -8.0), (2.0, 14.0, -4.0))
+TEST_MOVES = TRAIN_MOVES  # same protocol, other trials and noise
+VALIDATION_MOVES = ((3.2, 16.0, -6.0),)
+
+
+@dataclass(frozen=True)
+class Move:
+    """One trial: drive into the load cell at `push_v` until the reference force reaches `peak_n`, retract."""
+
+    angle_deg: float
+    push_v: float
+    peak_n: float
+    retract_v: float
+
+
+def run_trials(cfg: PlantConfig, moves: list[Move], seed: int, max_s: float = 8.0) -> list[pd.DataFrame]:
+    """Simulate a batch of trials at once; each returns its 100 Hz raw rows until the force is off again."""
+    plant = Plant(cfg, np.array([m.angle_deg for m in moves]), seed=seed)
+    push = np.array([m.push_v for m in moves])
+    peak = np.array([m.peak_n for m in moves])
+    back = np.array([m.retract_v for m in moves])
+    phase = np.zeros(len(moves), dtype=int)  # 0 push, 1 retract, 2 done
+    quiet = np.zeros(len(moves), dtype=int)
+    cols: dict[str, list[np.ndarray]] = {k: [] for k in ("t_s", "motor_v", "enc", "pot", "load_cell_n", "force_n")}
+    alive: list[np.ndarray] = []
+    volts = push.copy()
+    for k in range(int(max_s / cfg.dt_s)):
+        if k % SAMPLE_EVERY == 0:
+            s = plant.read()
+            alive.append(phase < 2)
+            for name, v in (("t_s", np.full(len(moves), plant.t)), ("motor_v", volts), ("enc", s.enc),
+                            ("pot", s.pot), ("load_cell_n", s.load_cell_n), ("force_n", s.force_n)):
+                cols[name].append(np.array(v, copy=True))
+            phase = np.where((phase == 0) & (s.force_n >= peak), 1, phase)
+            quiet = np.where((phase == 1) & (s.force_n < 0.4), quiet + 1, 0)
+            phase = np.where((phase == 1) & ((quiet >= 8) | (s.enc <= 0)), 2, phase)
+            if (phase == 2).all():
+                break
+            volts = np.where(phase == 0, push, np.where(phase == 1, back, 0.0))
+        plant.step(volts)
+    keep = np.array(alive)
+    out = []
+    for i, m in enumerate(moves):
+        rows = keep[:, i]
+        df = pd.DataFrame({name: np.array(v)[rows, i] for name, v in cols.items()})
+        df.insert(0, "angle_set_deg", m.angle_deg)
+        out.append(df)
+    return out
+
+
+def _quotas(total: int, n: int) -> list[int]:
+    """Split `total` rows over `n` angles as evenly as possible."""
+    base, extra = divmod(total, n)
+    return [base + (i < extra) for i in range(n)]
+
+
+def collect(cfg: PlantConfig, angles: tuple[float, ...], moves: tuple[tuple[float, float, float], ...],
+            total: int, seed: int) -> pd.DataFrame:
+    """Trials per angle, cycling through `moves`, until each angle's row quota is met (last trial cut)."""
+    quotas = _quotas(total, len(angles))
+    per_angle: list[list[pd.DataFrame]] = [[] for _ in angles]
+    have = [0] * len(angles)
+    round_ = 0
+    while any(h < q for h, q in zip(have, quotas, strict=True)):
+        todo = [i for i, (h, q) in enumerate(zip(have, quotas, strict=True)) if h < q]
+        batch = [Move(angles[i], *moves[(round_ + i) % len(moves)]) for i in todo]
+        for i, df in zip(todo, run_trials(cfg, batch, seed=seed * 1000 + round_), strict=True):
+            take = min(len(df), quotas[i] - have[i])
+            per_angle[i].append(df.iloc[:take])
+            have[i] += take
+        round_ += 1
+    frames = []
+    for trials in per_angle:
+        frames.extend(trials)
+    for n, df in enumerate(frames):
+        df.insert(0, "trial", n)
+    out = pd.concat(frames, ignore_index=True)
+    return out
+
+
+def generate(cfg: PlantConfig, seed: int = 0, progress: Callable[[str], None] | None = None) -> dict[str, pd.DataFrame]:
+    """The three splits of the paper: train and test at 12 angles, validation at one random extra angle."""
+    rng = np.random.default_rng(seed)
+    val_angle = float(np.round(rng.uniform(g.ANGLE_MIN_DEG + 2.0, g.ANGLE_MAX_DEG - 1.5), 2))
+    while min(abs(val_angle - a) for a in TRAIN_ANGLES_DEG) < 0.5:
+        val_angle = float(np.round(rng.uniform(g.ANGLE_MIN_DEG + 2.0, g.ANGLE_MAX_DEG - 1.5), 2))
+    plan = (("train", TRAIN_ANGLES_DEG, TRAIN_MOVES, 1), ("test", TRAIN_ANGLES_DEG, TEST_MOVES, 2),
+            ("validation", (val_angle,), VALIDATION_MOVES, 3))
+    out = {}
+    for split, angles, moves, k in plan:
+        if progress:
+            progress(split)
+        out[split] = collect(cfg, angles, moves, ROWS[split], seed=seed * 10 + k)
+    return out

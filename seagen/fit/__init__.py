@@ -1,0 +1,1 @@
+"""Calibration and control models: kinematics baseline, surface fit, MLPs, search, the model file."""

@@ -1,0 +1,42 @@
+"""The textbook estimate (Eq. 1, 2, 6) with constant friction compensation: the baseline to beat."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from seagen.plant import geometry as g
+
+FRICTION_COMPENSATION_N = 2.7  # the paper's measured actuator friction (Fig. 7), at the shaft
+ERROR_THRESHOLD_N = 5.0  # relative errors are taken over rows whose reference force exceeds this
+
+
+def shaft_force(compression_mm: np.ndarray, compensation_n: float = FRICTION_COMPENSATION_N) -> np.ndarray:
+    """Eq. 1 at the SEA output shaft: k_s * compression - F_fa (tip force divided by R_l)."""
+    return g.SPRING_N_PER_MM * np.asarray(compression_mm, dtype=float) - compensation_n
+
+
+def relative_errors(pred: np.ndarray, ref: np.ndarray, angle: np.ndarray,
+                    threshold_n: float = ERROR_THRESHOLD_N) -> dict[str, float]:
+    """Paper-style errors: average over rows with ref > threshold; maximum = worst contact angle's mean.
+
+    Absolute errors (N) use the same rows. Percentages are |pred - ref| / ref * 100.
+    """
+    sel = ref > threshold_n
+    err = np.abs(pred[sel] - ref[sel])
+    pct = err / ref[sel] * 100.0
+    groups = pd.Series(err).groupby(angle[sel])
+    groups_pct = pd.Series(pct).groupby(angle[sel])
+    return {
+        "error_avg_n": float(err.mean()),
+        "error_max_n": float(groups.mean().max()),
+        "error_avg_pct": float(pct.mean()),
+        "error_max_pct": float(groups_pct.mean().max()),
+        "rows": int(sel.sum()),
+    }
+
+
+def kinematics_errors(df: pd.DataFrame) -> dict[str, float]:
+    """Errors of the naive kinematics estimate on a derived data frame (needs compression_mm)."""
+    pred = shaft_force(df["compression_mm"].to_numpy())
+    return relative_errors(pred, df["force_n"].to_numpy(), df["angle_set_deg"].to_numpy())

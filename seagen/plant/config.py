@@ -1,0 +1,239 @@
+"""Plant parameters: one dataclass per component and per named effect, loadable from and savable to TOML."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import tomllib
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import tomli_w
+
+from seagen.atomic import write_text
+from seagen.errors import UserError
+
+
+class ConfigError(UserError):
+    """A plant config file that cannot be used (names the file and the key)."""
+
+
+@dataclass
+class Motor:
+    """12 V micro-gear motor, 380:1 gearbox, lead screw, seen at the nut (back-drivable)."""
+
+    supply_v: float = 12.0
+    no_load_rpm: float = 32300.0  # paper §VI-A
+    counts_per_rev: int = 12
+    time_constant_s: float = 0.015  # chosen: electrical + rotor lag seen at the nut
+    stall_force_n: float = 150.0  # chosen: nut force that stalls the motor at 12 V
+
+
+@dataclass
+class LoadCells:
+    """Horizontal mount up to 16 deg contact, vertical above; each with its own noise (N at the tip)."""
+
+    horizontal_sigma_n: float = 0.05
+    vertical_sigma_n: float = 0.08
+
+
+@dataclass
+class Effect:
+    """Base of the named non-ideal effects: each can be switched on and off."""
+
+    enabled: bool = False
+
+
+@dataclass
+class ActuatorFriction(Effect):
+    """Coulomb friction on the output shaft (F = F_c sign v, stick below); lower when retracting."""
+
+    enabled: bool = True
+    force_n: float = 2.7  # paper Fig. 7: 2.7 N (0.68 mm of compression)
+    reverse_ratio: float = 0.55  # chosen: friction when the shaft retracts, as a fraction of force_n
+
+
+@dataclass
+class LinkageFriction(Effect):
+    """Friction added (or relieved) by the linkage, at the shaft: c0 + c1 x + c2 x^2, x = (angle-16)/12."""
+
+    enabled: bool = True
+    # chosen so that the combined friction measured the paper's way is ~2.1, 2.4, 4.45 N (Fig. 8)
+    c0_n: float = -0.20
+    c1_n: float = 1.343
+    c2_n: float = 1.34
+
+
+@dataclass
+class ViscousFriction(Effect):
+    """Speed-proportional drag on the output shaft: F = b v."""
+
+    b_n_s_per_mm: float = 0.15
+
+
+@dataclass
+class StribeckFriction(Effect):
+    """Extra break-away friction at low speed: (F_s - F_c) exp(-(v/v_s)^2)."""
+
+    extra_static_n: float = 1.5
+    v_s_mm_s: float = 0.5
+
+
+@dataclass
+class SeriesCompliance(Effect):
+    """Housing, shaft and linkage deformation in series with the spring: d = F/k + beta F^2."""
+
+    enabled: bool = True
+    k_n_per_mm: float = 30.0  # chosen: with beta, the naive error grows from ~20 % at 5 N to ~40 % at 15 N
+    beta_mm_per_n2: float = 0.0048
+
+
+@dataclass
+class Backlash(Effect):
+    """Dead band between motor (encoder) and nut on reversal: gap of width 2 b."""
+
+    half_width_mm: float = 0.06
+
+
+@dataclass
+class SpringPreload(Effect):
+    """Spring force offset: F = k d + F_0."""
+
+    force_n: float = 1.0
+
+
+@dataclass
+class SpringNonlinearity(Effect):
+    """Progressive spring: F = k d + k3 d^3."""
+
+    k3_n_per_mm3: float = 0.06
+
+
+@dataclass
+class PotVoltageDrop(Effect):
+    """Pot reads high while the motor draws current (|i| normalised to stall at 12 V), decays after."""
+
+    enabled: bool = True
+    counts_per_unit_current: float = 120.0
+    time_constant_s: float = 0.12
+
+
+@dataclass
+class PotNoise(Effect):
+    """Reference-voltage fluctuation: zero-mean Gaussian noise on the pot counts."""
+
+    enabled: bool = True
+    sigma_counts: float = 10.0
+
+
+@dataclass
+class LoadCellOffset(Effect):
+    """Zero offset of the load cell (N at the tip)."""
+
+    offset_n: float = 0.5
+
+
+@dataclass
+class TransportDelay(Effect):
+    """Latency between actuation and measured force: F_meas(t) = F(t - tau)."""
+
+    delay_s: float = 0.03
+
+
+@dataclass
+class Effects:
+    """The catalogue of DESIGN.md §3: exactly these names."""
+
+    actuator_friction: ActuatorFriction = field(default_factory=ActuatorFriction)
+    linkage_friction: LinkageFriction = field(default_factory=LinkageFriction)
+    viscous_friction: ViscousFriction = field(default_factory=ViscousFriction)
+    stribeck_friction: StribeckFriction = field(default_factory=StribeckFriction)
+    series_compliance: SeriesCompliance = field(default_factory=SeriesCompliance)
+    backlash: Backlash = field(default_factory=Backlash)
+    spring_preload: SpringPreload = field(default_factory=SpringPreload)
+    spring_nonlinearity: SpringNonlinearity = field(default_factory=SpringNonlinearity)
+    pot_voltage_drop: PotVoltageDrop = field(default_factory=PotVoltageDrop)
+    pot_noise: PotNoise = field(default_factory=PotNoise)
+    load_cell_offset: LoadCellOffset = field(default_factory=LoadCellOffset)
+    transport_delay: TransportDelay = field(default_factory=TransportDelay)
+
+
+EFFECT_NAMES: tuple[str, ...] = tuple(f.name for f in fields(Effects))
+
+
+@dataclass
+class PlantConfig:
+    """Everything the simulated SEA needs; the defaults reproduce the paper's actuator."""
+
+    motor: Motor = field(default_factory=Motor)
+    load_cells: LoadCells = field(default_factory=LoadCells)
+    effects: Effects = field(default_factory=Effects)
+    dt_s: float = 0.001  # internal step (1 kHz)
+
+    def effect(self, name: str) -> Effect:
+        """The effect called `name` (one of EFFECT_NAMES)."""
+        if name not in EFFECT_NAMES:
+            raise KeyError(f"unknown effect {name!r}; known: {', '.join(EFFECT_NAMES)}")
+        return getattr(self.effects, name)
+
+    def on(self, name: str) -> bool:
+        """Whether the effect called `name` is enabled."""
+        return self.effect(name).enabled
+
+    def with_effect(self, name: str, enabled: bool = True, **params: float) -> PlantConfig:
+        """A copy with one effect switched and its parameters replaced."""
+        new = dataclasses.replace(self, effects=dataclasses.replace(self.effects))
+        eff = dataclasses.replace(self.effect(name), enabled=enabled, **params)
+        setattr(new.effects, name, eff)
+        return new
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain nested dict (TOML-ready)."""
+        return dataclasses.asdict(self)
+
+
+def _fill(cls: type, data: dict[str, Any], where: str, path: str) -> Any:
+    """Build dataclass `cls` from `data`, rejecting unknown keys and wrong types with their location."""
+    known = {f.name: f for f in fields(cls)}
+    kwargs: dict[str, Any] = {}
+    for key, value in data.items():
+        if key not in known:
+            raise ConfigError(f"{where}: unknown key '{path}{key}' (known: {', '.join(known)})")
+        default = getattr(cls(), key)
+        if dataclasses.is_dataclass(default):
+            if not isinstance(value, dict):
+                raise ConfigError(f"{where}: '{path}{key}' must be a table")
+            kwargs[key] = _fill(type(default), value, where, f"{path}{key}.")
+        elif isinstance(default, bool):
+            if not isinstance(value, bool):
+                raise ConfigError(f"{where}: '{path}{key}' must be true or false, got {value!r}")
+            kwargs[key] = value
+        else:
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ConfigError(f"{where}: '{path}{key}' must be a number, got {value!r}")
+            kwargs[key] = type(default)(value)
+    return cls(**kwargs)
+
+
+def config_from_dict(data: dict[str, Any], where: str = "<dict>") -> PlantConfig:
+    """PlantConfig from a nested dict; missing keys take their defaults."""
+    return _fill(PlantConfig, data, where, "")
+
+
+def load_config(path: str | os.PathLike[str]) -> PlantConfig:
+    """Read a plant config from TOML; errors name the file and key."""
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"{p}: no such file") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"{p}: not valid TOML: {e}") from None
+    return config_from_dict(data, str(p))
+
+
+def save_config(cfg: PlantConfig, path: str | os.PathLike[str]) -> None:
+    """Write a plant config as TOML atomically (temporary name, then rename)."""
+    text = "# seagen plant config: the simulated SEA and its named effects\n" + tomli_w.dumps(cfg.to_dict())
+    write_text(path, text)

@@ -1,0 +1,205 @@
+"""The SEA stepped in time: motor, backlash, spring, friction on the shaft, structure, sensors (batched)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from seagen.plant import geometry as g
+from seagen.plant.config import PlantConfig
+
+_STOP_N_PER_MM = 400.0  # hard stop when the nut pulls the shaft back (negative compression)
+_RIGID_N_PER_MM = 5000.0  # structure stiffness when series_compliance is off
+
+
+@dataclass
+class Sensors:
+    """One sample of every signal, each an array over the batch of trials."""
+
+    enc: np.ndarray  # encoder counts (int64)
+    pot: np.ndarray  # pot ADC counts (int64, 0..4095)
+    load_cell_n: np.ndarray  # measured tip force (N)
+    force_n: np.ndarray  # reference force at the SEA output shaft: load cell / R_l(contact angle)
+    true_force_n: np.ndarray  # noise-free force the linkage carries at the shaft (N)
+    angle_deg: np.ndarray  # true linkage angle
+    compression_mm: np.ndarray  # true spring compression
+    motor_current: np.ndarray  # motor current, normalised to stall at the supply voltage
+
+
+class Plant:
+    """A batch of simulated SEAs, one per contact angle, stepped at cfg.dt_s; deterministic for a seed."""
+
+    def __init__(self, cfg: PlantConfig, contact_deg: np.ndarray | float, seed: int = 0) -> None:
+        self.cfg = cfg
+        self.contact_deg = np.atleast_1d(np.asarray(contact_deg, dtype=float))
+        n = self.contact_deg.size
+        self.rng = np.random.default_rng(seed)
+        self.y_contact = g.shaft_advance_mm(self.contact_deg)
+        self.ratio = g.linkage_ratio(self.contact_deg)
+        self.motor_mm = np.zeros(n)  # motor position in nut millimetres (what the encoder sees)
+        self.v_motor = np.zeros(n)  # mm/s at the nut
+        self.nut_mm = np.zeros(n)  # nut advance u (after backlash)
+        self.shaft_mm = np.zeros(n)  # output-shaft advance y
+        self.v_shaft = np.zeros(n)
+        self.current = np.zeros(n)
+        self.pot_drop = np.zeros(n)
+        self.t = 0.0
+        m = cfg.motor
+        self.v_max = m.no_load_rpm / 60.0 * m.counts_per_rev * g.MM_PER_COUNT  # mm/s at the nut
+        td = cfg.effects.transport_delay
+        self._delay_n = int(round(td.delay_s / cfg.dt_s)) if td.enabled else 0
+        self._history = np.zeros((self._delay_n + 1, n))
+
+    # --- force laws -------------------------------------------------------------------------------
+    def spring_force(self, d: np.ndarray) -> np.ndarray:
+        """Spring force for compression d (with preload and nonlinearity when enabled)."""
+        e = self.cfg.effects
+        f = np.where(d >= 0, g.SPRING_N_PER_MM * d, _STOP_N_PER_MM * d)
+        if e.spring_nonlinearity.enabled:
+            f = f + e.spring_nonlinearity.k3_n_per_mm3 * np.maximum(d, 0.0) ** 3
+        if e.spring_preload.enabled:
+            f = f + e.spring_preload.force_n
+        return f
+
+    def _spring_slope(self, d: np.ndarray) -> np.ndarray:
+        e = self.cfg.effects
+        s = np.where(d >= 0, g.SPRING_N_PER_MM, _STOP_N_PER_MM)
+        if e.spring_nonlinearity.enabled:
+            s = s + 3 * e.spring_nonlinearity.k3_n_per_mm3 * np.maximum(d, 0.0) ** 2
+        return s
+
+    def structure_force(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Force the loaded linkage pushes back with, and its slope, for shaft advance y."""
+        d = np.maximum(y - self.y_contact, 0.0)
+        sc = self.cfg.effects.series_compliance
+        if not sc.enabled:
+            return _RIGID_N_PER_MM * d, np.where(y > self.y_contact, _RIGID_N_PER_MM, 0.0)
+        a, b = 1.0 / sc.k_n_per_mm, sc.beta_mm_per_n2
+        if b <= 0:
+            return d / a, np.where(y > self.y_contact, 1.0 / a, 0.0)
+        root = np.sqrt(a * a + 4 * b * d)
+        return (root - a) / (2 * b), np.where(y > self.y_contact, 1.0 / root, 0.0)
+
+    def friction_limits(self, angle_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Coulomb friction on the shaft (forward, reverse) at this linkage angle, before speed terms."""
+        e = self.cfg.effects
+        fwd = np.zeros_like(angle_deg)
+        if e.actuator_friction.enabled:
+            fwd = fwd + e.actuator_friction.force_n
+        if e.linkage_friction.enabled:
+            lf = e.linkage_friction
+            x = (angle_deg - g.R_L_SPLIT_DEG) / 12.0
+            fwd = np.maximum(fwd + lf.c0_n + lf.c1_n * x + lf.c2_n * x * x, 0.0)
+        ratio = e.actuator_friction.reverse_ratio if e.actuator_friction.enabled else 1.0
+        return fwd, fwd * ratio
+
+    # --- stepping ---------------------------------------------------------------------------------
+    def step(self, motor_v: np.ndarray | float) -> None:
+        """Advance one internal step with motor command `motor_v` (V, clipped to the supply)."""
+        cfg, dt = self.cfg, self.cfg.dt_s
+        m = cfg.motor
+        volts = np.clip(np.broadcast_to(np.asarray(motor_v, dtype=float), self.nut_mm.shape), -m.supply_v, m.supply_v)
+        load = self.spring_force(self.nut_mm - self.shaft_mm)
+        v_target = self.v_max * (volts / m.supply_v - load / m.stall_force_n)
+        self.v_motor = self.v_motor + (v_target - self.v_motor) * min(dt / m.time_constant_s, 1.0)
+        self.current = volts / m.supply_v - self.v_motor / self.v_max
+        self.motor_mm = self.motor_mm + self.v_motor * dt
+        self._move_nut()
+        self._move_shaft(dt)
+        pvd = cfg.effects.pot_voltage_drop
+        if pvd.enabled:
+            target = pvd.counts_per_unit_current * np.abs(self.current)
+            self.pot_drop += (target - self.pot_drop) * min(dt / pvd.time_constant_s, 1.0)
+        self._history = np.roll(self._history, 1, axis=0)
+        self._history[0] = self.structure_force(self.shaft_mm)[0]
+        self.t += dt
+
+    def _move_nut(self) -> None:
+        """Backlash: the nut follows the motor with a dead band of +-b."""
+        bl = self.cfg.effects.backlash
+        if not bl.enabled:
+            self.nut_mm = self.motor_mm.copy()
+            return
+        b = bl.half_width_mm
+        self.nut_mm = np.clip(self.nut_mm, self.motor_mm - b, self.motor_mm + b)
+
+    def _net_force(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Spring push minus structure reaction on the massless shaft, and its (negative) slope."""
+        d = self.nut_mm - y
+        fl, sl = self.structure_force(y)
+        return self.spring_force(d) - fl, -self._spring_slope(d) - sl
+
+    def _move_shaft(self, dt: float) -> None:
+        """Quasi-static massless shaft: stick inside the friction band, else slide to its edge."""
+        e = self.cfg.effects
+        y0 = self.shaft_mm
+        angle = g.angle_from_shaft(np.minimum(y0, self.y_contact))
+        fwd, rev = self.friction_limits(angle)
+        if e.stribeck_friction.enabled:
+            sf = e.stribeck_friction
+            boost = sf.extra_static_n * np.exp(-((self.v_shaft / sf.v_s_mm_s) ** 2))
+            fwd, rev = fwd + boost, rev + boost * (rev > 0)
+        n0, _ = self._net_force(y0)
+        b = e.viscous_friction.b_n_s_per_mm / dt if e.viscous_friction.enabled else 0.0
+        target = np.where(n0 > fwd, fwd, np.where(n0 < -rev, -rev, n0))
+        moving = target != n0
+        y = y0.copy()
+        if moving.any():
+            y = self._solve(y0, n0, target, b, moving)
+        self.v_shaft = (y - y0) / dt
+        self.shaft_mm = y
+
+    def _solve(self, y0: np.ndarray, n0: np.ndarray, target: np.ndarray, b: float, moving: np.ndarray) -> np.ndarray:
+        """Solve net(y) - b (y - y0) = target for y by safeguarded Newton (net is decreasing in y)."""
+        # net falls at least as fast as the bare spring (slope >= k), which bounds the step.
+        span = np.abs(n0 - target) / g.SPRING_N_PER_MM
+        lo = np.where(n0 > target, y0, y0 - span)
+        hi = np.where(n0 > target, y0 + span, y0)
+        y = y0.copy()
+        for _ in range(50):
+            f, s = self._net_force(y)
+            r = f - b * (y - y0) - target
+            lo = np.where(r > 0, y, lo)
+            hi = np.where(r <= 0, y, hi)
+            y_new = y - r / (s - b)
+            bad = ~((y_new >= lo) & (y_new <= hi))
+            y_new = np.where(bad, 0.5 * (lo + hi), y_new)
+            done = np.abs(y_new - y) < 1e-9
+            y = y_new
+            if done.all():
+                break
+        return np.where(moving, y, y0)
+
+    # --- sensors ----------------------------------------------------------------------------------
+    def read(self) -> Sensors:
+        """Sample every sensor now (draws the noise of this sample)."""
+        cfg, e, n = self.cfg, self.cfg.effects, self.nut_mm.size
+        enc = np.floor(self.motor_mm / g.MM_PER_COUNT + 1e-9).astype(np.int64)
+        y_seen = np.minimum(self.shaft_mm, self.y_contact)  # the structure deforms beyond the pot
+        angle = g.angle_from_shaft(y_seen)
+        pot = g.pot_from_angle(angle)
+        if e.pot_voltage_drop.enabled:
+            pot = pot + self.pot_drop
+        if e.pot_noise.enabled:
+            pot = pot + e.pot_noise.sigma_counts * self.rng.standard_normal(n)
+        pot_i = np.clip(np.rint(pot), 0, g.ADC_MAX).astype(np.int64)
+        shaft_force = self._history[self._delay_n]
+        tip = shaft_force * self.ratio
+        sigma = np.where(
+            self.contact_deg <= g.R_L_SPLIT_DEG, cfg.load_cells.horizontal_sigma_n, cfg.load_cells.vertical_sigma_n
+        )
+        load_cell = tip + sigma * self.rng.standard_normal(n)
+        if e.load_cell_offset.enabled:
+            load_cell = load_cell + e.load_cell_offset.offset_n
+        true_force = self.structure_force(self.shaft_mm)[0]
+        return Sensors(
+            enc=enc,
+            pot=pot_i,
+            load_cell_n=load_cell,
+            force_n=load_cell / self.ratio,
+            true_force_n=true_force,
+            angle_deg=g.angle_from_shaft(self.shaft_mm),
+            compression_mm=self.nut_mm - self.shaft_mm,
+            motor_current=self.current.copy(),
+        )
