@@ -13,7 +13,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the `data` command group."""
     p = sub.add_parser("data", help="generate or summarize calibration data sets")
     dsub = p.add_subparsers(dest="data_command", metavar="ACTION", required=True)
-    g = dsub.add_parser("generate", help="collect train/test/validation CSVs on the simulated SEA (paper protocol)")
+    g = dsub.add_parser(
+        "generate", help="collect train/test/validation CSVs on the simulated SEA (paper protocol)"
+    )
     g.add_argument("--out", required=True, help="output directory (created)")
     g.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     g.add_argument("--config", help="plant config TOML (default: the paper's actuator)")

@@ -8,8 +8,17 @@ import pandas as pd
 from seagen.plant import geometry as g
 
 # Order of the calibration MLP's nine inputs (paper §V-A).
-MLP_FEATURES = ("pot", "enc", "compression_mm", "d_pot", "d_enc", "d_compression_mm", "dd_pot", "dd_enc",
-                "dd_compression_mm")
+MLP_FEATURES = (
+    "pot",
+    "enc",
+    "compression_mm",
+    "d_pot",
+    "d_enc",
+    "d_compression_mm",
+    "dd_pot",
+    "dd_enc",
+    "dd_compression_mm",
+)
 SAMPLE_RATE_HZ = 100.0
 
 

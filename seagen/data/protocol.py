@@ -39,15 +39,23 @@ def run_trials(cfg: PlantConfig, moves: list[Move], seed: int, max_s: float = 8.
     back = np.array([m.retract_v for m in moves])
     phase = np.zeros(len(moves), dtype=int)  # 0 push, 1 retract, 2 done
     quiet = np.zeros(len(moves), dtype=int)
-    cols: dict[str, list[np.ndarray]] = {k: [] for k in ("t_s", "motor_v", "enc", "pot", "load_cell_n", "force_n")}
+    cols: dict[str, list[np.ndarray]] = {
+        k: [] for k in ("t_s", "motor_v", "enc", "pot", "load_cell_n", "force_n")
+    }
     alive: list[np.ndarray] = []
     volts = push.copy()
     for k in range(int(max_s / cfg.dt_s)):
         if k % SAMPLE_EVERY == 0:
             s = plant.read()
             alive.append(phase < 2)
-            for name, v in (("t_s", np.full(len(moves), plant.t)), ("motor_v", volts), ("enc", s.enc),
-                            ("pot", s.pot), ("load_cell_n", s.load_cell_n), ("force_n", s.force_n)):
+            for name, v in (
+                ("t_s", np.full(len(moves), plant.t)),
+                ("motor_v", volts),
+                ("enc", s.enc),
+                ("pot", s.pot),
+                ("load_cell_n", s.load_cell_n),
+                ("force_n", s.force_n),
+            ):
                 cols[name].append(np.array(v, copy=True))
             phase = np.where((phase == 0) & (s.force_n >= peak), 1, phase)
             quiet = np.where((phase == 1) & (s.force_n < 0.4), quiet + 1, 0)
@@ -72,8 +80,13 @@ def _quotas(total: int, n: int) -> list[int]:
     return [base + (i < extra) for i in range(n)]
 
 
-def collect(cfg: PlantConfig, angles: tuple[float, ...], moves: tuple[tuple[float, float, float], ...],
-            total: int, seed: int) -> pd.DataFrame:
+def collect(
+    cfg: PlantConfig,
+    angles: tuple[float, ...],
+    moves: tuple[tuple[float, float, float], ...],
+    total: int,
+    seed: int,
+) -> pd.DataFrame:
     """Trials per angle, cycling through `moves`, until each angle's row quota is met (last trial cut)."""
     quotas = _quotas(total, len(angles))
     per_angle: list[list[pd.DataFrame]] = [[] for _ in angles]
@@ -96,14 +109,19 @@ def collect(cfg: PlantConfig, angles: tuple[float, ...], moves: tuple[tuple[floa
     return out
 
 
-def generate(cfg: PlantConfig, seed: int = 0, progress: Callable[[str], None] | None = None) -> dict[str, pd.DataFrame]:
+def generate(
+    cfg: PlantConfig, seed: int = 0, progress: Callable[[str], None] | None = None
+) -> dict[str, pd.DataFrame]:
     """The three splits of the paper: train and test at 12 angles, validation at one random extra angle."""
     rng = np.random.default_rng(seed)
     val_angle = float(np.round(rng.uniform(g.ANGLE_MIN_DEG + 2.0, g.ANGLE_MAX_DEG - 1.5), 2))
     while min(abs(val_angle - a) for a in TRAIN_ANGLES_DEG) < 0.5:
         val_angle = float(np.round(rng.uniform(g.ANGLE_MIN_DEG + 2.0, g.ANGLE_MAX_DEG - 1.5), 2))
-    plan = (("train", TRAIN_ANGLES_DEG, TRAIN_MOVES, 1), ("test", TRAIN_ANGLES_DEG, TEST_MOVES, 2),
-            ("validation", (val_angle,), VALIDATION_MOVES, 3))
+    plan = (
+        ("train", TRAIN_ANGLES_DEG, TRAIN_MOVES, 1),
+        ("test", TRAIN_ANGLES_DEG, TEST_MOVES, 2),
+        ("validation", (val_angle,), VALIDATION_MOVES, 3),
+    )
     out = {}
     for split, angles, moves, k in plan:
         if progress:

@@ -51,6 +51,8 @@ def format_summary(s: dict[str, Any]) -> str:
     )
     fr = s["friction_n_by_angle"]
     if fr:
-        lines.append("friction by contact angle (N, the paper's way; paper: 2.1 / 2.4 / 4.45 N at three angles):")
+        lines.append(
+            "friction by contact angle (N, the paper's way; paper: 2.1 / 2.4 / 4.45 N at three angles):"
+        )
         lines.append("  " + "  ".join(f"{a}°: {v:.2f}" for a, v in fr.items()))
     return "\n".join(lines)

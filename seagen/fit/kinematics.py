@@ -16,8 +16,9 @@ def shaft_force(compression_mm: np.ndarray, compensation_n: float = FRICTION_COM
     return g.SPRING_N_PER_MM * np.asarray(compression_mm, dtype=float) - compensation_n
 
 
-def relative_errors(pred: np.ndarray, ref: np.ndarray, angle: np.ndarray,
-                    threshold_n: float = ERROR_THRESHOLD_N) -> dict[str, float]:
+def relative_errors(
+    pred: np.ndarray, ref: np.ndarray, angle: np.ndarray, threshold_n: float = ERROR_THRESHOLD_N
+) -> dict[str, float]:
     """Paper-style errors: average over rows with ref > threshold; maximum = worst contact angle's mean.
 
     Absolute errors (N) use the same rows. Percentages are |pred - ref| / ref * 100.

@@ -30,8 +30,9 @@ def friction_from_trial(df: pd.DataFrame) -> float:
     return float(a * g.SPRING_N_PER_MM)
 
 
-def measure_friction(cfg: PlantConfig, angles_deg: tuple[float, ...] = FRICTION_ANGLES_DEG, seed: int = 0,
-                     push_v: float = 1.5) -> dict[float, float]:
+def measure_friction(
+    cfg: PlantConfig, angles_deg: tuple[float, ...] = FRICTION_ANGLES_DEG, seed: int = 0, push_v: float = 1.5
+) -> dict[float, float]:
     """Push slowly into the load cell at each angle and report the friction measured the paper's way."""
     from seagen.data.features import derive
     from seagen.data.protocol import Move, run_trials

@@ -31,7 +31,9 @@ def _h_fit(angle_deg: np.ndarray) -> np.ndarray:
 
 
 _H16 = float(_h_fit(np.array(R_L_SPLIT_DEG)))
-_DH16 = float(np.polynomial.polynomial.polyval(R_L_SPLIT_DEG - ANGLE_MIN_DEG, np.polynomial.polynomial.polyder(H_FIT)))
+_DH16 = float(
+    np.polynomial.polynomial.polyval(R_L_SPLIT_DEG - ANGLE_MIN_DEG, np.polynomial.polynomial.polyder(H_FIT))
+)
 V_FIT = (_H16, _DH16, -0.0009)  # ascending powers of (angle - 16): continuous with H_fit at 16 deg
 
 

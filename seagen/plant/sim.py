@@ -99,7 +99,9 @@ class Plant:
         """Advance one internal step with motor command `motor_v` (V, clipped to the supply)."""
         cfg, dt = self.cfg, self.cfg.dt_s
         m = cfg.motor
-        volts = np.clip(np.broadcast_to(np.asarray(motor_v, dtype=float), self.nut_mm.shape), -m.supply_v, m.supply_v)
+        volts = np.clip(
+            np.broadcast_to(np.asarray(motor_v, dtype=float), self.nut_mm.shape), -m.supply_v, m.supply_v
+        )
         load = self.spring_force(self.nut_mm - self.shaft_mm)
         v_target = self.v_max * (volts / m.supply_v - load / m.stall_force_n)
         self.v_motor = self.v_motor + (v_target - self.v_motor) * min(dt / m.time_constant_s, 1.0)
@@ -150,7 +152,9 @@ class Plant:
         self.v_shaft = (y - y0) / dt
         self.shaft_mm = y
 
-    def _solve(self, y0: np.ndarray, n0: np.ndarray, target: np.ndarray, b: float, moving: np.ndarray) -> np.ndarray:
+    def _solve(
+        self, y0: np.ndarray, n0: np.ndarray, target: np.ndarray, b: float, moving: np.ndarray
+    ) -> np.ndarray:
         """Solve net(y) - b (y - y0) = target for y by safeguarded Newton (net is decreasing in y)."""
         # net falls at least as fast as the bare spring (slope >= k), which bounds the step.
         span = np.abs(n0 - target) / g.SPRING_N_PER_MM
@@ -187,7 +191,9 @@ class Plant:
         shaft_force = self._history[self._delay_n]
         tip = shaft_force * self.ratio
         sigma = np.where(
-            self.contact_deg <= g.R_L_SPLIT_DEG, cfg.load_cells.horizontal_sigma_n, cfg.load_cells.vertical_sigma_n
+            self.contact_deg <= g.R_L_SPLIT_DEG,
+            cfg.load_cells.horizontal_sigma_n,
+            cfg.load_cells.vertical_sigma_n,
         )
         load_cell = tip + sigma * self.rng.standard_normal(n)
         if e.load_cell_offset.enabled:

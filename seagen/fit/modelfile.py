@@ -1,0 +1,110 @@
+"""The one model file (`model.pt`): a torch.save'd dict that every later stage reads.
+
+Contract (keys of the saved dict; `seagen.fit` writes it, `seagen export` and `seagen evaluate` read it):
+
+    format          "seagen-model/1"
+    kind            "mlp" | "sf"
+    task            "calibration" (sensors -> force at the shaft, N) | "control" (desired force + sensors
+                    -> desired compression, mm)
+    module          for "mlp": the torch.nn.Sequential (Linear + ReLU/LeakyReLU/Hardtanh/Tanh/Sigmoid) that
+                    maps *normalized* inputs to the *normalized* output
+    sf              for "sf": {"inputs": [a, b], "powers": [[i, j], ...], "coef": [...]} — a 3rd-order
+                    polynomial in the two raw (un-normalized) inputs, output in output units
+    features        FeatureSpec.to_dict(): input names in order, normalization, the difference scheme
+    input_units     list of unit strings, one per input
+    output_name     e.g. "force_n" or "compression_mm";  output_units: "N" | "mm"
+    input_range     [[lo, hi], ...] observed on the training data (raw units), one per input
+    output_range    [lo, hi] observed on the training data (output units)
+    loss            "mse" | "mae";  seed: int;  hidden: list[int] (mlp);  metrics: dict
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from seagen.errors import UserError
+
+FORMAT = "seagen-model/1"
+DIFFERENCE_SCHEME = "backward; d=x[n]-x[n-1], dd=x[n]-2x[n-1]+x[n-2]; warm-up x[-1]=x[-2]=x[0]"
+
+
+@dataclass(frozen=True)
+class FeatureSpec:
+    """How the model's inputs come from raw signals: x_model = (x_raw - mean) / std * weight."""
+
+    inputs: tuple[str, ...]
+    mean: tuple[float, ...]
+    std: tuple[float, ...]
+    weight: tuple[float, ...] = ()  # per-input weights (control predictor, paper §VI-C); () = all 1
+    output_mean: float = 0.0  # y = y_model * output_std + output_mean
+    output_std: float = 1.0
+    raw: tuple[str, ...] = ("enc", "pot")
+    differences: str = DIFFERENCE_SCHEME
+    sample_rate_hz: float = 100.0
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def weights(self) -> tuple[float, ...]:
+        """Per-input weights, 1.0 where none were given."""
+        return self.weight if self.weight else tuple(1.0 for _ in self.inputs)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict for the model file."""
+        return asdict(self)
+
+    @staticmethod
+    def from_dict(d: dict[str, Any], where: str = "feature spec") -> FeatureSpec:
+        """Parse and check a feature spec (from a model file or a --features JSON/TOML)."""
+        try:
+            spec = FeatureSpec(
+                inputs=tuple(d["inputs"]),
+                mean=tuple(float(v) for v in d.get("mean", [0.0] * len(d["inputs"]))),
+                std=tuple(float(v) for v in d.get("std", [1.0] * len(d["inputs"]))),
+                weight=tuple(float(v) for v in d.get("weight", ())),
+                output_mean=float(d.get("output_mean", 0.0)),
+                output_std=float(d.get("output_std", 1.0)),
+                raw=tuple(d.get("raw", ("enc", "pot"))),
+                differences=str(d.get("differences", DIFFERENCE_SCHEME)),
+                sample_rate_hz=float(d.get("sample_rate_hz", 100.0)),
+                extra=dict(d.get("extra", {})),
+            )
+        except (KeyError, TypeError, ValueError) as e:
+            raise UserError(f"{where}: invalid feature specification: {e}") from None
+        n = len(spec.inputs)
+        for name, vals in (("mean", spec.mean), ("std", spec.std)):
+            if len(vals) != n:
+                raise UserError(f"{where}: '{name}' has {len(vals)} values for {n} inputs")
+        if spec.weight and len(spec.weight) != n:
+            raise UserError(f"{where}: 'weight' has {len(spec.weight)} values for {n} inputs")
+        if any(s <= 0 for s in spec.std) or spec.output_std <= 0:
+            raise UserError(f"{where}: every std must be > 0")
+        return spec
+
+
+def save_model(obj: dict[str, Any], path: str | os.PathLike[str]) -> None:
+    """Write a model dict atomically."""
+    import torch
+
+    from seagen.atomic import atomic_path
+
+    obj = {"format": FORMAT, **obj}
+    with atomic_path(path) as tmp:
+        torch.save(obj, tmp)
+
+
+def load_model(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """Read a seagen model file; errors name the file."""
+    import torch
+
+    p = Path(path)
+    if not p.is_file():
+        raise UserError(f"{p}: no such model file")
+    try:
+        obj = torch.load(p, map_location="cpu", weights_only=False)
+    except Exception as e:  # torch raises many types for corrupt files
+        raise UserError(f"{p}: not a readable torch file: {e}") from None
+    if not isinstance(obj, dict) or obj.get("format") != FORMAT:
+        raise UserError(f"{p}: not a seagen model file (no format '{FORMAT}')")
+    return obj
