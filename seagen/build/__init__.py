@@ -1,0 +1,1 @@
+"""Building C: cffi modules on the host, and cross-compiled runs on an emulated Cortex-M core."""
