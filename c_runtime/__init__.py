@@ -1,0 +1,1 @@
+"""Hand-written C runtime shipped as package data (see README.md here)."""

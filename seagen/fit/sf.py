@@ -1,0 +1,74 @@
+"""Surface fit (SF, paper §VII): a 3rd-order polynomial in two raw inputs, fitted for MSE or MAE."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+ORDER = 3
+# Ascending total degree, then descending power of the first input: 1, a, b, a², ab, b², a³, a²b, ab², b³.
+POWERS: tuple[tuple[int, int], ...] = tuple(
+    (d - j, j) for d in range(ORDER + 1) for j in range(d + 1)
+)
+# Raw inputs (un-normalized) and output of each task's surface.
+SF_INPUTS = {"calibration": ("angle_deg", "compression_mm"), "control": ("force_n", "angle_deg")}
+SF_OUTPUT = {"calibration": "force_n", "control": "compression_mm"}
+IRLS_ITERATIONS = 100
+IRLS_EPS = 1e-6
+
+
+def design(a: np.ndarray, b: np.ndarray, powers: tuple[tuple[int, int], ...] = POWERS) -> np.ndarray:
+    """Design matrix: one column a**i * b**j per term."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    return np.stack([a**i * b**j for i, j in powers], axis=1)
+
+
+def _weighted_lstsq(x: np.ndarray, y: np.ndarray, w: np.ndarray | None = None) -> np.ndarray:
+    """Least squares with column scaling (raw inputs span very different ranges); returns raw coefficients."""
+    scale = np.sqrt((x**2).mean(axis=0))
+    scale[scale == 0] = 1.0
+    xs = x / scale
+    if w is not None:
+        sw = np.sqrt(w)
+        xs, y = xs * sw[:, None], y * sw
+    coef, *_ = np.linalg.lstsq(xs, y, rcond=None)
+    return coef / scale
+
+
+def fit_mse(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Ordinary least squares (Eq. 8)."""
+    return _weighted_lstsq(x, y)
+
+
+def fit_mae(x: np.ndarray, y: np.ndarray, iterations: int = IRLS_ITERATIONS) -> np.ndarray:
+    """Least absolute deviations (Eq. 7) by iteratively re-weighted least squares, started from OLS."""
+    coef = _weighted_lstsq(x, y)
+    eps = IRLS_EPS * max(float(np.abs(y).max()), 1.0)
+    for _ in range(iterations):
+        r = np.abs(y - x @ coef)
+        new = _weighted_lstsq(x, y, 1.0 / np.maximum(r, eps))
+        if np.allclose(new, coef, rtol=1e-9, atol=1e-12):
+            return new
+        coef = new
+    return coef
+
+
+def fit_sf(a: np.ndarray, b: np.ndarray, y: np.ndarray, loss: str) -> dict[str, Any]:
+    """Fit the 10-term surface; returns the coefficient part of the model file (without input names)."""
+    x = design(a, b)
+    y = np.asarray(y, dtype=float)
+    if loss == "mse":
+        coef = fit_mse(x, y)
+    elif loss == "mae":
+        coef = fit_mae(x, y)
+    else:
+        raise ValueError(f"unknown loss {loss!r}")
+    return {"powers": [list(p) for p in POWERS], "coef": [float(c) for c in coef]}
+
+
+def eval_sf(sf: dict[str, Any], a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Evaluate a stored surface {"powers", "coef"} at raw inputs (float64 reference)."""
+    powers = tuple((int(i), int(j)) for i, j in sf["powers"])
+    return design(a, b, powers) @ np.asarray(sf["coef"], dtype=float)

@@ -1,0 +1,1 @@
+"""Quantization: Q-format choice, interval analysis, float IR -> quantized IR, and the integer primitives."""
