@@ -69,3 +69,32 @@ int32_t sea_compression_q16(const int32_t table[SEA_LINK_TABLE_LEN], int32_t enc
     int64_t travel = sea_rshift_rne_s64((int64_t)enc * SEA_MM_PER_COUNT_Q24, 24 - SEA_COMP_FRAC_BITS);
     return sea_sat32((int64_t)sea_linkage_q16(table, pot) + travel);
 }
+
+int64_t sea_clamp_s64(int64_t v, int64_t lo, int64_t hi)
+{
+    if (v > hi) {
+        v = hi;
+    }
+    if (v < lo) {
+        v = lo;
+    }
+    return v;
+}
+
+int32_t sea_div_rne_s32(int32_t num, int32_t den)
+{
+    int64_t q, r;
+    if (den <= 0) {
+        return 0;
+    }
+    q = (int64_t)num / den;            /* C99: truncates toward zero */
+    r = (int64_t)num - q * den;        /* same sign as num */
+    if (r < 0) {                       /* make it floor division: 0 <= r < den */
+        q -= 1;
+        r += den;
+    }
+    if (2 * r > den || (2 * r == den && (q & 1) != 0)) {
+        q += 1;
+    }
+    return (int32_t)q;
+}

@@ -46,4 +46,13 @@ int32_t sea_linkage_q16(const int32_t table[SEA_LINK_TABLE_LEN], int32_t pot);
  * saturated to int32. Any int32 enc and pot. */
 int32_t sea_compression_q16(const int32_t table[SEA_LINK_TABLE_LEN], int32_t enc, int32_t pot);
 
+/* --- added for the controller (c_runtime/CONTROL.md) ------------------------------------------------ */
+
+/* Clamp v to [lo, hi] (lo <= hi expected; if lo > hi the result is lo). Any int64 values. */
+int64_t sea_clamp_s64(int64_t v, int64_t lo, int64_t hi);
+
+/* Rounding division num / den, round half to even, for any int32 num and 0 < den (den <= 0 returns 0).
+ * Floor quotient and remainder are formed in int64, so INT32_MIN / 1 cannot overflow. */
+int32_t sea_div_rne_s32(int32_t num, int32_t den);
+
 #endif

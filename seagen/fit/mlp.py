@@ -133,15 +133,14 @@ def _tensors(spec: FeatureSpec, df: pd.DataFrame, output: str) -> tuple[torch.Te
     return x, torch.tensor(y, dtype=torch.float32)[:, None]
 
 
-def _run_epochs(
-    module: nn.Sequential, data: tuple[torch.Tensor, ...], cfg: MlpConfig
-) -> tuple[float, int]:
+def _run_epochs(module: nn.Sequential, data: tuple[torch.Tensor, ...], cfg: MlpConfig) -> tuple[float, int]:
     """Adam on minibatches with early stopping; leaves the best state loaded; returns (best loss, epochs)."""
     x, y, xv, yv = data
     opt = torch.optim.Adam(module.parameters(), lr=cfg.lr)
     crit = _loss_fn(cfg.loss)
-    best, best_state, since, epoch = float("inf"), copy.deepcopy(module.state_dict()), 0, 0
-    for epoch in range(1, cfg.epochs + 1):
+    best, best_state, since, epochs = float("inf"), copy.deepcopy(module.state_dict()), 0, 0
+    while epochs < cfg.epochs and since < cfg.patience:
+        epochs += 1
         module.train()
         for idx in torch.randperm(len(x)).split(cfg.batch):
             opt.zero_grad()
@@ -154,10 +153,8 @@ def _run_epochs(
             best, best_state, since = val, copy.deepcopy(module.state_dict()), 0
         else:
             since += 1
-            if since >= cfg.patience:
-                break
     module.load_state_dict(best_state)
-    return best, epoch
+    return best, epochs
 
 
 def fit_mlp(train_df: pd.DataFrame, task: str, cfg: MlpConfig) -> tuple[nn.Sequential, FeatureSpec, dict]:

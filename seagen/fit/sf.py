@@ -8,9 +8,7 @@ import numpy as np
 
 ORDER = 3
 # Ascending total degree, then descending power of the first input: 1, a, b, a², ab, b², a³, a²b, ab², b³.
-POWERS: tuple[tuple[int, int], ...] = tuple(
-    (d - j, j) for d in range(ORDER + 1) for j in range(d + 1)
-)
+POWERS: tuple[tuple[int, int], ...] = tuple((d - j, j) for d in range(ORDER + 1) for j in range(d + 1))
 # Raw inputs (un-normalized) and output of each task's surface.
 SF_INPUTS = {"calibration": ("angle_deg", "compression_mm"), "control": ("force_n", "angle_deg")}
 SF_OUTPUT = {"calibration": "force_n", "control": "compression_mm"}

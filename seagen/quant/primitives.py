@@ -62,3 +62,17 @@ def compression_q16(table: np.ndarray, enc: np.ndarray | int, pot: np.ndarray | 
     """Spring compression in Q16 mm from raw counts, saturated to int32 (sea_compression_q16)."""
     travel = rshift_rne(np.asarray(enc, dtype=np.int64) * MM_PER_COUNT_Q24, 24 - COMP_FRAC_BITS)
     return sat32(linkage_q16(table, pot) + travel)
+
+
+def clamp(v: np.ndarray | int, lo: np.ndarray | int, hi: np.ndarray | int) -> np.ndarray:
+    """Clamp v to [lo, hi], the result is lo when lo > hi (sea_clamp_s64)."""
+    return np.maximum(np.minimum(np.asarray(v, dtype=np.int64), hi), lo)
+
+
+def div_rne(num: np.ndarray | int, den: int) -> np.ndarray:
+    """Round(num / den), ties to even, for den > 0; 0 when den <= 0 (sea_div_rne_s32)."""
+    num = np.asarray(num, dtype=np.int64)
+    if den <= 0:
+        return np.zeros_like(num)
+    q, r = np.divmod(num, np.int64(den))  # floor quotient, 0 <= r < den
+    return q + ((2 * r > den) | ((2 * r == den) & ((q & 1) == 1))).astype(np.int64)

@@ -1,0 +1,106 @@
+/* sea_control.c -- the two-level controller (contract in sea_control.h); twin: controller.py. */
+#include "sea_control.h"
+
+static void sea_control_safe(const sea_control_config *c, sea_control_state *s, int32_t bits)
+{
+    s->fault |= bits;
+    sea_pid_reset(&c->pid, &s->pid, s->comp, 0); /* integrator cleared, motor off */
+    s->out = 0;
+}
+
+void sea_control_reset(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot)
+{
+    int i;
+    for (i = 0; i < SEA_CTRL_POT_AVG_TICKS; i++) {
+        s->pot_buf[i] = pot;
+    }
+    s->pot_idx = 0;
+    s->pot_avg = pot;
+    s->pred_count = 0;
+    s->enc_prev = enc;
+    s->stuck_lo = 0;
+    s->stuck_hi = 0;
+    s->comp = sea_compression_q16(c->link_table, enc, pot);
+    s->desired = s->comp;
+    s->fault = SEA_FAULT_NONE;
+    sea_pid_reset(&c->pid, &s->pid, s->comp, 0);
+    s->out = 0;
+}
+
+/* Fault bits raised by this tick's inputs (counters updated). */
+static int32_t sea_control_check(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot,
+                                 int32_t force_q16)
+{
+    int32_t bits = SEA_FAULT_NONE;
+    int32_t need = c->pot_stuck_ticks < 1 ? 1 : c->pot_stuck_ticks;
+    int64_t jump = (int64_t)enc - s->enc_prev;
+    s->enc_prev = enc;
+    if (jump > c->enc_jump_max || -jump > c->enc_jump_max) {
+        bits |= SEA_FAULT_ENC_JUMP;
+    }
+    s->stuck_lo = pot <= 0 ? (s->stuck_lo < need ? s->stuck_lo + 1 : need) : 0;
+    s->stuck_hi = pot >= SEA_POT_MAX ? (s->stuck_hi < need ? s->stuck_hi + 1 : need) : 0;
+    if (s->stuck_lo >= need) {
+        bits |= SEA_FAULT_POT_STUCK_LOW;
+    }
+    if (s->stuck_hi >= need) {
+        bits |= SEA_FAULT_POT_STUCK_HIGH;
+    }
+    if (force_q16 < c->force_min || force_q16 > c->force_max) {
+        bits |= SEA_FAULT_FORCE_RANGE;
+    }
+    return bits;
+}
+
+/* Push one pot reading; every SEA_CTRL_POT_AVG_TICKS ticks refresh the average (10 Hz). */
+static void sea_control_pot(sea_control_state *s, int32_t pot)
+{
+    int64_t sum = 0;
+    int i;
+    s->pot_buf[s->pot_idx] = pot;
+    s->pot_idx += 1;
+    if (s->pot_idx < SEA_CTRL_POT_AVG_TICKS) {
+        return;
+    }
+    s->pot_idx = 0;
+    for (i = 0; i < SEA_CTRL_POT_AVG_TICKS; i++) {
+        sum += s->pot_buf[i];
+    }
+    s->pot_avg = sea_div_rne_s32(sea_sat32(sum), SEA_CTRL_POT_AVG_TICKS);
+}
+
+int16_t sea_control_step(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot,
+                         int32_t force_q16)
+{
+    int32_t bits, every = c->predict_every < 1 ? 1 : c->predict_every;
+    if (s->fault != SEA_FAULT_NONE) {
+        return 0; /* latched safe state */
+    }
+    bits = sea_control_check(c, s, enc, pot, force_q16);
+    if (bits != SEA_FAULT_NONE) {
+        sea_control_safe(c, s, bits);
+        return 0;
+    }
+    sea_control_pot(s, pot);
+    s->comp = sea_compression_q16(c->link_table, enc, s->pot_avg);
+    if (c->predictor != NULL && s->pred_count == 0) {
+        s->desired = c->predictor(c->predictor_ctx, enc, pot, force_q16);
+    }
+    s->pred_count = s->pred_count + 1 < every ? s->pred_count + 1 : 0;
+    s->out = sea_pid_step(&c->pid, &s->pid, s->desired, s->comp);
+    return s->out;
+}
+
+void sea_control_set_desired(sea_control_state *s, int32_t desired_q16)
+{
+    s->desired = desired_q16;
+}
+
+int32_t sea_predict_kinematic(void *ctx, int32_t enc, int32_t pot, int32_t force_q16)
+{
+    const sea_kin_params *k = (const sea_kin_params *)ctx;
+    int64_t f = sea_sat32((int64_t)force_q16 + k->friction_q16); /* |f| < 2^31: product < 2^62 */
+    (void)enc;
+    (void)pot;
+    return sea_sat32(sea_rshift_rne_s64(f * k->inv_k_q16, SEA_FORCE_FRAC_BITS));
+}

@@ -1,0 +1,85 @@
+/* sea_control.h -- the paper's two-level SEA force controller (Figs. 11-12), one call per 10 ms tick.
+ *
+ *   tick:  pot -> 10-tick ring buffer; every 10th tick the average is refreshed (10 Hz, rounded half
+ *          to even); compression = sea_compression_q16(table, enc, pot average) (Q16 mm, 100 Hz);
+ *          every `predict_every` ticks the predictor maps (enc, pot, desired force) to the desired
+ *          compression; the PID (sea_pid.h) drives the compression there; returns the motor command, mV.
+ *   faults: pot stuck at a rail, impossible encoder jump, desired force outside the calibrated range ->
+ *          safe state: motor 0 mV, integrator cleared, fault bits latched until sea_control_reset().
+ * Integers only, no malloc, C99. Twin: seagen/control/controller.py. Contract: CONTROL.md.
+ */
+#ifndef SEA_CONTROL_H
+#define SEA_CONTROL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "sea_fixed.h"
+#include "sea_pid.h"
+
+#define SEA_FORCE_FRAC_BITS 16      /* desired force: Q16 newtons at the SEA output shaft, int32 */
+#define SEA_CTRL_POT_AVG_TICKS 10   /* pot averaged over the last 10 ticks, refreshed every 10 (10 Hz) */
+#define SEA_CTRL_POT_STUCK_TICKS 10 /* default: 10 consecutive rail readings (100 ms) = stuck */
+/* Default encoder-jump bound: no-load 32,300 rpm x 12 CPR / 60 = 6,460 counts/s = 64.6 counts per
+ * 10 ms tick; with a 2x margin for overshoot and tick jitter: 130 counts per tick. */
+#define SEA_CTRL_ENC_JUMP_MAX 130
+
+#define SEA_FAULT_NONE 0
+#define SEA_FAULT_POT_STUCK_LOW 1  /* pot read 0 for pot_stuck_ticks consecutive ticks */
+#define SEA_FAULT_POT_STUCK_HIGH 2 /* pot read 4095 for pot_stuck_ticks consecutive ticks */
+#define SEA_FAULT_ENC_JUMP 4       /* |enc - previous enc| > enc_jump_max in one tick */
+#define SEA_FAULT_FORCE_RANGE 8    /* desired force outside [force_min, force_max] */
+
+/* A high-level predictor: raw encoder counts, raw pot counts, desired force (Q16 N) -> desired spring
+ * compression (Q16 mm). Generated models provide functions of this type; ctx is theirs. */
+typedef int32_t (*sea_predictor_fn)(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);
+
+typedef struct {
+    sea_pid_params pid;
+    const int32_t *link_table;  /* SEA_LINK_TABLE_LEN entries (Q16 mm), see sea_fixed.h */
+    sea_predictor_fn predictor; /* NULL: desired compression supplied by sea_control_set_desired() */
+    void *predictor_ctx;
+    int32_t predict_every;      /* ticks between predictor calls: 1 = 100 Hz, 10 = 10 Hz (< 1 means 1) */
+    int32_t force_min;          /* calibrated range of the desired force, Q16 N */
+    int32_t force_max;
+    int32_t enc_jump_max;       /* counts per tick (SEA_CTRL_ENC_JUMP_MAX) */
+    int32_t pot_stuck_ticks;    /* consecutive rail readings that make a fault (< 1 means 1) */
+} sea_control_config;
+
+typedef struct {
+    sea_pid_state pid;
+    int32_t pot_buf[SEA_CTRL_POT_AVG_TICKS]; /* the last 10 raw pot readings */
+    int32_t pot_idx;   /* next slot in pot_buf; the average refreshes when it wraps to 0 */
+    int32_t pot_avg;   /* the averaged pot, counts */
+    int32_t pred_count; /* ticks since the last predictor call, 0..predict_every-1 */
+    int32_t enc_prev;  /* encoder at the previous tick */
+    int32_t stuck_lo;  /* consecutive ticks with pot <= 0 */
+    int32_t stuck_hi;  /* consecutive ticks with pot >= 4095 */
+    int32_t desired;   /* desired compression, Q16 mm */
+    int32_t comp;      /* measured compression, Q16 mm */
+    int32_t fault;     /* latched SEA_FAULT_* bits; nonzero = safe state */
+    int16_t out;       /* last motor command, mV */
+} sea_control_state;
+
+/* Start (or restart after a fault): clears faults, fills the pot buffer with `pot`, measures the
+ * compression, holds it as the desired compression, resets the PID bumplessly to 0 mV. */
+void sea_control_reset(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot);
+
+/* One 10 ms tick with raw encoder counts, raw pot counts and the desired force (Q16 N at the shaft).
+ * Returns the motor command in mV (0 in the safe state); s->fault holds the latched fault bits. */
+int16_t sea_control_step(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot,
+                         int32_t force_q16);
+
+/* Desired compression (Q16 mm) from outside (the "cloud" predictor); kept until the next call.
+ * With a predictor configured, the predictor overwrites it at its next call. */
+void sea_control_set_desired(sea_control_state *s, int32_t desired_q16);
+
+/* The kinematic inverse as a predictor: compression = (F + friction) * inv_k, rounded half to even. */
+typedef struct {
+    int32_t friction_q16; /* actuator friction, Q16 N (2.7 N = 176947) */
+    int32_t inv_k_q16;    /* 1 / spring rate, Q16 mm per N (1 / 4.2 = 15604) */
+} sea_kin_params;
+
+int32_t sea_predict_kinematic(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);
+
+#endif

@@ -1,0 +1,51 @@
+/* sea_pid.c -- fixed-point PID (contract in sea_pid.h and CONTROL.md); twin: seagen/control/pid.py. */
+#include "sea_pid.h"
+
+#define SEA_PID_TERM_SHIFT (SEA_PID_GAIN_FRAC + SEA_COMP_FRAC_BITS - SEA_PID_OUT_FRAC)
+#define SEA_PID_ONE_MV ((int64_t)1 << SEA_PID_OUT_FRAC)
+
+void sea_pid_reset(const sea_pid_params *p, sea_pid_state *s, int32_t meas, int16_t out)
+{
+    int64_t o = sea_clamp_s64(out, p->out_min, p->out_max);
+    s->integ = sea_sat32(o * SEA_PID_ONE_MV); /* |o| <= 2^15: o * 2^16 fits int32 */
+    s->d_filt = 0;
+    s->meas_prev = meas;
+    s->out = sea_sat16(o);
+}
+
+/* Filtered rate of the measurement, Q16 mm per tick; |alpha * (x - d)| < 2^17 * 2^33: fits int64. */
+static int32_t sea_pid_rate(const sea_pid_params *p, const sea_pid_state *s, int32_t meas)
+{
+    int64_t alpha = sea_clamp_s64(p->d_alpha, 0, (int64_t)1 << SEA_PID_ALPHA_FRAC);
+    int64_t x = sea_sat32((int64_t)meas - s->meas_prev);
+    int64_t step = sea_rshift_rne_s64(alpha * (x - s->d_filt), SEA_PID_ALPHA_FRAC);
+    return sea_sat32(s->d_filt + step);
+}
+
+int16_t sea_pid_step(const sea_pid_params *p, sea_pid_state *s, int32_t setpoint, int32_t meas)
+{
+    const int64_t lo = (int64_t)p->out_min * SEA_PID_ONE_MV; /* Q16 mV */
+    const int64_t hi = (int64_t)p->out_max * SEA_PID_ONE_MV;
+    int32_t margin = p->margin < 0 ? 0 : p->margin;
+    int32_t e = sea_sat32((int64_t)setpoint - meas);
+    int64_t pterm, dterm, inc, integ, u;
+
+    s->d_filt = sea_pid_rate(p, s, meas);
+    s->meas_prev = meas;
+    if (e >= -margin && e <= margin) {
+        e = 0; /* inside the control margin: no P action and the integrator is held */
+    }
+    /* |gain| < 2^31 and |e|, |d_filt| < 2^31: products < 2^62; terms < 2^50 after the shift. */
+    pterm = sea_rshift_rne_s64((int64_t)p->kp * e, SEA_PID_TERM_SHIFT);
+    dterm = -sea_rshift_rne_s64((int64_t)p->kd * s->d_filt, SEA_PID_TERM_SHIFT);
+    inc = sea_rshift_rne_s64((int64_t)p->ki * e, SEA_PID_TERM_SHIFT);
+    integ = sea_clamp_s64((int64_t)s->integ + inc, lo, hi);
+    u = pterm + integ + dterm;
+    if ((u > hi && inc > 0) || (u < lo && inc < 0)) {
+        integ = s->integ; /* anti-windup: no integration deeper into saturation */
+        u = pterm + integ + dterm;
+    }
+    s->integ = sea_sat32(integ); /* within [lo, hi] c [-2^31, 2^31 - 2^16] already */
+    s->out = sea_sat16(sea_clamp_s64(sea_rshift_rne_s64(u, SEA_PID_OUT_FRAC), p->out_min, p->out_max));
+    return s->out;
+}

@@ -1,0 +1,1 @@
+"""Controller twins (fixed-point PID, the paper's two-level controller) and the closed-loop simulation."""

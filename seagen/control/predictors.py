@@ -1,0 +1,35 @@
+"""Predictors available to the closed loop: the kinematic inverse on the MCU (C + twin) and as a float."""
+
+from __future__ import annotations
+
+from types import ModuleType
+
+import numpy as np
+
+from seagen.control.controller import KinParams, predict_kinematic
+from seagen.control.loop import CloudPredictor, McuPredictor
+from seagen.plant import geometry as g
+
+KIN = KinParams()
+KIN_FRICTION_N = 2.7  # the actuator friction the kinematic inverse assumes (paper Fig. 7)
+
+
+def _kin_ctx(mod: ModuleType) -> object:
+    from seagen.control.cbuild import kin_ctx
+
+    return kin_ctx(mod, KIN)
+
+
+def kinematic_mcu(predict_every: int = 1) -> McuPredictor:
+    """The fixed-point kinematic inverse, sea_predict_kinematic, on the MCU."""
+    return McuPredictor("sea_predict_kinematic", _kin_ctx, predict_kinematic(KIN), predict_every)
+
+
+def kinematic_float(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
+    """The kinematic inverse in float: compression (mm) = (F + 2.7 N) / 4.2 N/mm."""
+    return (np.asarray(force_n, dtype=float) + KIN_FRICTION_N) / g.SPRING_N_PER_MM
+
+
+def kinematic_cloud(latency_s: float = 0.1, refresh_hz: float = 10.0) -> CloudPredictor:
+    """The float kinematic inverse off the MCU, refreshed at `refresh_hz` with `latency_s` delay."""
+    return CloudPredictor(kinematic_float, latency_s, refresh_hz)

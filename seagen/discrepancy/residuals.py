@@ -1,0 +1,115 @@
+"""Residuals in units of the noise, the noise floor, and where they are significant (t-test, Holm)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+from seagen.discrepancy.replay import CHANNELS, Runs
+from seagen.plant import geometry as g
+
+# force_n is load_cell_n / R_l(angle): in noise units the two residuals are identical, so the combined
+# metric counts the load cell once.
+SCORE_CHANNELS = ("enc", "pot", "load_cell_n")
+QUANT_SIGMA = 1.0 / np.sqrt(12.0)  # rounding noise of an integer reading (enc has no other noise)
+ALPHA = 0.01  # family-wise error rate of the region tests (Holm)
+MIN_EFFECT = 0.25  # a region counts only if its mean residual is at least this many noise sigmas
+
+
+def noise_sigma(runs: Runs) -> dict[str, np.ndarray]:
+    """Per-trial noise sigma of each channel: robust (MAD) spread of second differences / sqrt(6)."""
+    out = {}
+    for c in CHANNELS:
+        x = runs.meas[c]
+        d2 = x[:, 2:] - 2 * x[:, 1:-1] + x[:, :-2]
+        mad = np.nanmedian(np.abs(d2 - np.nanmedian(d2, axis=1, keepdims=True)), axis=1)
+        sig = 1.4826 * mad / np.sqrt(6.0)
+        floor = QUANT_SIGMA if c in ("enc", "pot") else 1e-3
+        out[c] = np.full(len(sig), QUANT_SIGMA) if c == "enc" else np.maximum(sig, floor)
+    return out
+
+
+def zscores(runs: Runs, sim: dict[str, np.ndarray], sigma: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Measured minus simulated, in noise sigmas; sim arrays may carry a leading set axis."""
+    return {c: (runs.meas[c] - sim[c]) / sigma[c][:, None] for c in CHANNELS}
+
+
+def chi2_per_trial(z: dict[str, np.ndarray]) -> np.ndarray:
+    """Sum of squared residuals per trial over the scored channels (padding ignored)."""
+    return sum(np.nansum(z[c] ** 2, axis=-1) for c in SCORE_CHANNELS)
+
+
+def n_scored(runs: Runs) -> int:
+    """Number of residual values the score sums over."""
+    return int(runs.mask.sum()) * len(SCORE_CHANNELS)
+
+
+def rms(z: dict[str, np.ndarray], where: np.ndarray | None = None) -> float:
+    """Combined residual RMS (noise sigmas) over the scored channels, optionally in a region."""
+    vals = [z[c][where] if where is not None else z[c] for c in SCORE_CHANNELS]
+    return float(np.sqrt(np.nanmean(np.concatenate([v.ravel() for v in vals]) ** 2)))
+
+
+def noise_floor(runs: Runs, sigma: dict[str, np.ndarray]) -> float:
+    """Data-derived floor: RMS of the high-pass part (second differences / sqrt 6), in noise sigmas."""
+    parts = []
+    for c in SCORE_CHANNELS:
+        x = runs.meas[c]
+        d2 = (x[:, 2:] - 2 * x[:, 1:-1] + x[:, :-2]) / np.sqrt(6.0) / sigma[c][:, None]
+        lim = np.nanpercentile(np.abs(d2), 99)  # drop the kinks (contact, reversal), not the noise
+        parts.append(d2[np.abs(d2) <= lim])
+    return float(np.sqrt(np.mean(np.concatenate(parts) ** 2)))
+
+
+def _bins(x: np.ndarray, edges: list[float], names: list[str]) -> np.ndarray:
+    """Label each value by the bin it falls in."""
+    return np.asarray(names, dtype=object)[np.digitize(x, edges)]
+
+
+def region_labels(runs: Runs) -> dict[str, np.ndarray]:
+    """Region of every sample by contact angle, force level, direction, speed and estimated current."""
+    enc = runs.meas["enc"]
+    v = np.gradient(enc, axis=1) * g.MM_PER_COUNT * 100.0  # nut speed, mm/s
+    m = runs.mask
+    vmax = 32300.0 / 60.0 * 12 * g.MM_PER_COUNT
+    cur = np.abs(np.nan_to_num(runs.volts) / 12.0 - np.nan_to_num(v) / vmax)
+    speed = np.abs(v)
+    moving = m & (speed > 0.2)
+    q = [float(np.percentile(speed[moving], 50)) if moving.any() else 1.0]
+    cq = [float(np.nanpercentile(cur[m], p)) for p in (33, 67)]
+    angle = np.broadcast_to(runs.angle[:, None], enc.shape)
+    return {
+        "angle": np.vectorize(lambda a: f"{a:.1f} deg", otypes=[object])(angle),
+        "force": _bins(runs.meas["force_n"], [1, 5, 10], ["<1 N", "1-5 N", "5-10 N", ">10 N"]),
+        "direction": _bins(v, [-0.2, 0.2], ["retract", "still", "push"]),
+        "speed": _bins(speed, [0.2, q[0]], ["still", "slow", "fast"]),
+        "current": _bins(cur, cq, ["low |i|", "mid |i|", "high |i|"]),
+    }
+
+
+def holm(p: np.ndarray) -> np.ndarray:
+    """Holm step-down adjusted p-values."""
+    order = np.argsort(p)
+    adj = np.minimum(1.0, np.maximum.accumulate((len(p) - np.arange(len(p))) * p[order]))
+    out = np.empty_like(adj)
+    out[order] = adj
+    return out
+
+
+def region_table(runs: Runs, z: dict[str, np.ndarray], labels: dict[str, np.ndarray]) -> pd.DataFrame:
+    """One-sample t-test of the mean residual per region and channel, Holm-corrected, ranked."""
+    rows = []
+    for kind, lab in labels.items():
+        for region in sorted(set(lab[runs.mask])):
+            sel = runs.mask & (lab == region)
+            for c in SCORE_CHANNELS:
+                x = z[c][sel]
+                t, p = stats.ttest_1samp(x, 0.0) if len(x) > 2 and np.std(x) > 0 else (0.0, 1.0)
+                rows.append((kind, region, c, len(x), float(np.mean(x)), float(np.sqrt(np.mean(x**2))), t, p))
+    df = pd.DataFrame(rows, columns=["by", "region", "channel", "n", "mean_z", "rms_z", "t", "p"])
+    df["p_holm"] = holm(df["p"].fillna(1.0).to_numpy())
+    df["significant"] = (df["p_holm"] < ALPHA) & (df["mean_z"].abs() >= MIN_EFFECT)
+    df["size"] = df["mean_z"].abs()
+    order = df.sort_values(["significant", "p_holm", "size"], ascending=[False, True, False])
+    return order.drop(columns="size").reset_index(drop=True)

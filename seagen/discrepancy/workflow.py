@@ -1,0 +1,214 @@
+"""The loop: replay, test where the residual is significant, name the best candidate, add it, re-check."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from seagen.discrepancy.candidates import SPACE, Candidate, missing_effects, objective, polish, screen
+from seagen.discrepancy.replay import ParamSet, Runs, simulate
+from seagen.discrepancy.residuals import (
+    n_scored,
+    noise_floor,
+    noise_sigma,
+    region_labels,
+    region_table,
+    rms,
+    zscores,
+)
+from seagen.errors import UserError
+from seagen.plant import PlantConfig
+
+DRIVE = (
+    "measured motor command (each 100 Hz sample held for 10 plant steps): the plant's motor model is not "
+    "in the catalogue, so the command reproduces the recorded push/retract switch exactly, and the encoder "
+    "stays an observed signal that shows every effect that changes the load on the motor"
+)
+DBIC_MIN = 10.0  # 'very strong' evidence (Kass & Raftery) before an effect is named
+PER_SPLIT = 6  # trials per split (fit, held-out), spread over the contact angles
+BOOTSTRAP = 400
+
+
+@dataclass
+class Named:
+    """An effect the workflow named, its fitted parameters and the bootstrap confidence."""
+
+    name: str
+    params: dict[str, float]
+    confidence: float
+
+
+@dataclass
+class Result:
+    """Everything the report needs."""
+
+    effects: list[Named]
+    verdict: str
+    config: PlantConfig
+    held: Runs
+    z_before: dict[str, np.ndarray]
+    z_after: dict[str, np.ndarray]
+    noise_floor: float
+    rounds: list[pd.DataFrame] = field(default_factory=list)
+    seconds: float = 0.0
+
+    @property
+    def rms_before(self) -> float:
+        """Held-out residual RMS of the base plant (noise sigmas)."""
+        return rms(self.z_before)
+
+    @property
+    def rms_after(self) -> float:
+        """Held-out residual RMS of the augmented plant (noise sigmas)."""
+        return rms(self.z_after)
+
+
+def split_trials(runs: Runs, per_split: int = PER_SPLIT) -> tuple[np.ndarray, np.ndarray]:
+    """Fitting and held-out trials: alternate within each contact angle, spread over the angles."""
+    if len(runs.angle) < 2:
+        raise UserError("need at least two measured trials (one to fit, one to hold out)")
+    angles = np.unique(runs.angle)
+    queues = [np.flatnonzero(runs.angle == a) for a in angles]
+    fit_q = [list(q[0::2]) for q in queues]
+    held_q = [list(q[1::2]) for q in queues]
+    if not any(held_q):  # one trial per angle: alternate over the angles instead
+        flat = [int(q[0]) for q in queues]
+        fit_q, held_q = [[i] for i in flat[0::2]], [[i] for i in flat[1::2]]
+    return _round_robin(fit_q, per_split), _round_robin(held_q, per_split)
+
+
+def _round_robin(queues: list[list[int]], limit: int) -> np.ndarray:
+    """Take one trial per angle in turn (angles spread evenly) until `limit` trials are taken."""
+    spread = np.unique(np.round(np.linspace(0, len(queues) - 1, min(limit, len(queues)))).astype(int))
+    order = list(spread) + [i for i in range(len(queues)) if i not in set(spread)]
+    taken: list[int] = []
+    while len(taken) < limit and any(queues[i] for i in order):
+        for i in order:
+            if queues[i] and len(taken) < limit:
+                taken.append(int(queues[i].pop(0)))
+    return np.array(sorted(taken), dtype=int)
+
+
+def _apply(cfg: PlantConfig, params: ParamSet) -> PlantConfig:
+    """cfg with every effect in params switched on at those values."""
+    for e, p in params.items():
+        cfg = cfg.with_effect(e, True, **p)
+    return cfg
+
+
+def _score(cfg, cands, held, sig_h, rng) -> tuple[pd.DataFrame, np.ndarray]:
+    """Held-out chi-square, BIC and RMS per candidate (row 0 = no change), bootstrap win counts."""
+    chi = objective(cfg, [{}] + [c.params() for c in cands], held, sig_h)
+    n = n_scored(held)
+    k = np.array([0] + [len(c.keys) for c in cands])
+    bic = chi.sum(axis=1) + k * np.log(n)
+    boot = rng.integers(0, chi.shape[1], size=(BOOTSTRAP, chi.shape[1]))
+    wins = np.argmin(chi[:, boot].sum(axis=2) + (k * np.log(n))[:, None], axis=0)
+    table = pd.DataFrame(
+        {
+            "candidate": ["(none)"] + [c.label for c in cands],
+            "k": k,
+            "chi2_fit": [np.nan] + [c.chi2_fit for c in cands],
+            "bic_held_out": bic,
+            "rms_held_out": np.sqrt(chi.sum(axis=1) / n),
+        }
+    )
+    return table, wins
+
+
+def best_addition(cfg: PlantConfig, fit: Runs, held: Runs, sig_f, sig_h, rng):
+    """Fit every missing effect alone and the top ones in pairs; the held-out BIC winner or None."""
+    singles = [Candidate((e,), np.full(len(SPACE[e]), 0.5)) for e in missing_effects(cfg)]
+    if not singles:
+        return None, None
+    screen(cfg, singles, fit, sig_f)
+    ranked = sorted(singles, key=lambda c: c.chi2_fit)
+    for c in ranked[:2]:
+        polish(cfg, c, fit, sig_f)
+    top = sorted(ranked[:3], key=lambda c: c.chi2_fit)
+    pairs = [Candidate(a.names + b.names, np.concatenate([a.u, b.u])) for a, b in _pairs(top)]
+    if pairs:
+        polish(cfg, pairs[0], fit, sig_f)
+    cands = singles + pairs
+    table, wins = _score(cfg, cands, held, sig_h, rng)
+    table = table.sort_values("bic_held_out").reset_index(drop=True)
+    if table["candidate"].iloc[0] == "(none)" or table["bic_held_out"].iloc[0] > _base_bic(table) - DBIC_MIN:
+        return None, table
+    winner = next(c for c in cands if c.label == table["candidate"].iloc[0])
+    conf = {e: float(np.mean([_includes(cands, w, e) for w in wins])) for e in winner.names}
+    return (winner, conf), table
+
+
+def _pairs(top: list[Candidate]) -> list[tuple[Candidate, Candidate]]:
+    """Pairs of the top single candidates, best pair (by fit chi-square sum) first."""
+    out = [(a, b) for i, a in enumerate(top) for b in top[i + 1 :]]
+    return sorted(out, key=lambda ab: ab[0].chi2_fit + ab[1].chi2_fit)
+
+
+def _base_bic(table: pd.DataFrame) -> float:
+    """BIC of the unchanged plant."""
+    return float(table.loc[table["candidate"] == "(none)", "bic_held_out"].iloc[0])
+
+
+def _includes(cands: list[Candidate], win: int, effect: str) -> bool:
+    """Whether bootstrap winner index `win` (0 = none) includes `effect`."""
+    return win > 0 and effect in cands[win - 1].names
+
+
+def _refit(base: PlantConfig, named: list[Named], fit: Runs, sig_f) -> list[Named]:
+    """Polish all named effects together from the original base (undoes bias of the first fits)."""
+    cand = Candidate(tuple(n.name for n in named), np.zeros(0))
+    cand.u = np.array([_to_unit(e, p, n.params[p]) for n in named for e, p in cand.keys if e == n.name])
+    cand.chi2_fit = float(objective(base, [cand.params()], fit, sig_f).sum())
+    polish(base, cand, fit, sig_f)
+    fitted = cand.params()
+    return [Named(n.name, fitted[n.name], n.confidence) for n in named]
+
+
+def _to_unit(effect: str, param: str, value: float) -> float:
+    """Inverse of the unit-box mapping of SPACE."""
+    lo, hi, log = SPACE[effect][param]
+    x = np.log(value / lo) / np.log(hi / lo) if log else (value - lo) / (hi - lo)
+    return float(np.clip(x, 0, 1))
+
+
+def _residual(cfg: PlantConfig, runs: Runs, sig) -> dict[str, np.ndarray]:
+    """Held-out residual of one config, in noise sigmas."""
+    return {c: v[0] for c, v in zscores(runs, simulate(cfg, [{}], runs), sig).items()}
+
+
+def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) -> Result:
+    """Name, add, re-check until the held-out residual is at the noise floor or nothing helps."""
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    fit_i, held_i = split_trials(runs)
+    sig = noise_sigma(runs)
+    fit, held = runs.take(fit_i), runs.take(held_i)
+    sig_f, sig_h = ({c: s[i] for c, s in sig.items()} for i in (fit_i, held_i))
+    labels = region_labels(held)
+    cfg, named, rounds, verdict = base, [], [], "none"
+    z0 = _residual(base, held, sig_h)
+    for _ in range(max_rounds):
+        if not region_table(held, _residual(cfg, held, sig_h), labels)["significant"].any():
+            verdict = "explained" if named else "none"
+            break
+        found, table = best_addition(cfg, fit, held, sig_f, sig_h, rng)
+        if table is not None:
+            rounds.append(table)
+        if found is None:
+            verdict = "unexplained"
+            break
+        winner, conf = found
+        named += [Named(e, p, conf[e]) for e, p in winner.params().items()]
+        if len(named) > len(winner.names):
+            named = _refit(base, named, fit, sig_f)
+        cfg = _apply(base, {n.name: n.params for n in named})
+    else:
+        verdict = "unexplained"
+    z1 = _residual(cfg, held, sig_h)
+    res = Result(named, verdict, cfg, held, z0, z1, noise_floor(held, sig_h), rounds)
+    res.seconds = time.perf_counter() - t0
+    return res

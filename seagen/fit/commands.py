@@ -1,0 +1,117 @@
+"""`seagen train` and `seagen evaluate`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from seagen.errors import UserError
+
+TRAIN_EPILOG = """\
+examples:
+  seagen train --data data --model sf --loss mae --task calibration --out sf_calibration.pt
+  seagen train --data data --model mlp --loss mse --task control --hidden 8,16 --out mlp_control.pt
+  seagen train --data data --model mlp --loss any --trials 40 --storage sqlite:///sweep.db \\
+      --study-name cal --out best.pt      # run the same line on several machines to share one sweep
+"""
+
+
+def parse_hidden(text: str | None) -> tuple[int, ...] | None:
+    """'16,32' -> (16, 32); errors name --hidden."""
+    if text is None:
+        return None
+    try:
+        sizes = tuple(int(t) for t in text.replace("-", ",").split(",") if t.strip())
+    except ValueError:
+        raise UserError(f"--hidden {text!r}: expected layer sizes like 16,32") from None
+    if not sizes or any(s < 1 for s in sizes):
+        raise UserError(f"--hidden {text!r}: expected positive layer sizes like 16,32")
+    return sizes
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the `train` and `evaluate` commands."""
+    t = sub.add_parser(
+        "train",
+        help="fit an SF or MLP calibration/control model and write the model file",
+        description="Fit one model on DIR/train.csv, score it on test.csv and validation.csv, write the "
+        "model file atomically (module or polynomial, feature spec, units, observed ranges, loss, seed, "
+        "metrics).",
+        epilog=TRAIN_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    t.add_argument("--data", required=True, metavar="DIR", help="data directory (seagen data generate)")
+    t.add_argument("--model", required=True, choices=("sf", "mlp"), help="surface fit or MLP")
+    t.add_argument(
+        "--loss", default="mse", choices=("mse", "mae", "any"), help="loss (default mse; any: searched)"
+    )
+    t.add_argument(
+        "--task",
+        default="calibration",
+        choices=("calibration", "control"),
+        help="calibration: sensors -> force (N); control: desired force + sensors -> compression (mm)",
+    )
+    t.add_argument("--hidden", help="MLP hidden sizes, e.g. 16,32 (default 16,32 calibration, 8,16 control)")
+    t.add_argument("--trials", type=int, default=0, help="Optuna trials over structure/loss/lr (MLP only)")
+    t.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    t.add_argument("--storage", help="Optuna storage URL shared by several machines, e.g. sqlite:///x.db")
+    t.add_argument("--study-name", help="Optuna study name (default seagen-TASK-mlp-seedN)")
+    t.add_argument("--activation", choices=("relu", "leaky_relu", "tanh"), help="MLP activation (relu)")
+    t.add_argument("--out", required=True, metavar="FILE", help="model file to write, e.g. model.pt")
+    t.set_defaults(func=cmd_train)
+    e = sub.add_parser(
+        "evaluate",
+        help="Table IV / V errors of model files beside the kinematics baseline",
+        description="Score model files on DIR/test.csv and DIR/validation.csv the paper's way (rows with "
+        "force > 5 N; maximum = worst contact angle's mean), with the naive kinematics beside them.",
+    )
+    e.add_argument("models", nargs="+", metavar="MODEL", help="model files written by seagen train")
+    e.add_argument("--data", required=True, metavar="DIR", help="data directory with test.csv (+ validation)")
+    e.add_argument("--json", action="store_true", help="print one JSON object keyed by model name")
+    e.add_argument("--plots", metavar="DIR", help="write PNGs: SF surfaces and validation predictions")
+    e.set_defaults(func=cmd_evaluate)
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    """Train one model and print its scores."""
+    from seagen.fit.train import metrics_summary, train
+
+    if args.trials and args.model != "mlp":
+        raise UserError("--trials: the search is for --model mlp (an SF has no hyper-parameters)")
+    obj = train(
+        args.data,
+        model=args.model,
+        loss=args.loss,
+        task=args.task,
+        hidden=parse_hidden(args.hidden),
+        trials=args.trials,
+        seed=args.seed,
+        out=args.out,
+        storage=args.storage,
+        study_name=args.study_name,
+        activation=args.activation,
+    )
+    shape = f" {'-'.join(map(str, obj['hidden']))}" if obj.get("hidden") else ""
+    took = f"{obj['train_seconds']:.1f} s"
+    print(f"wrote {args.out}: {obj['kind']}{shape} {obj['task']} ({obj['loss']}) in {took}")
+    print(metrics_summary(obj))
+    return 0
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    """Print Table IV / V (or JSON) and optionally write the plots."""
+    from seagen.fit.evaluate import evaluate, format_tables, frames_and_models, model_names
+
+    result = evaluate(args.models, args.data)
+    print(
+        json.dumps(result, indent=2) if args.json else format_tables(result),
+        end="" if not args.json else "\n",
+    )
+    if args.plots:
+        from seagen.fit.plots import write_plots
+
+        frames, models = frames_and_models(args.models, args.data)
+        written = write_plots(dict(zip(model_names(args.models), models, strict=True)), frames, args.plots)
+        if not args.json:
+            print("wrote " + ", ".join(str(p) for p in written))
+    return 0

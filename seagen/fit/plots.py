@@ -1,0 +1,94 @@
+"""PNG figures: the SF surface with the data (paper Fig. 13/15), validation predictions (Fig. 14/16)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from seagen.atomic import write_with
+from seagen.fit.predict import TARGET, TASKS, UNIT, kinematics_predict, predict
+from seagen.fit.sf import eval_sf
+
+MAX_SCATTER = 3000
+LABELS = {"angle_deg": "angle (deg)", "compression_mm": "compression (mm)", "force_n": "force (N)"}
+
+
+def _figure() -> Any:
+    """A new figure on the non-interactive backend."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt.figure(figsize=(7, 5), dpi=100)
+
+
+def _save(fig: Any, path: Path) -> None:
+    """Write a figure atomically as PNG and close it."""
+    import matplotlib.pyplot as plt
+
+    write_with(path, lambda tmp: fig.savefig(tmp, format="png", bbox_inches="tight"))
+    plt.close(fig)
+
+
+def plot_surface(model: dict[str, Any], train: pd.DataFrame, path: Path, title: str) -> None:
+    """The fitted surface over the observed input box, with (a sample of) the training rows."""
+    a, b = model["sf"]["inputs"]
+    out = model["output_name"]
+    (alo, ahi), (blo, bhi) = model["input_range"]
+    ga, gb = np.meshgrid(np.linspace(alo, ahi, 40), np.linspace(blo, bhi, 40))
+    gz = eval_sf(model["sf"], ga.ravel(), gb.ravel()).reshape(ga.shape)
+    rows = train.iloc[:: max(1, len(train) // MAX_SCATTER)]
+    fig = _figure()
+    ax = fig.add_subplot(projection="3d")
+    ax.plot_surface(ga, gb, gz, cmap="viridis", alpha=0.6, linewidth=0)
+    ax.scatter(rows[a], rows[b], rows[out], s=2, c="k", alpha=0.4, label="training data")
+    ax.set_xlabel(LABELS.get(a, a))
+    ax.set_ylabel(LABELS.get(b, b))
+    ax.set_zlabel(LABELS.get(out, out))
+    ax.set_title(title)
+    ax.legend(loc="upper left")
+    _save(fig, path)
+
+
+def plot_validation(task: str, named: dict[str, dict[str, Any]], val: pd.DataFrame, path: Path) -> None:
+    """Measured vs predicted output per validation sample: kinematics and every model of the task."""
+    fig = _figure()
+    ax = fig.add_subplot()
+    x = np.arange(len(val))
+    ax.plot(x, val[TARGET[task]], "k-", lw=2, label="measured")
+    ax.plot(x, kinematics_predict(task, val), ":", label="kinematics")
+    for name, m in named.items():
+        ax.plot(x, predict(m, val), "--", label=name)
+    ax.set_xlabel("validation sample (100 Hz)")
+    ax.set_ylabel(f"{TARGET[task]} ({UNIT[task]})")
+    angle = float(val["angle_set_deg"].iloc[0])
+    kind = "force calibration" if task == "calibration" else "compression prediction"
+    ax.set_title(f"{kind} on the validation set ({angle:.2f} deg contact)")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    _save(fig, path)
+
+
+def write_plots(
+    named: dict[str, dict[str, Any]], frames: dict[str, pd.DataFrame], out_dir: str | os.PathLike[str]
+) -> list[Path]:
+    """All figures for the named models; returns the files written."""
+    out = Path(out_dir)
+    written: list[Path] = []
+    for name, m in named.items():
+        if m["kind"] == "sf" and "train" in frames:
+            path = out / f"{name}_surface.png"
+            plot_surface(m, frames["train"], path, f"{name}: 3rd-order surface fit ({m.get('loss', '?')})")
+            written.append(path)
+    for task in TASKS:
+        of_task = {n: m for n, m in named.items() if m["task"] == task}
+        if of_task and "validation" in frames:
+            path = out / f"validation_{task}.png"
+            plot_validation(task, of_task, frames["validation"], path)
+            written.append(path)
+    return written

@@ -1,0 +1,135 @@
+"""Small frozen dataclasses between fitting and rendering: float models and quantized models."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+ACTIVATIONS = ("linear", "relu", "leaky_relu", "hardtanh", "tanh", "sigmoid")
+
+
+@dataclass(frozen=True, eq=False)
+class Signal:
+    """One model input or output: name, unit and the calibrated range in physical units."""
+
+    name: str
+    unit: str
+    lo: float
+    hi: float
+
+
+@dataclass(frozen=True, eq=False)
+class FloatLayer:
+    """y = act(W x + b) in floating point; W has shape (out, in)."""
+
+    weight: np.ndarray
+    bias: np.ndarray
+    activation: str = "linear"
+    alpha: float = 0.01  # leaky_relu slope
+    lo: float = -1.0  # hardtanh limits
+    hi: float = 1.0
+
+
+@dataclass(frozen=True, eq=False)
+class FloatMLP:
+    """An MLP on physical-unit inputs (normalization already folded into the first and last layers)."""
+
+    inputs: tuple[Signal, ...]
+    output: Signal
+    layers: tuple[FloatLayer, ...]
+    task: str = "calibration"
+    meta: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True, eq=False)
+class FloatSF:
+    """A 2-input polynomial: sum coef[k] * a^powers[k][0] * b^powers[k][1], physical units."""
+
+    inputs: tuple[Signal, Signal]
+    output: Signal
+    powers: tuple[tuple[int, int], ...]
+    coef: tuple[float, ...]
+    task: str = "calibration"
+    meta: dict = field(default_factory=dict)
+
+
+FloatModel = FloatMLP | FloatSF
+
+
+@dataclass(frozen=True, eq=False)
+class QInput:
+    """A quantized input feature: int16 value = round(x * 2^frac), clamped to [lo_q, hi_q]."""
+
+    signal: Signal
+    frac: int
+    lo_q: int
+    hi_q: int
+
+
+@dataclass(frozen=True, eq=False)
+class QLayer:
+    """acc = W_q x_q + b_q (acc_bits wide); y_q = act(sat16(rshift_rne(acc, shift))), y in Q(out_frac)."""
+
+    w_q: np.ndarray  # int64 values in int16 (or int8) range, shape (out, in)
+    b_q: np.ndarray  # int64, in the accumulator's format
+    w_frac: int
+    in_frac: int  # 0 for the first layer: its weights already carry each input's scale
+    out_frac: int
+    shift: int
+    acc_bits: int  # 32 or 64, proven by interval analysis
+    activation: str
+    act_params: tuple[int, ...] = ()  # leaky: (alpha_q15,); hardtanh: (lo_q, hi_q)
+    pre_frac: int = 0  # format of the shifted accumulator before the activation (= out_frac but for tables)
+    y_lo: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # proven output interval
+    y_hi: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # per neuron, int16 units
+
+
+@dataclass(frozen=True, eq=False)
+class QTable:
+    """A shared activation table: y_q = table[clamp((x_q >> in_shift) - offset, 0, len-1)]."""
+
+    name: str
+    values: np.ndarray  # int64 values in int16 range
+    in_frac: int
+    out_frac: int
+    in_shift: int
+    offset: int
+
+
+@dataclass(frozen=True, eq=False)
+class QHorner:
+    """One Horner step on int32 registers (int64 arithmetic).
+
+    var < 0: r[dst] = coef_q (a load). Otherwise
+    r[dst] = sat32(rshift_rne(x[var] * r[src] + addend * 2^align, shift)), addend = r[add_reg] if
+    add_reg >= 0 else coef_q. frac is the Q format of r[dst].
+    """
+
+    dst: int
+    var: int
+    src: int
+    add_reg: int
+    coef_q: int
+    align: int
+    shift: int
+    frac: int
+
+
+@dataclass(frozen=True, eq=False)
+class QModel:
+    """A quantized model: inputs, the integer program (MLP layers or SF Horner steps), the output."""
+
+    kind: str  # "mlp" | "sf"
+    inputs: tuple[QInput, ...]
+    output: Signal
+    out_frac: int
+    layers: tuple[QLayer, ...] = ()
+    tables: tuple[QTable, ...] = ()
+    horner: tuple[QHorner, ...] = ()
+    out_shift: int = 0  # SF: final register -> int16 output shift
+    n_regs: int = 0  # SF: registers used by the Horner program
+    weight_bits: int = 16
+    task: str = "calibration"
+    error_bound: float = float("nan")  # proven worst case |fixed - float| over the box, output units
+    meta: dict = field(default_factory=dict)

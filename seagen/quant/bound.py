@@ -1,0 +1,43 @@
+"""Proven worst-case |fixed - float| over the calibrated box, by propagating error radii layer by layer."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from seagen.ir import FloatMLP, QModel
+from seagen.quant.activations import table_error
+from seagen.quant.qformat import widened
+
+
+def mlp_error_bound(model: FloatMLP, qm: QModel) -> float:
+    """Bound on |infer(quantize(x)) * 2^-out_frac - float(x)| for every x in the widened box (output units).
+
+    Per layer: e_z = sum|W - W_hat| |x|max + sum|W_hat| e_x + |b - b_hat| + half an output LSB; ReLU and
+    Hardtanh are 1-Lipschitz, LeakyReLU adds its slope's quantization and a second rounding, tanh/sigmoid
+    add the table error (Lipschitz 1 and 1/4).
+    """
+    boxes = [widened(s.lo, s.hi) for s in model.inputs]
+    xmax = np.array([max(abs(a), abs(b)) for a, b in boxes])
+    e = np.array([2.0 ** -(i.frac + 1) for i in qm.inputs])
+    scale = np.array([2.0**i.frac for i in qm.inputs])
+    tables = {t.name: t for t in qm.tables}
+    for k, (fl, q) in enumerate(zip(model.layers, qm.layers, strict=True)):
+        w_hat = q.w_q * 2.0**-q.w_frac * (scale[None, :] if k == 0 else 1.0)
+        b_hat = q.b_q * 2.0 ** -(q.w_frac + q.in_frac)
+        half = 2.0 ** -(q.pre_frac + 1)
+        ez = np.abs(fl.weight - w_hat) @ xmax + np.abs(w_hat) @ e + np.abs(fl.bias - b_hat) + half
+        zmax = np.abs(w_hat) @ (xmax + e) + np.abs(b_hat)
+        e = _through_activation(fl.activation, q, ez, zmax, fl.alpha, half, tables, k)
+        out_max = np.maximum(np.abs(q.y_lo), np.abs(q.y_hi)) * 2.0**-q.out_frac
+        xmax = out_max + e
+    return float(np.max(e))
+
+
+def _through_activation(act: str, q, ez: np.ndarray, zmax: np.ndarray, alpha: float, half: float,
+                        tables: dict, k: int) -> np.ndarray:
+    if act == "leaky_relu":
+        return ez + abs(alpha - q.act_params[0] / 2**15) * zmax + half
+    if act in ("tanh", "sigmoid"):
+        t = tables[f"l{k}_{act}"]
+        return (1.0 if act == "tanh" else 0.25) * ez + table_error(t, act)
+    return ez

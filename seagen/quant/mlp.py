@@ -1,0 +1,127 @@
+"""Float MLP -> quantized MLP: Q formats, accumulator widths and the error bound from interval analysis."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from seagen.errors import UserError
+from seagen.ir import FloatLayer, FloatMLP, QInput, QLayer, QModel, QTable
+from seagen.quant.activations import TABLE_OUT_FRAC, make_table
+from seagen.quant.bound import mlp_error_bound
+from seagen.quant.qformat import frac_for, quantize, widened
+
+INT16_MAX = 2**15 - 1
+ACC32_LIMIT = 2**31 - 1
+
+
+def quantize_inputs(model: FloatMLP) -> tuple[QInput, ...]:
+    """Per-input Q formats from the widened calibrated box; int16 bounds of the box."""
+    out = []
+    for s in model.inputs:
+        lo, hi = widened(s.lo, s.hi)
+        f = frac_for(max(abs(lo), abs(hi)), INT16_MAX)
+        if s.name in ("compression_mm", "d_compression_mm", "dd_compression_mm"):
+            f = min(f, 16)  # the pipeline computes compression in Q16
+        lo_q, hi_q = int(quantize(lo, f)), int(quantize(hi, f))
+        if not (-(2**15) <= lo_q <= hi_q <= INT16_MAX):
+            raise UserError(f"input '{s.name}': range [{s.lo}, {s.hi}] cannot be represented in int16")
+        out.append(QInput(s, f, lo_q, hi_q))
+    return tuple(out)
+
+
+def _acc_bounds(w_q: np.ndarray, b_q: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple:
+    """Exact integer interval of W x + b over the box, and the worst partial-sum magnitude."""
+    w = w_q.astype(object)
+    a, c = w * lo.astype(object)[None, :], w * hi.astype(object)[None, :]
+    mn = np.minimum(a, c).sum(axis=1) + b_q.astype(object)
+    mx = np.maximum(a, c).sum(axis=1) + b_q.astype(object)
+    worst = (abs(w) * np.maximum(abs(lo), abs(hi)).astype(object)[None, :]).sum(axis=1) + abs(b_q.astype(object))
+    return mn, mx, max(worst)
+
+
+def _rshift_int(v: int, s: int) -> int:
+    """Exact round-half-to-even shift on a Python int (for interval end points)."""
+    q, r = v >> s, v - ((v >> s) << s)
+    half = 1 << (s - 1) if s > 0 else 0
+    return q + (1 if s > 0 and (r > half or (r == half and q & 1)) else 0)
+
+
+def _out_frac(mn: np.ndarray, mx: np.ndarray, acc_frac: int, activation: str) -> int:
+    """Largest output format with no saturation over the box (acc_frac >= result >= acc_frac - 62)."""
+    hi = max(max(mx), 0) if activation == "relu" else max(max(abs(mn)), max(abs(mx)))
+    if activation in ("tanh", "sigmoid"):
+        hi = min(hi, 8 << acc_frac)  # beyond +-8 the table saturates anyway
+    f = acc_frac
+    while f > acc_frac - 62 and _rshift_int(int(hi), acc_frac - f) > INT16_MAX:
+        f -= 1
+    return f
+
+
+def quantize_layer(layer: FloatLayer, w_eff: np.ndarray, in_frac: int, lo: np.ndarray, hi: np.ndarray,
+                   wmax: int, index: int) -> tuple[QLayer, QTable | None]:
+    """One layer: weight format, integer weights and bias, accumulator width, output format, activation."""
+    w_frac = frac_for(float(np.max(np.abs(w_eff))), wmax)
+    w_q = quantize(w_eff, w_frac)
+    acc_frac = w_frac + in_frac
+    b_q = quantize(layer.bias, acc_frac)
+    mn, mx, worst = _acc_bounds(w_q, b_q, lo, hi)
+    if worst >= 2**62:
+        raise UserError(f"layer {index}: accumulator bound 2^{int(worst).bit_length()} exceeds int64")
+    out_frac = _out_frac(mn, mx, acc_frac, layer.activation)
+    shift = acc_frac - out_frac
+    y_lo = np.array([max(-(2**15), _rshift_int(int(v), shift)) for v in mn], dtype=np.int64)
+    y_hi = np.array([min(INT16_MAX, _rshift_int(int(v), shift)) for v in mx], dtype=np.int64)
+    params, table = _activation(layer, out_frac, index)
+    y_lo, y_hi = _act_bounds(layer.activation, params, table, y_lo, y_hi)
+    q = QLayer(w_q, b_q, w_frac, in_frac, out_frac if table is None else TABLE_OUT_FRAC, shift,
+               32 if worst <= ACC32_LIMIT else 64, layer.activation, params, out_frac, y_lo, y_hi)
+    return q, table
+
+
+def _activation(layer: FloatLayer, pre_frac: int, index: int) -> tuple[tuple[int, ...], QTable | None]:
+    if layer.activation == "leaky_relu":
+        return (int(quantize(layer.alpha, 15)),), None
+    if layer.activation == "hardtanh":
+        lo = int(np.clip(quantize(layer.lo, pre_frac), -(2**15), INT16_MAX))
+        hi = int(np.clip(quantize(layer.hi, pre_frac), -(2**15), INT16_MAX))
+        return (lo, hi), None
+    if layer.activation in ("tanh", "sigmoid"):
+        return (), make_table(layer.activation, pre_frac, f"l{index}_{layer.activation}")
+    return (), None
+
+
+def _act_bounds(act: str, params: tuple[int, ...], table: QTable | None, lo: np.ndarray, hi: np.ndarray):
+    if act == "relu":
+        return np.maximum(lo, 0), np.maximum(hi, 0)
+    if act == "leaky_relu":
+        return np.minimum(lo, 0) * params[0] // 2**15 - 1, hi
+    if act == "hardtanh":
+        return np.clip(lo, params[0], params[1]), np.clip(hi, params[0], params[1])
+    if table is not None:
+        return np.full_like(lo, int(table.values.min())), np.full_like(hi, int(table.values.max()))
+    return lo, hi
+
+
+def quantize_mlp(model: FloatMLP, weight_bits: int = 16) -> QModel:
+    """The whole network; raises UserError when a range cannot be represented."""
+    wmax = 2 ** (weight_bits - 1) - 1
+    inputs = quantize_inputs(model)
+    lo = np.array([i.lo_q for i in inputs], dtype=np.int64)
+    hi = np.array([i.hi_q for i in inputs], dtype=np.int64)
+    scale = np.array([2.0 ** -i.frac for i in inputs])
+    layers, tables = [], []
+    in_frac = 0
+    for k, layer in enumerate(model.layers):
+        w_eff = layer.weight * scale[None, :] if k == 0 else layer.weight
+        q, table = quantize_layer(layer, w_eff, in_frac, lo, hi, wmax, k)
+        layers.append(q)
+        if table is not None:
+            tables.append(table)
+        lo, hi = q.y_lo, q.y_hi
+        in_frac = q.out_frac
+    qm = QModel("mlp", inputs, model.output, layers[-1].out_frac, tuple(layers), tuple(tables),
+                weight_bits=weight_bits, task=model.task)
+    return dataclasses.replace(qm, error_bound=mlp_error_bound(model, qm))
+

@@ -1,0 +1,104 @@
+"""Float surface fit -> a fixed-point 2-D Horner program with per-coefficient Q formats."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from seagen.errors import UserError
+from seagen.ir import FloatSF, QHorner, QModel
+from seagen.quant.mlp import INT16_MAX, _rshift_int, quantize_inputs
+from seagen.quant.qformat import frac_for, widened
+
+REG_LIMIT = 2**30  # registers keep a bit of headroom below int32
+
+
+@dataclasses.dataclass
+class _Reg:
+    """A register during planning: its real interval, format and error radius."""
+
+    lo: float
+    hi: float
+    frac: int
+    err: float
+
+    @property
+    def mag(self) -> float:
+        return max(abs(self.lo), abs(self.hi))
+
+
+def _mul_interval(a: tuple[float, float], b: tuple[float, float]) -> tuple[float, float]:
+    p = (a[0] * b[0], a[0] * b[1], a[1] * b[0], a[1] * b[1])
+    return min(p), max(p)
+
+
+class _Planner:
+    """Emits Horner ops while tracking intervals (sound), formats and error radii."""
+
+    def __init__(self, boxes: list[tuple[float, float]], fracs: list[int]) -> None:
+        self.boxes, self.fracs = boxes, fracs
+        self.ops: list[QHorner] = []
+        self.regs: dict[int, _Reg] = {}
+
+    def load(self, dst: int, c: float) -> None:
+        f = frac_for(abs(c), REG_LIMIT)
+        q = int(np.rint(c * 2.0**f))
+        self.ops.append(QHorner(dst, -1, -1, -1, q, 0, 0, f))
+        self.regs[dst] = _Reg(c, c, f, abs(c - q * 2.0**-f))
+
+    def fma(self, dst: int, var: int, src: int, add_reg: int = -1, c: float = 0.0) -> None:
+        """r[dst] = x[var] * r[src] + (r[add_reg] or constant c)."""
+        s, box, fx = self.regs[src], self.boxes[var], self.fracs[var]
+        fp = fx + s.frac
+        plo, phi = _mul_interval(box, (s.lo, s.hi))
+        if add_reg >= 0:
+            a = self.regs[add_reg]
+            if a.frac > fp:
+                raise UserError("surface fit: coefficient formats cannot be aligned (range too wide)")
+            align, coef_q, alo, ahi, aerr = fp - a.frac, 0, a.lo, a.hi, a.err
+        else:
+            fc = min(frac_for(abs(c), REG_LIMIT), fp)
+            coef_q = int(np.rint(c * 2.0**fc))
+            align, alo, ahi, aerr = fp - fc, c, c, abs(c - coef_q * 2.0**-fc)
+        lo, hi = plo + alo, phi + ahi
+        mag = max(abs(lo), abs(hi))
+        f = min(frac_for(mag, REG_LIMIT), fp)
+        if (max(abs(plo), abs(phi)) + max(abs(alo), abs(ahi))) * 2.0**fp >= 2.0**62:
+            raise UserError("surface fit: a Horner step would overflow int64 over the calibrated box")
+        xmag = max(abs(box[0]), abs(box[1]))
+        err = xmag * s.err + s.mag * 2.0 ** -(fx + 1) + s.err * 2.0 ** -(fx + 1) + aerr + 2.0 ** -(f + 1)
+        self.ops.append(QHorner(dst, var, src, add_reg, coef_q, align, fp - f, f))
+        self.regs[dst] = _Reg(lo - err, hi + err, f, err)
+
+
+def quantize_sf(model: FloatSF) -> QModel:
+    """Plan f(a, b) = sum_i a^i P_i(b), each P_i by Horner in b, then Horner in a."""
+    inputs = quantize_inputs(model)  # type: ignore[arg-type]
+    boxes = [widened(s.lo, s.hi) for s in model.inputs]
+    coef = {tuple(p): c for p, c in zip(model.powers, model.coef, strict=True)}
+    deg = max(i + j for i, j in coef)
+    pl = _Planner(boxes, [q.frac for q in inputs])
+    for i in range(deg + 1):  # register i holds P_i(b)
+        top = deg - i
+        pl.load(i, coef.get((i, top), 0.0))
+        for j in range(top - 1, -1, -1):
+            pl.fma(i, 1, i, c=coef.get((i, j), 0.0))
+    acc = deg
+    for i in range(deg - 1, -1, -1):
+        pl.fma(acc, 0, acc, add_reg=i)
+    final = pl.regs[acc]
+    out_frac = min(frac_for(final.mag, INT16_MAX), final.frac)
+    shift = final.frac - out_frac
+    if _rshift_int(int(np.ceil(final.mag * 2.0**final.frac)), shift) > INT16_MAX:
+        out_frac -= 1
+        shift += 1
+    bound = final.err + 2.0 ** -(out_frac + 1)
+    return QModel("sf", inputs, model.output, out_frac, horner=tuple(pl.ops), out_shift=shift,
+                  n_regs=deg + 1, task=model.task, error_bound=bound)
+
+
+def float_sf(model: FloatSF, x: np.ndarray) -> np.ndarray:
+    """The float polynomial on physical-unit inputs (N, 2)."""
+    x = np.asarray(x, dtype=float)
+    return sum(c * x[:, 0] ** i * x[:, 1] ** j for (i, j), c in zip(model.powers, model.coef, strict=True))

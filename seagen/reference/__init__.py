@@ -1,0 +1,1 @@
+"""The integer references: numpy (the executable spec), its torch twin, and the ONNX graph."""

@@ -1,0 +1,39 @@
+"""The float model on physical-unit inputs (float64 numpy): what the fixed-point program approximates."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from seagen.ir import FloatMLP, FloatModel, FloatSF
+from seagen.quant.sf import float_sf
+
+
+def _act(name: str, z: np.ndarray, alpha: float, lo: float, hi: float) -> np.ndarray:
+    if name == "relu":
+        return np.maximum(z, 0.0)
+    if name == "leaky_relu":
+        return np.where(z >= 0, z, alpha * z)
+    if name == "hardtanh":
+        return np.clip(z, lo, hi)
+    if name == "tanh":
+        return np.tanh(z)
+    if name == "sigmoid":
+        return 1.0 / (1.0 + np.exp(-z))
+    return z
+
+
+def predict(model: FloatModel, x: np.ndarray) -> np.ndarray:
+    """Output (N,) for physical inputs (N, n_in)."""
+    x = np.atleast_2d(np.asarray(x, dtype=float))
+    if isinstance(model, FloatSF):
+        return float_sf(model, x)
+    assert isinstance(model, FloatMLP)
+    for layer in model.layers:
+        x = _act(layer.activation, x @ layer.weight.T + layer.bias, layer.alpha, layer.lo, layer.hi)
+    return x[:, 0]
+
+
+def quantize_features(qm, x: np.ndarray) -> np.ndarray:
+    """Physical features (N, n_in) -> int16 model inputs: round(x * 2^frac), saturated to int16."""
+    fr = np.array([2.0**i.frac for i in qm.inputs])
+    return np.clip(np.rint(np.asarray(x, dtype=float) * fr[None, :]), -(2**15), 2**15 - 1).astype(np.int64)
