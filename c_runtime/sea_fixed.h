@@ -37,6 +37,8 @@ int32_t sea_sat32(int64_t v);
 #define SEA_LINK_TABLE_LEN 257  /* pot 0..4096 */
 #define SEA_MM_PER_COUNT_Q24 73584 /* Eq. 3: 0.00438596 mm per encoder count, Q24 */
 #define SEA_POT_MAX 4095
+#define SEA_POT_DEG_Q24 217588      /* Eq. 5: 53.12195/4096 deg per pot count, Q24 */
+#define SEA_POT_OFFSET_Q24 (-83886080) /* Eq. 5: -5 deg, Q24 */
 
 /* Q16 mm: linkage term for a pot reading (clamped to 0..4095), linear interpolation between entries,
  * rounded half to even. Exact integer arithmetic; |table| < 2^30 is required. */

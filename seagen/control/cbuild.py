@@ -12,7 +12,7 @@ from seagen.control.controller import ControlConfig, KinParams
 
 SOURCES = ("sea_fixed.h", "sea_fixed.c", "sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c")
 
-CDEF = """
+PID_CDEF = """
 typedef struct { int32_t kp; int32_t ki; int32_t kd; int32_t d_alpha; int32_t margin;
                  int16_t out_min; int16_t out_max; } sea_pid_params;
 typedef struct { int32_t integ; int32_t d_filt; int32_t meas_prev; int16_t out; } sea_pid_state;
@@ -20,7 +20,10 @@ void sea_pid_reset(const sea_pid_params *p, sea_pid_state *s, int32_t meas, int1
 int16_t sea_pid_step(const sea_pid_params *p, sea_pid_state *s, int32_t setpoint, int32_t meas);
 int64_t sea_clamp_s64(int64_t v, int64_t lo, int64_t hi);
 int32_t sea_div_rne_s32(int32_t num, int32_t den);
-
+"""
+CDEF = (
+    PID_CDEF
+    + """
 typedef int32_t (*sea_predictor_fn)(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);
 typedef struct {
     sea_pid_params pid; const int32_t *link_table; sea_predictor_fn predictor; void *predictor_ctx;
@@ -39,6 +42,7 @@ void sea_control_set_desired(sea_control_state *s, int32_t desired_q16);
 typedef struct { int32_t friction_q16; int32_t inv_k_q16; } sea_kin_params;
 int32_t sea_predict_kinematic(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);
 """
+)
 
 
 def build_control(extra_cdef: str = "", extra_sources: dict[str, str] | None = None) -> ModuleType:

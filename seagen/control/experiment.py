@@ -31,18 +31,28 @@ def smoothed(force: np.ndarray, n: int = SMOOTH_TICKS) -> np.ndarray:
     return (c[k] - c[lo]) / (k - lo)[:, None]
 
 
+def settling(t: np.ndarray, f: np.ndarray, ref: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """Per column: time from `start` until |f - ref| <= BAND_N for good (NaN if the last sample is out)."""
+    outside = np.abs(f - ref) > BAND_N
+    n = f.shape[0]
+    last_out = np.where(outside.any(axis=0), n - 1 - np.argmax(outside[::-1], axis=0), -1)
+    settle = np.where(last_out >= n - 1, np.nan, t[np.minimum(last_out + 1, n - 1)])
+    return np.maximum(settle - t[start], 0.0)
+
+
 def metrics(rec: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """Per actuator: settling time (s, from contact until the smoothed force stays within the band; NaN if
-    it never does) and average absolute error (N) of the smoothed force over the last ERROR_WINDOW_S."""
+    """Per actuator, on the smoothed reference force: settling time to the target band from contact,
+    settling time to a band around the force's own final mean, and mean |error| over the last window."""
     t, f = rec["t_s"][:, 0], smoothed(rec["force_n"])
     target = rec["target_n"]
     contact = np.argmax(rec["true_force_n"] > 0, axis=0)
-    outside = np.abs(f - target) > BAND_N
-    last_out = np.where(outside.any(axis=0), f.shape[0] - 1 - np.argmax(outside[::-1], axis=0), -1)
-    settle = np.where(last_out >= f.shape[0] - 1, np.nan, t[np.minimum(last_out + 1, f.shape[0] - 1)])
-    settle = np.maximum(settle - t[contact], 0.0)
     win = t >= t[-1] - ERROR_WINDOW_S
-    return {"settling_s": settle, "error_avg_n": np.abs(f[win] - target[win]).mean(axis=0)}
+    final = f[win].mean(axis=0)
+    return {
+        "settling_s": settling(t, f, target, contact),
+        "settling_final_s": settling(t, f, np.broadcast_to(final, f.shape), contact),
+        "error_avg_n": np.abs(f[win] - target[win]).mean(axis=0),
+    }
 
 
 def run_config(name: str, latency_s: float = 0.1, impl: str = "c", seed: int = 0) -> dict[str, dict]:
@@ -59,6 +69,7 @@ def run_config(name: str, latency_s: float = 0.1, impl: str = "c", seed: int = 0
             "error_avg_n": round(float(m["error_avg_n"].mean()), 4),
             "settling_s": None if np.isnan(s).any() else round(float(s.mean()), 3),
             "settled": int(np.isfinite(s).sum()),
+            "settling_final_s": round(float(np.nanmean(m["settling_final_s"])), 3),
             "trace": rec,
         }
     return out

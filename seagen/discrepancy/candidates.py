@@ -27,7 +27,7 @@ SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
     "transport_delay": {"delay_s": (0.001, 0.12, True)},
 }
 GRID = {1: 9, 2: 5, 3: 3}  # screening points per dimension
-POLISH_NFEV = 8  # least-squares evaluations per polished candidate
+POLISH_NFEV = 6  # least-squares evaluations per polished candidate
 
 
 @dataclass

@@ -84,7 +84,7 @@ class ReplayPlant(Plant):
     def structure_force(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Same law as Plant.structure_force, array-safe in k and beta."""
         sc = self.cfg.effects.series_compliance
-        if not sc.enabled:
+        if not sc.enabled or np.ndim(sc.beta_mm_per_n2) == 0:
             return super().structure_force(y)
         d = np.maximum(y - self.y_contact, 0.0)
         a, b = 1.0 / np.asarray(sc.k_n_per_mm, float), np.asarray(sc.beta_mm_per_n2, float)
@@ -102,6 +102,11 @@ def _value(base: PlantConfig, s: ParamSet, effect: str, param: str) -> float:
     return float(getattr(base.effect(effect), param)) if base.on(effect) else NEUTRAL[effect][param]
 
 
+def _per_element(values: list[float], n: int) -> np.ndarray | float:
+    """Values per set repeated over the n trials; a plain float when all sets agree (faster stepping)."""
+    return float(values[0]) if len(set(values)) == 1 else np.repeat(values, n)
+
+
 def union_config(base: PlantConfig, sets: list[ParamSet], n: int) -> tuple[PlantConfig, dict]:
     """A config whose effect parameters are arrays over sets x trials, and the sensor-side arrays."""
     used = {e for s in sets for e in s}
@@ -111,7 +116,7 @@ def union_config(base: PlantConfig, sets: list[ParamSet], n: int) -> tuple[Plant
         if e == "pot_noise" or (e not in used and not base.on(e)):
             continue
         params = [f.name for f in dataclasses.fields(base.effect(e)) if f.name != "enabled"]
-        arrays = {p: np.repeat([_value(base, s, e, p) for s in sets], n) for p in params}
+        arrays = {p: _per_element([_value(base, s, e, p) for s in sets], n) for p in params}
         if e in POST_HOC:
             post[e] = arrays
             cfg = cfg.with_effect(e, False)
@@ -130,8 +135,8 @@ def simulate(base: PlantConfig, sets: list[ParamSet], runs: Runs) -> dict[str, n
     zero = np.zeros(e_n)
     pvd = post.get("pot_voltage_drop")
     kappa = pvd["counts_per_unit_current"] if pvd else zero
-    alpha = np.minimum(cfg.dt_s / pvd["time_constant_s"], 1.0) if pvd else zero
-    delay = post["transport_delay"]["delay_s"] / cfg.dt_s if "transport_delay" in post else zero
+    alpha = np.minimum(cfg.dt_s / np.asarray(pvd["time_constant_s"]), 1.0) if pvd else zero
+    delay = zero + (post["transport_delay"]["delay_s"] / cfg.dt_s if "transport_delay" in post else 0.0)
     offset = post["load_cell_offset"]["offset_n"] if "load_cell_offset" in post else zero
     size = int(np.ceil(delay.max())) + 2
     ring, ptr, drop, rows = np.zeros((size, e_n)), 0, np.zeros(e_n), np.arange(e_n)

@@ -52,9 +52,12 @@ def rms(z: dict[str, np.ndarray], where: np.ndarray | None = None) -> float:
 
 
 def noise_floor(runs: Runs, sigma: dict[str, np.ndarray]) -> float:
-    """Data-derived floor: RMS of the high-pass part (second differences / sqrt 6), in noise sigmas."""
-    parts = []
-    for c in SCORE_CHANNELS:
+    """Data-derived floor: RMS of the high-pass part (second differences / sqrt 6), in noise sigmas.
+
+    The encoder has no analog noise: its floor is its rounding, exactly 1 sigma by definition.
+    """
+    parts = [np.ones(int(runs.mask.sum()))]
+    for c in ("pot", "load_cell_n"):
         x = runs.meas[c]
         d2 = (x[:, 2:] - 2 * x[:, 1:-1] + x[:, :-2]) / np.sqrt(6.0) / sigma[c][:, None]
         lim = np.nanpercentile(np.abs(d2), 99)  # drop the kinks (contact, reversal), not the noise

@@ -126,8 +126,7 @@ def best_addition(cfg: PlantConfig, fit: Runs, held: Runs, sig_f, sig_h, rng):
         return None, None
     screen(cfg, singles, fit, sig_f)
     ranked = sorted(singles, key=lambda c: c.chi2_fit)
-    for c in ranked[:2]:
-        polish(cfg, c, fit, sig_f)
+    polish(cfg, ranked[0], fit, sig_f)
     top = sorted(ranked[:3], key=lambda c: c.chi2_fit)
     pairs = [Candidate(a.names + b.names, np.concatenate([a.u, b.u])) for a, b in _pairs(top)]
     if pairs:
@@ -190,9 +189,9 @@ def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) 
     sig_f, sig_h = ({c: s[i] for c, s in sig.items()} for i in (fit_i, held_i))
     labels = region_labels(held)
     cfg, named, rounds, verdict = base, [], [], "none"
-    z0 = _residual(base, held, sig_h)
+    z0 = z1 = _residual(base, held, sig_h)
     for _ in range(max_rounds):
-        if not region_table(held, _residual(cfg, held, sig_h), labels)["significant"].any():
+        if not region_table(held, z1, labels)["significant"].any():
             verdict = "explained" if named else "none"
             break
         found, table = best_addition(cfg, fit, held, sig_f, sig_h, rng)
@@ -206,9 +205,9 @@ def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) 
         if len(named) > len(winner.names):
             named = _refit(base, named, fit, sig_f)
         cfg = _apply(base, {n.name: n.params for n in named})
+        z1 = _residual(cfg, held, sig_h)
     else:
         verdict = "unexplained"
-    z1 = _residual(cfg, held, sig_h)
     res = Result(named, verdict, cfg, held, z0, z1, noise_floor(held, sig_h), rounds)
     res.seconds = time.perf_counter() - t0
     return res

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 
 from seagen.ir import QTable
-from seagen.quant.primitives import rshift_rne
 
 TABLE_OUT_FRAC = 14  # table outputs are Q14 (1.0 = 16384)
 TABLE_STEP_FRAC = 8  # table sampled every 2^-8 of the input
@@ -32,14 +31,3 @@ def table_error(t: QTable, name: str) -> float:
     lip = 1.0 if name == "tanh" else 0.25
     tail = 1.0 - np.tanh(TABLE_RANGE[name]) if name == "tanh" else 1.0 / (1.0 + np.exp(TABLE_RANGE[name]))
     return max(lip * step / 2, tail) + 2.0 ** -(TABLE_OUT_FRAC + 1)
-
-
-def apply_table(t: QTable, x: np.ndarray) -> np.ndarray:
-    """y = values[clamp(rshift_rne(x, in_shift) + offset, 0, len - 1)]."""
-    idx = np.clip(rshift_rne(x, t.in_shift) + t.offset, 0, len(t.values) - 1)
-    return t.values[idx]
-
-
-def leaky(x: np.ndarray, alpha_q15: int) -> np.ndarray:
-    """x for x >= 0, else rshift_rne(x * alpha_q15, 15)."""
-    return np.where(x >= 0, x, rshift_rne(x * alpha_q15, 15))

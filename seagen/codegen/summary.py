@@ -1,0 +1,39 @@
+"""The quantization summary: Q formats, accumulator widths, flash and RAM bytes, the error bound."""
+
+from __future__ import annotations
+
+from seagen.ir import QModel
+
+STATE_BYTES = 4 * 6 + 4  # NAME_state_t: p1[3], p2[3] int32 + the primed flag (padded)
+
+
+def memory(qm: QModel) -> dict[str, int]:
+    """Bytes of const data (flash) and of working buffers + state (RAM) of the generated model."""
+    flash = 2 * 2 * len(qm.inputs)  # clamp box
+    for q in qm.layers:
+        flash += q.w_q.size * (qm.weight_bits // 8) + q.b_q.size * (q.acc_bits // 8)
+    flash += sum(2 * len(t.values) for t in qm.tables)
+    flash += 4 * 257  # linkage table of the feature pipeline
+    flash += 4 * sum(1 for op in qm.horner if op.var < 0 or op.add_reg < 0)
+    width = max([len(qm.inputs)] + [q.w_q.shape[0] for q in qm.layers])
+    ram = (2 * 2 * width if qm.kind == "mlp" else 2 * len(qm.inputs) + 4 * qm.n_regs) + STATE_BYTES
+    return {"flash_data_bytes": flash, "ram_bytes": ram}
+
+
+def summary_lines(qm: QModel) -> list[str]:
+    """Human-readable lines (also printed into the generated header comment)."""
+    lines = [f"model: {qm.kind} ({qm.task}), output {qm.output.name} [{qm.output.unit}] in Q{qm.out_frac}"]
+    for i, qi in enumerate(qm.inputs):
+        s = qi.signal
+        lines.append(f"in[{i}] {s.name} [{s.unit}] Q{qi.frac}, calibrated {s.lo:.6g}..{s.hi:.6g}, "
+                     f"clamped to {qi.lo_q}..{qi.hi_q}")
+    for k, q in enumerate(qm.layers):
+        lines.append(f"layer {k}: {q.w_q.shape[1]}->{q.w_q.shape[0]} {q.activation}, weights int{qm.weight_bits} "
+                     f"Q{q.w_frac}, acc int{q.acc_bits} Q{q.w_frac + q.in_frac}, out Q{q.out_frac} (shift {q.shift})")
+    if qm.kind == "sf":
+        lines.append(f"surface fit: {len(qm.horner)} Horner steps on {qm.n_regs} int32 registers, int64 products")
+    m = memory(qm)
+    lines.append(f"flash (const data) {m['flash_data_bytes']} B, RAM {m['ram_bytes']} B")
+    lines.append(f"proven |fixed - float| <= {qm.error_bound:.6g} {qm.output.unit} over the calibrated box "
+                 f"(widened 12.5 % each side)")
+    return lines

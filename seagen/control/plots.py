@@ -1,0 +1,31 @@
+"""Step-response plots (paper Fig. 17): reference force against time from contact, per target."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from seagen.atomic import atomic_path
+
+
+def step_plot(name: str, results: dict[str, dict], path: Path, angle_index: int = 2) -> None:
+    """One configuration: smoothed shaft force vs time for each target at one contact angle."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from seagen.control.experiment import CONTACT_DEG, smoothed
+
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    for target, r in results.items():
+        rec = r["trace"]
+        f = smoothed(rec["force_n"])[:, angle_index]
+        ax.plot(rec["t_s"][:, angle_index], f, label=f"{target} N")
+        ax.axhline(float(target), color="grey", lw=0.5, ls="--")
+    ax.set(xlabel="time (s)", ylabel="force at the SEA shaft (N)")
+    ax.set_title(f"{name}: contact at {CONTACT_DEG[angle_index]:.0f} deg")
+    ax.legend()
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=120)
+    plt.close(fig)

@@ -1,0 +1,148 @@
+"""Hidden-effect cases (the plant with effects switched on) and the benchmark of the workflow over seeds."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from seagen.data.protocol import TRAIN_MOVES, Move, run_trials
+from seagen.discrepancy.replay import ParamSet, Runs, runs_from_frames, simulate
+from seagen.discrepancy.residuals import noise_sigma, rms, zscores
+from seagen.discrepancy.workflow import Result, identify
+from seagen.plant import EFFECT_NAMES, PlantConfig
+
+# Ranges the hidden parameters are drawn from (realistic for the paper's actuator).
+TRUTH: dict[str, dict[str, tuple[float, float]]] = {
+    "actuator_friction": {"force_n": (1.5, 4.0), "reverse_ratio": (0.4, 0.9)},
+    "linkage_friction": {"c0_n": (-0.3, 0.3), "c1_n": (0.8, 1.8), "c2_n": (0.8, 1.8)},
+    "viscous_friction": {"b_n_s_per_mm": (0.05, 0.3)},
+    "stribeck_friction": {"extra_static_n": (0.8, 2.5), "v_s_mm_s": (0.3, 1.5)},
+    "series_compliance": {"k_n_per_mm": (15.0, 60.0), "beta_mm_per_n2": (0.002, 0.008)},
+    "backlash": {"half_width_mm": (0.03, 0.15)},
+    "spring_preload": {"force_n": (0.5, 2.0)},
+    "spring_nonlinearity": {"k3_n_per_mm3": (0.03, 0.12)},
+    "pot_voltage_drop": {"counts_per_unit_current": (60.0, 200.0), "time_constant_s": (0.05, 0.25)},
+    "load_cell_offset": {"offset_n": (0.3, 1.0)},
+    "transport_delay": {"delay_s": (0.01, 0.06)},
+}
+HIDEABLE = tuple(e for e in EFFECT_NAMES if e != "pot_noise")
+HARD_PAIRS = (
+    ("viscous_friction", "pot_voltage_drop"),
+    ("viscous_friction", "transport_delay"),
+    ("pot_voltage_drop", "transport_delay"),
+    ("series_compliance", "spring_nonlinearity"),
+    ("backlash", "stribeck_friction"),
+    ("actuator_friction", "load_cell_offset"),
+)
+CASE_ANGLES = (6.0, 10.0, 14.0, 18.0, 22.0, 26.0)
+
+
+@dataclass
+class Case:
+    """Measured runs with `hidden` effects switched on, and the base the workflow starts from."""
+
+    runs: Runs
+    base: PlantConfig
+    hidden: ParamSet
+
+
+def draw(effect: str, rng: np.random.Generator) -> dict[str, float]:
+    """Random parameters for a hidden effect (offset sign random)."""
+    p = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in TRUTH[effect].items()}
+    if effect == "load_cell_offset":
+        p["offset_n"] *= float(rng.choice([-1.0, 1.0]))
+    return p
+
+
+def measure(cfg: PlantConfig, seed: int) -> Runs:
+    """A reduced data set (two trials at each of six angles, paper protocol) from the plant cfg."""
+    moves = [Move(a, *TRAIN_MOVES[(i + k) % len(TRAIN_MOVES)]) for i, a in enumerate(CASE_ANGLES) for k in (0, 1)]
+    dfs = run_trials(cfg, moves, seed=seed)
+    return runs_from_frames([("sim", df.assign(trial=i)) for i, df in enumerate(dfs)])
+
+
+def make_case(effects: tuple[str, ...], seed: int, default: PlantConfig | None = None) -> Case:
+    """Hide `effects` (random parameters) in the default plant; the base has them switched off."""
+    rng = np.random.default_rng(seed)
+    default = default or PlantConfig()
+    hidden = {e: draw(e, rng) for e in effects}
+    truth, base = default, default
+    for e, p in hidden.items():
+        truth, base = truth.with_effect(e, True, **p), base.with_effect(e, False)
+    return Case(measure(truth, seed=int(rng.integers(1 << 30))), base, hidden)
+
+
+def effect_to_noise(case: Case) -> float:
+    """RMS (noise sigmas) of what the hidden effects change in the noise-free signals."""
+    sim = simulate(case.base, [{}, case.hidden], case.runs)
+    sig = noise_sigma(case.runs)
+    z = zscores(case.runs, {c: sim[c][0] - sim[c][1] + case.runs.meas[c] for c in sim}, sig)
+    return rms({c: np.where(case.runs.mask, v, np.nan) for c, v in z.items()})
+
+
+def run_case(kind: str, effects: tuple[str, ...], seed: int) -> dict:
+    """One benchmark row: what was hidden, what was named, the gap before and after."""
+    case = make_case(effects, seed)
+    t0 = time.perf_counter()
+    res: Result = identify(case.runs, case.base)
+    names = [n.name for n in res.effects]
+    return {
+        "kind": kind,
+        "hidden": "+".join(effects) or "-",
+        "seed": seed,
+        "named": "+".join(names) or "-",
+        "verdict": res.verdict,
+        "first_correct": bool(effects) and bool(names) and names[0] in effects,
+        "all_found": set(effects) <= set(names),
+        "effect_to_noise": effect_to_noise(case) if effects else 0.0,
+        "rms_before": res.rms_before,
+        "rms_after": res.rms_after,
+        "noise_floor": res.noise_floor,
+        "seconds": time.perf_counter() - t0,
+    }
+
+
+def plan(seeds: int) -> list[tuple[str, tuple[str, ...], int]]:
+    """Cases per seed: every hideable effect alone, the control, one random pair and one hard pair."""
+    out = []
+    for s in range(seeds):
+        rng = np.random.default_rng(10_000 + s)
+        out += [("single", (e,), 100 * s + i) for i, e in enumerate(HIDEABLE)]
+        out.append(("control", (), 100 * s + 50))
+        pair = tuple(sorted(rng.choice(HIDEABLE, size=2, replace=False)))
+        out.append(("pair", pair, 100 * s + 60))
+        out.append(("pair", HARD_PAIRS[s % len(HARD_PAIRS)], 100 * s + 70))
+    return out
+
+
+def summarize(rows: pd.DataFrame) -> dict:
+    """The goal numbers of issue 6 item 3 from the per-case table."""
+    single = rows[(rows.kind == "single") & (rows.effect_to_noise >= 3)]
+    fixed = rows[rows.kind != "control"]
+    return {
+        "single_correct_rate": float(single.first_correct.mean()) if len(single) else float("nan"),
+        "false_alarm_rate": float((rows[rows.kind == "control"].named != "-").mean()),
+        "pair_found_rate": float(rows[rows.kind == "pair"].all_found.mean()),
+        "rms_reduction": float(np.median(1 - fixed.rms_after / fixed.rms_before)),
+        "residual_over_noise": float(np.median(fixed.rms_after / fixed.noise_floor)),
+        "seconds_per_dataset": float(rows.seconds.median()),
+        "cases": rows.to_dict(orient="records"),
+    }
+
+
+def bench(seeds: int, jobs: int = 2) -> dict:
+    """Run every planned case (in `jobs` processes) and summarize."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    todo = plan(seeds)
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        rows = list(pool.map(_run, todo))
+    return summarize(pd.DataFrame(rows))
+
+
+def _run(args: tuple[str, tuple[str, ...], int]) -> dict:
+    """Picklable wrapper of run_case."""
+    return run_case(*args)
