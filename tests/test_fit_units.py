@@ -12,7 +12,7 @@ from conftest_fit import fit_data, fit_frames  # noqa: F401  (session fixtures)
 
 from seagen.fit.mlp import MlpConfig, build_module, fit_mlp, predict_mlp
 from seagen.fit.search import STRUCTURES, search
-from seagen.fit.sf import POWERS, eval_sf, fit_sf
+from seagen.fit.sf import POWERS, design, eval_sf, fit_sf
 
 TRUE_COEF = np.array([0.5, -1.0, 4.0, 0.02, -0.03, 0.1, 1e-4, -2e-4, 3e-3, -0.01])
 QUICK = MlpConfig(hidden=(8,), epochs=8, patience=3)
@@ -50,6 +50,27 @@ def test_sf_mae_ignores_outliers_mse_does_not() -> None:
     noisy[rng.choice(2000, 100, replace=False)] += 50.0
     errs = {loss: np.abs(eval_sf(fit_sf(a, b, noisy, loss), a, b) - y).mean() for loss in ("mse", "mae")}
     assert errs["mae"] < 0.01 < errs["mse"]
+
+
+@pytest.mark.parametrize("seed", (3, 4))
+def test_sf_mae_reaches_the_linear_programming_optimum(seed: int) -> None:
+    """The IRLS MAE fit's mean absolute residual equals the exact LP optimum (scipy HiGHS) to 1e-6."""
+    from scipy.optimize import linprog
+
+    rng = np.random.default_rng(seed)
+    a, b = rng.uniform(0, 28, 300), rng.uniform(0, 8, 300)
+    y = eval_sf({"powers": POWERS, "coef": TRUE_COEF}, a, b) + rng.laplace(0, 0.5, 300)
+    x = design(a, b)
+    n, p = x.shape
+    lp = linprog(
+        np.r_[np.zeros(p), np.ones(2 * n)],
+        A_eq=np.hstack([x, np.eye(n), -np.eye(n)]),
+        b_eq=y,
+        bounds=[(None, None)] * p + [(0, None)] * (2 * n),
+        method="highs",
+    )
+    irls = np.abs(eval_sf(fit_sf(a, b, y, "mae"), a, b) - y).mean()
+    assert lp.status == 0 and irls == pytest.approx(lp.fun / n, rel=1e-6)
 
 
 @pytest.mark.parametrize("task", ("calibration", "control"))

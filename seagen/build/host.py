@@ -78,7 +78,7 @@ def build(cdef: str, sources: dict[str, str], *, name: str = "seagen_c") -> Modu
         ffi = cffi.FFI()
         ffi.cdef(cdef)
         ffi.set_source(
-            modname, headers, include_dirs=[str(work / "src")], extra_objects=[str(o) for o in objs]
+            modname, headers + cdef, include_dirs=[str(work / "src")], extra_objects=[str(o) for o in objs]
         )
         so = Path(ffi.compile(tmpdir=str(work), verbose=False))
         outdir.mkdir(parents=True, exist_ok=True)

@@ -65,6 +65,14 @@ def _features(qm: QModel) -> list[dict[str, Any]]:
             for s in feature_plan(qm)]
 
 
+def _predictor(qm: QModel) -> dict[str, int] | None:
+    """Glue for sea_control when the model maps desired force -> compression (Q16 in, Q16 out)."""
+    names = [i.signal.name for i in qm.inputs]
+    if qm.output.name != "compression_mm" or names.count("force_n") != 1 or qm.out_frac > 16:
+        return None
+    return {"force_frac": qm.inputs[names.index("force_n")].frac, "up": 16 - qm.out_frac}
+
+
 def context(qm: QModel, prefix: str) -> dict[str, Any]:
     """Everything the templates print, decided here."""
     prefix = assert_valid_prefix(prefix)
@@ -76,6 +84,7 @@ def context(qm: QModel, prefix: str) -> dict[str, Any]:
         "n_layers": len(qm.layers), "horner": qm.horner, "n_regs": qm.n_regs, "out_shift": qm.out_shift,
         "features": _features(qm), "needs_diff": any(f["kind"] in ("d", "dd") for f in _features(qm)),
         "externals": external_inputs(qm), "link": linkage_table_q16(),
+        "predictor": _predictor(qm),
     }
 
 

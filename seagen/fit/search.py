@@ -87,7 +87,7 @@ def search(
             direction="minimize",
             sampler=optuna.samplers.TPESampler(seed=base.seed),
         )
-    except (ValueError, ImportError, RuntimeError) as e:
+    except Exception as e:  # optuna / sqlalchemy raise many types for a bad URL or database
         raise UserError(f"--storage {storage!r}: cannot open the study: {e}") from None
 
     def objective(trial: Any) -> float:

@@ -23,30 +23,40 @@ def design(a: np.ndarray, b: np.ndarray, powers: tuple[tuple[int, int], ...] = P
     return np.stack([a**i * b**j for i, j in powers], axis=1)
 
 
-def _weighted_lstsq(x: np.ndarray, y: np.ndarray, w: np.ndarray | None = None) -> np.ndarray:
-    """Least squares with column scaling (raw inputs span very different ranges); returns raw coefficients."""
+def _column_scale(x: np.ndarray) -> np.ndarray:
+    """RMS of each design column (raw inputs span very different ranges), 1 where a column is zero."""
     scale = np.sqrt((x**2).mean(axis=0))
     scale[scale == 0] = 1.0
-    xs = x / scale
-    if w is not None:
-        sw = np.sqrt(w)
-        xs, y = xs * sw[:, None], y * sw
-    coef, *_ = np.linalg.lstsq(xs, y, rcond=None)
+    return scale
+
+
+def _lstsq(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Ordinary least squares on column-scaled terms; returns raw-input coefficients."""
+    scale = _column_scale(x)
+    coef, *_ = np.linalg.lstsq(x / scale, y, rcond=None)
     return coef / scale
+
+
+def _weighted_normal(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Weighted least squares by the 10x10 normal equations of column-scaled terms (fast inside IRLS)."""
+    scale = _column_scale(x)
+    xs = x / scale
+    xw = xs * w[:, None]
+    return np.linalg.solve(xs.T @ xw, xw.T @ y) / scale
 
 
 def fit_mse(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Ordinary least squares (Eq. 8)."""
-    return _weighted_lstsq(x, y)
+    return _lstsq(x, y)
 
 
 def fit_mae(x: np.ndarray, y: np.ndarray, iterations: int = IRLS_ITERATIONS) -> np.ndarray:
     """Least absolute deviations (Eq. 7) by iteratively re-weighted least squares, started from OLS."""
-    coef = _weighted_lstsq(x, y)
+    coef = _lstsq(x, y)
     eps = IRLS_EPS * max(float(np.abs(y).max()), 1.0)
     for _ in range(iterations):
         r = np.abs(y - x @ coef)
-        new = _weighted_lstsq(x, y, 1.0 / np.maximum(r, eps))
+        new = _weighted_normal(x, y, 1.0 / np.maximum(r, eps))
         if np.allclose(new, coef, rtol=1e-9, atol=1e-12):
             return new
         coef = new

@@ -82,6 +82,8 @@ def fold_normalization(layers: list[FloatLayer], spec: FeatureSpec) -> list[Floa
 
 def signals(spec: FeatureSpec, ranges: Any, units: Any, where: str) -> tuple[Signal, ...]:
     """Input signals with their calibrated ranges; a missing or bad range is an error."""
+    if callable(ranges):
+        ranges = ranges(list(spec.inputs))
     if ranges is None:
         raise UserError(f"{where}: no calibrated input range (give --calib DATA_DIR or 'input_range')")
     ranges = [list(map(float, r)) for r in ranges]
@@ -99,7 +101,7 @@ def signals(spec: FeatureSpec, ranges: Any, units: Any, where: str) -> tuple[Sig
 def from_model_dict(d: dict[str, Any], where: str, ranges: Any = None) -> FloatModel:
     """Float IR from a seagen model dict (or an equivalent dict built from a features file)."""
     spec = FeatureSpec.from_dict(d.get("features") or {}, where) if d.get("features") else None
-    rng = d.get("input_range") if d.get("input_range") is not None else ranges
+    rng = ranges if ranges is not None else d.get("input_range")
     out_rng = d.get("output_range") or [0.0, 0.0]
     output = Signal(d.get("output_name", "y"), d.get("output_units", ""), float(out_rng[0]), float(out_rng[1]))
     task = d.get("task", "calibration")
@@ -137,7 +139,11 @@ def read_features_file(path: str | None) -> dict[str, Any]:
 
 
 def load_float_model(path: str, features: str | None = None, ranges: Any = None) -> FloatModel:
-    """Any supported model file -> float IR (a features file overrides/fills the model's own metadata)."""
+    """Any supported model file -> float IR (a features file overrides/fills the model's own metadata).
+
+    `ranges` (a list of [lo, hi] or a function of the input names returning one) overrides the model's own
+    calibrated input ranges.
+    """
     p = Path(path)
     if not p.is_file():
         raise UserError(f"{p}: no such model file")
@@ -148,7 +154,8 @@ def load_float_model(path: str, features: str | None = None, ranges: Any = None)
         d = {"kind": "mlp", **extra, "module": None}
         spec = FeatureSpec.from_dict(extra.get("features") or _need_features(p), str(p))
         layers = fold_normalization(onnx_layers(p), spec)
-        return FloatMLP(signals(spec, d.get("input_range", ranges), d.get("input_units"), str(p)),
+        return FloatMLP(signals(spec, ranges if ranges is not None else d.get("input_range"),
+                                d.get("input_units"), str(p)),
                         Signal(d.get("output_name", "y"), d.get("output_units", ""), 0.0, 0.0), tuple(layers),
                         d.get("task", "calibration"))
     obj = _torch_load(p)

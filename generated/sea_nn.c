@@ -1,0 +1,115 @@
+/* sea_nn.c -- seagen's integer network and polynomial kernels; twins in seagen/quant/kernels.py. */
+#include "sea_nn.h"
+#include "sea_fixed.h"
+
+void sea_clamp_s16(const int16_t *x, const int16_t *lo, const int16_t *hi, int n, int16_t *out)
+{
+    int i;
+    for (i = 0; i < n; ++i) {
+        out[i] = x[i] < lo[i] ? lo[i] : (x[i] > hi[i] ? hi[i] : x[i]);
+    }
+}
+
+void sea_dense_w16_a32(const int16_t *w, const int32_t *b, const int16_t *x, int n_in, int n_out, int shift,
+                       int16_t *y)
+{
+    int i, j;
+    for (j = 0; j < n_out; ++j) {
+        int32_t acc = b[j];
+        for (i = 0; i < n_in; ++i) {
+            acc += (int32_t)w[j * n_in + i] * (int32_t)x[i];
+        }
+        y[j] = sea_sat16(sea_rshift_rne_s32(acc, shift));
+    }
+}
+
+void sea_dense_w16_a64(const int16_t *w, const int64_t *b, const int16_t *x, int n_in, int n_out, int shift,
+                       int16_t *y)
+{
+    int i, j;
+    for (j = 0; j < n_out; ++j) {
+        int64_t acc = b[j];
+        for (i = 0; i < n_in; ++i) {
+            acc += (int64_t)((int32_t)w[j * n_in + i] * (int32_t)x[i]);
+        }
+        y[j] = sea_sat16(sea_rshift_rne_s64(acc, shift));
+    }
+}
+
+void sea_dense_w8_a32(const int8_t *w, const int32_t *b, const int16_t *x, int n_in, int n_out, int shift,
+                      int16_t *y)
+{
+    int i, j;
+    for (j = 0; j < n_out; ++j) {
+        int32_t acc = b[j];
+        for (i = 0; i < n_in; ++i) {
+            acc += (int32_t)w[j * n_in + i] * (int32_t)x[i];
+        }
+        y[j] = sea_sat16(sea_rshift_rne_s32(acc, shift));
+    }
+}
+
+void sea_dense_w8_a64(const int8_t *w, const int64_t *b, const int16_t *x, int n_in, int n_out, int shift,
+                      int16_t *y)
+{
+    int i, j;
+    for (j = 0; j < n_out; ++j) {
+        int64_t acc = b[j];
+        for (i = 0; i < n_in; ++i) {
+            acc += (int64_t)((int32_t)w[j * n_in + i] * (int32_t)x[i]);
+        }
+        y[j] = sea_sat16(sea_rshift_rne_s64(acc, shift));
+    }
+}
+
+void sea_relu_s16(int16_t *y, int n)
+{
+    int i;
+    for (i = 0; i < n; ++i) {
+        if (y[i] < 0) {
+            y[i] = 0;
+        }
+    }
+}
+
+void sea_leaky_s16(int16_t *y, int n, int32_t alpha_q15)
+{
+    int i;
+    for (i = 0; i < n; ++i) {
+        if (y[i] < 0) {
+            y[i] = sea_sat16(sea_rshift_rne_s32((int32_t)y[i] * alpha_q15, 15));
+        }
+    }
+}
+
+void sea_hardtanh_s16(int16_t *y, int n, int16_t lo, int16_t hi)
+{
+    int i;
+    for (i = 0; i < n; ++i) {
+        y[i] = y[i] < lo ? lo : (y[i] > hi ? hi : y[i]);
+    }
+}
+
+void sea_table_s16(int16_t *y, int n, const int16_t *table, int32_t len, int in_shift, int32_t offset)
+{
+    int i;
+    for (i = 0; i < n; ++i) {
+        int32_t k = sea_rshift_rne_s32(y[i], in_shift) + offset;
+        k = k < 0 ? 0 : (k > len - 1 ? len - 1 : k);
+        y[i] = table[k];
+    }
+}
+
+int32_t sea_horner_s32(int16_t x, int32_t t, int32_t add, int align, int shift)
+{
+    int64_t acc = (int64_t)x * t + (int64_t)add * ((int64_t)1 << align);
+    return sea_sat32(sea_rshift_rne_s64(acc, shift));
+}
+
+int16_t sea_to_s16(int64_t v, int from_frac, int to_frac)
+{
+    if (to_frac >= from_frac) {
+        return sea_sat16(v * ((int64_t)1 << (to_frac - from_frac)));
+    }
+    return sea_sat16(sea_rshift_rne_s64(v, from_frac - to_frac));
+}

@@ -1,0 +1,42 @@
+/* sea_nn.h -- seagen's integer network and polynomial kernels (twins: seagen/quant/kernels.py).
+ *
+ * Contract (c_runtime/README.md): int16 activations; int16 or int8 weights; accumulators int32 where the
+ * generator proved no overflow over the calibrated box, else int64; every shift rounds half to even
+ * (sea_rshift_rne_*); results saturate to int16 before narrowing. Inputs are clamped to the calibrated box
+ * first, which is what makes the overflow proof hold for every possible input.
+ */
+#ifndef SEA_NN_H
+#define SEA_NN_H
+
+#include <stdint.h>
+
+/* out[i] = min(max(x[i], lo[i]), hi[i]) for i < n. */
+void sea_clamp_s16(const int16_t *x, const int16_t *lo, const int16_t *hi, int n, int16_t *out);
+
+/* y[j] = sat16(rshift_rne(b[j] + sum_i w[j*n_in + i] * x[i], shift)), j < n_out. Accumulator: int32
+ * (caller guarantees every partial sum fits) or int64; weights int16 or int8. */
+void sea_dense_w16_a32(const int16_t *w, const int32_t *b, const int16_t *x, int n_in, int n_out, int shift,
+                       int16_t *y);
+void sea_dense_w16_a64(const int16_t *w, const int64_t *b, const int16_t *x, int n_in, int n_out, int shift,
+                       int16_t *y);
+void sea_dense_w8_a32(const int8_t *w, const int32_t *b, const int16_t *x, int n_in, int n_out, int shift,
+                      int16_t *y);
+void sea_dense_w8_a64(const int8_t *w, const int64_t *b, const int16_t *x, int n_in, int n_out, int shift,
+                      int16_t *y);
+
+/* Activations in place on n int16 values. */
+void sea_relu_s16(int16_t *y, int n);
+void sea_leaky_s16(int16_t *y, int n, int32_t alpha_q15);          /* y < 0: rshift_rne(y * alpha, 15) */
+void sea_hardtanh_s16(int16_t *y, int n, int16_t lo, int16_t hi);
+/* y = table[clamp(rshift_rne(y, in_shift) + offset, 0, len - 1)] (tanh / sigmoid, Q14 outputs). */
+void sea_table_s16(int16_t *y, int n, const int16_t *table, int32_t len, int in_shift, int32_t offset);
+
+/* One Horner step: sat32(rshift_rne(x * t + add * 2^align, shift)), int64 arithmetic; the generator
+ * proved |x * t| + |add| 2^align < 2^62 over the box. */
+int32_t sea_horner_s32(int16_t x, int32_t t, int32_t add, int align, int shift);
+
+/* A value in Q(from_frac) converted to an int16 in Q(to_frac): exact scaling up or rounding shift down,
+ * then saturation. Scaling up needs |v| * 2^(to_frac - from_frac) < 2^63. */
+int16_t sea_to_s16(int64_t v, int from_frac, int to_frac);
+
+#endif

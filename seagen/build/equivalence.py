@@ -1,0 +1,98 @@
+"""Bit-for-bit checks: generated C (cffi) == numpy reference == torch twin == onnxruntime graph."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from seagen.build.model import CModel
+from seagen.reference import numpy_ref, onnx_ref, torch_ref
+
+
+@dataclass
+class Check:
+    """Outcome of comparing every implementation on the same inputs."""
+
+    name: str
+    rows: int
+    mismatches: dict[str, str] = field(default_factory=dict)  # implementation -> first mismatching input
+    compared: str = "C == numpy == torch == onnxruntime"
+
+    @property
+    def ok(self) -> bool:
+        return not self.mismatches
+
+    def line(self) -> str:
+        if self.ok:
+            return f"{self.name}: {self.rows} rows, {self.compared} (bit for bit)"
+        return f"{self.name}: MISMATCH " + "; ".join(f"{k}: {v}" for k, v in self.mismatches.items())
+
+
+def first_mismatch(a: np.ndarray, b: np.ndarray, inputs: np.ndarray) -> str | None:
+    """None if equal, else the first differing row with its input."""
+    if np.array_equal(a, b):
+        return None
+    i = int(np.argmax(a != b))
+    return f"row {i}, input {inputs[i].tolist()}: {int(a[i])} vs {int(b[i])}"
+
+
+def compare(name: str, qm, c: CModel, x: np.ndarray, onnx_model=None) -> Check:
+    """Run all four on int16 inputs x (N, n_in); numpy is the reference the others must equal."""
+    ref = numpy_ref.infer(qm, x)
+    chk = Check(name, len(x))
+    others = {"C": c.infer(x), "torch": torch_ref.infer(qm, x), "onnxruntime": onnx_ref.infer(qm, x, onnx_model)}
+    for impl, got in others.items():
+        bad = first_mismatch(got, ref, np.atleast_2d(x))
+        if bad:
+            chk.mismatches[impl] = bad
+    return chk
+
+
+@dataclass
+class DataReport:
+    """Checks on a data directory plus the float-vs-fixed error."""
+
+    checks: list[Check]
+    max_err: float
+    unit: str
+    bound: float
+
+    @property
+    def ok(self) -> bool:
+        return all(c.ok for c in self.checks)
+
+    def report(self) -> str:
+        lines = [c.line() for c in self.checks]
+        lines.append(f"max |C - float| on the test set: {self.max_err:.5f} {self.unit} "
+                     f"(proven bound over the box: {self.bound:.5f} {self.unit})")
+        return "\n".join(lines)
+
+
+def check_data_dir(ex, data_dir: str) -> DataReport:
+    """NAME_infer on the test and validation features, NAME_step on whole recorded trials, and |C - float|."""
+    from seagen.data.features import derive
+    from seagen.data.schema import load_split
+    from seagen.quant.features import step_features
+    from seagen.quant.primitives import linkage_table_q16
+    from seagen.reference.float_ref import predict, quantize_features
+
+    qm = ex.qmodel
+    names = [i.signal.name for i in qm.inputs]
+    ext_names = [n for n in names if n == "force_n"]
+    c = CModel(ex.files, ex.prefix, len(names), len(ext_names))
+    checks, max_err = [], 0.0
+    for split in ("test", "validation"):
+        df = derive(load_split(data_dir, split))
+        xq = quantize_features(qm, df[names].to_numpy())
+        checks.append(compare(f"{ex.prefix}_infer on {split}", qm, c, xq))
+        ext = quantize_features(qm, df[names].to_numpy())[:, [names.index(n) for n in ext_names]]
+        ref = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), df.enc, df.pot, df.trial, ext))
+        got = c.step(df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy(), ext if ext_names else None)
+        bad = first_mismatch(got, ref, df[["trial", "enc", "pot"]].to_numpy())
+        checks.append(Check(f"{ex.prefix}_step on {split} trials", len(df), {"C": bad} if bad else {},
+                            "C step == numpy pipeline + reference"))
+        if split == "test":
+            fixed = c.infer(xq) * 2.0**-qm.out_frac
+            max_err = float(np.max(np.abs(fixed - predict(ex.float_model, df[names].to_numpy()))))
+    return DataReport(checks, max_err, qm.output.unit, qm.error_bound)

@@ -1,0 +1,86 @@
+"""Closed loop: C and Python controllers give the same trajectory exactly; faults in the loop; the CLI."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from seagen.cli import main
+from seagen.control import controller as ct
+from seagen.control.experiment import metrics
+from seagen.control.loop import run_closed_loop
+from seagen.control.predictors import kinematic_cloud, kinematic_mcu
+
+ANGLES = np.array([8.0, 14.0, 22.0])
+CASES = [  # (name, predictor factory, target N, duration s)
+    ("kin_mcu_100hz", lambda: kinematic_mcu(1), 10.0, 10.0),
+    ("kin_mcu_10hz", lambda: kinematic_mcu(10), 15.0, 3.0),
+    ("kin_cloud", lambda: kinematic_cloud(0.1, 10.0), 5.0, 3.0),
+]
+
+
+@pytest.mark.parametrize("name,make,target,duration", CASES, ids=[c[0] for c in CASES])
+def test_c_and_twin_same_trajectory(name, make, target, duration):
+    """Every controller output, controller field, sensor and plant state is identical (C vs Python)."""
+    runs = [run_closed_loop(make(), target, ANGLES, impl=i, duration_s=duration, seed=4) for i in ("c", "py")]
+    for key in runs[0]:
+        a, b = runs[0][key], runs[1][key]
+        if not np.array_equal(a, b):
+            k = int(np.argmax((a != b).reshape(a.shape[0], -1).any(axis=1)))
+            pytest.fail(f"{key} differs first at tick {k}: C {a[k]} vs Python {b[k]}")
+    assert runs[0]["out_mv"].any() and (runs[0]["true_force_n"][-1] > 1.0).all()
+
+
+def _pot_stuck(value: int):
+    return lambda k, enc, pot: (enc, np.full_like(pot, value) if k >= 100 else pot)
+
+
+def _enc_jump(k, enc, pot):
+    return (enc + 1000 if k >= 100 else enc), pot
+
+
+LOOP_FAULTS = [  # (name, sensor hook, target N per tick, expected fault bits, first faulted tick)
+    ("pot_stuck_low", _pot_stuck(0), lambda k: 10.0, ct.FAULT_POT_STUCK_LOW, 100 + ct.POT_STUCK_TICKS - 1),
+    (
+        "pot_stuck_high",
+        _pot_stuck(4095),
+        lambda k: 10.0,
+        ct.FAULT_POT_STUCK_HIGH,
+        100 + ct.POT_STUCK_TICKS - 1,
+    ),
+    ("enc_jump", _enc_jump, lambda k: 10.0, ct.FAULT_ENC_JUMP, 100),
+    ("force_range", None, lambda k: 10.0 if k < 100 else 25.0, ct.FAULT_FORCE_RANGE, 100),
+]
+
+
+@pytest.mark.parametrize("name,hook,target,bits,tick", LOOP_FAULTS, ids=[f[0] for f in LOOP_FAULTS])
+@pytest.mark.parametrize("impl", ["c", "py"])
+def test_fault_in_loop(name, hook, target, bits, tick, impl):
+    """In the loop the fault latches at its tick with its code and the motor stays off afterwards."""
+    r = run_closed_loop(kinematic_mcu(), target, ANGLES, impl=impl, duration_s=2.0, sensor_hook=hook)
+    assert (r["fault"][:tick] == 0).all() and (r["fault"][tick:] == bits).all()
+    assert (r["out_mv"][tick:] == 0).all() and r["out_mv"][:tick].any()
+
+
+def test_kinematic_loop_settles():
+    """With the kinematic predictor the loop settles to its own final force within 0.6 s of contact."""
+    r = run_closed_loop(kinematic_mcu(), 10.0, ANGLES, duration_s=4.0, seed=1)
+    m = metrics(r)
+    assert np.all(m["settling_final_s"] < 0.6), m
+
+
+def test_cli_simulate_json(capsys):
+    """`seagen simulate --json` prints {config: {"5","10","15": {error_avg_n, settling_s}}}."""
+    assert main(["simulate", "--json", "--config", "kin_mcu"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert set(out) == {"kin_mcu"} and set(out["kin_mcu"]) == {"5", "10", "15"}
+    for r in out["kin_mcu"].values():
+        assert {"error_avg_n", "settling_s"} <= set(r) and r["error_avg_n"] >= 0
+
+
+def test_cli_bad_latency(capsys):
+    """A negative latency is a user error (exit 2) naming the option."""
+    assert main(["simulate", "--latency", "-1"]) == 2
+    assert "--latency" in capsys.readouterr().err
