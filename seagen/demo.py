@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 DEFAULT_PREFIX = {"sf_calibration": "cal_sf", "mlp_calibration": "cal_mlp", "sf_control": "ctl_sf",
@@ -64,6 +63,5 @@ def cmd_demo(args: argparse.Namespace) -> int:
         return 0
     from seagen.demo_steps import run_demo
 
-    print(json.dumps(run_demo(Path(args.out), args.seed), indent=2) if False else "", end="")
     run_demo(Path(args.out), args.seed)
     return 0

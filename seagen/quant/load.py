@@ -172,14 +172,26 @@ def _need_features(p: Path) -> dict[str, Any]:
     raise UserError(f"{p}: a bare network needs --features SPEC naming its inputs (and their ranges or --calib)")
 
 
+def _is_torchscript(p: Path) -> bool:
+    """TorchScript archives are zips with a constants.pkl and a code/ folder."""
+    import zipfile
+
+    if not zipfile.is_zipfile(p):
+        return False
+    with zipfile.ZipFile(p) as z:
+        return any(n.endswith("constants.pkl") for n in z.namelist())
+
+
 def _torch_load(p: Path) -> Any:
+    import warnings
+
     import torch
 
     try:
-        return torch.jit.load(str(p), map_location="cpu")
-    except Exception:  # not TorchScript: try a pickled module or dict
-        pass
-    try:
+        if _is_torchscript(p):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", DeprecationWarning)  # jit.load is the way to read TorchScript
+                return torch.jit.load(str(p), map_location="cpu")
         return torch.load(p, map_location="cpu", weights_only=False)
-    except Exception as e:
+    except Exception as e:  # torch raises many types for unreadable files
         raise UserError(f"{p}: not a readable torch or TorchScript file: {e}") from None
