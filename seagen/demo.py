@@ -4,12 +4,20 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-DEFAULT_PREFIX = {"sf_calibration": "cal_sf", "mlp_calibration": "cal_mlp", "sf_control": "ctl_sf",
-                  "mlp_control": "ctl_mlp"}
+if TYPE_CHECKING:
+    from seagen.codegen.export import Export
+
+DEFAULT_PREFIX = {
+    "sf_calibration": "cal_sf",
+    "mlp_calibration": "cal_mlp",
+    "sf_control": "ctl_sf",
+    "mlp_control": "ctl_mlp",
+}
 
 
-def export_defaults(models: dict[str, Path], out: Path, calib: str | None = None) -> dict[str, object]:
+def export_defaults(models: dict[str, Path], out: Path, calib: str | None = None) -> dict[str, Export]:
     """Export every default model (with its ONNX graph) into `out`; returns prefix -> Export."""
     from seagen.codegen.export import prepare, write
 
@@ -49,7 +57,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", default="demo_out", help="working directory (default demo_out)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--regenerate", metavar="DIR", help="only re-export DIR (generated/) from DIR/models/*.pt")
-    p.add_argument("--rebuild", metavar="DIR", help="only rebuild DIR (generated/) from scratch: data, training")
+    p.add_argument(
+        "--rebuild", metavar="DIR", help="only rebuild DIR (generated/) from scratch: data, training"
+    )
     p.set_defaults(func=cmd_demo)
 
 

@@ -46,8 +46,9 @@ def _random_inputs(qm, n: int, seed: int) -> np.ndarray:
     lo = np.array([i.lo_q for i in qm.inputs])
     hi = np.array([i.hi_q for i in qm.inputs])
     span = hi - lo
-    near = rng.integers(np.maximum(lo - span, -(2**15)), np.minimum(hi + span, 2**15 - 1) + 1,
-                        (n // 2, len(lo)))
+    near = rng.integers(
+        np.maximum(lo - span, -(2**15)), np.minimum(hi + span, 2**15 - 1) + 1, (n // 2, len(lo))
+    )
     wide = rng.integers(-(2**15), 2**15, (n - n // 2, len(lo)))
     return np.vstack([near, wide])
 
@@ -69,14 +70,17 @@ def test_random_and_edge_inputs_bit_exact(built, key):
     """100,000 random inputs across and beyond the calibrated range, and edge inputs: all four agree."""
     ex, c = built[key]
     onnx_model = None
-    for name, x in (("random", _random_inputs(ex.qmodel, 100_000, 1)), ("edge", _edge_inputs(len(ex.qmodel.inputs)))):
+    for name, x in (
+        ("random", _random_inputs(ex.qmodel, 100_000, 1)),
+        ("edge", _edge_inputs(len(ex.qmodel.inputs))),
+    ):
         chk = compare(f"{key} {name}", ex.qmodel, c, x, onnx_model)
         assert chk.ok, chk.line()
 
 
 @pytest.mark.parametrize("key", KEYS, ids=[f"{n}-{w}" for n, w in KEYS])
 def test_data_sets_and_step_pipeline_bit_exact(built, key, data_dir):
-    """NAME_infer on the test/validation features and NAME_step on whole recorded trials equal the references."""
+    """NAME_infer on test/validation features and NAME_step on whole recorded trials equal the references."""
     ex, c = built[key]
     qm = ex.qmodel
     names = [i.signal.name for i in qm.inputs]
@@ -101,13 +105,19 @@ def test_step_features_within_quantization_of_float_features(built, key, data_di
     df = derive(load_split(data_dir, "test"))
     names = [i.signal.name for i in qm.inputs]
     ext = external_inputs(qm)
-    e = float_ref.quantize_features(qm, df[names].to_numpy())[:, [names.index(n) for n in ext]] if ext else None
+    e = (
+        float_ref.quantize_features(qm, df[names].to_numpy())[:, [names.index(n) for n in ext]]
+        if ext
+        else None
+    )
     feats = step_features(qm, linkage_table_q16(), df.enc, df.pot, df.trial, e)
     for k, qi in enumerate(qm.inputs):
         x = df[qi.signal.name].to_numpy()
         inside = (x * 2.0**qi.frac > qi.lo_q) & (x * 2.0**qi.frac < qi.hi_q)
         # dd sums 4 compression errors of 1.5e-4 mm; the Q24 angle constant is off by 2.7e-8 deg per count
-        slack = 4 * 1.5e-4 if "compression" in qi.signal.name else 1.2e-4 if qi.signal.name == "angle_deg" else 0
+        slack = (
+            4 * 1.5e-4 if "compression" in qi.signal.name else 1.2e-4 if qi.signal.name == "angle_deg" else 0
+        )
         err = np.abs(feats[inside, k] * 2.0**-qi.frac - x[inside])
         assert err.max() <= 2.0 ** -(qi.frac + 1) + slack + 1e-9, (qi.signal.name, err.max())
 

@@ -47,7 +47,9 @@ def test_rshift_rne_s64(c, s):
 @pytest.mark.parametrize("s", [0, 1, 5, 15, 30])
 def test_rshift_rne_s32(c, s):
     """sea_rshift_rne_s32 == rshift_rne on int32 inputs, ties included."""
-    v = np.concatenate([RNG.integers(-(2**31), 2**31, 2000), [-(2**31), 2**31 - 1, 0, -1, 1]]).astype(np.int64)
+    v = np.concatenate([RNG.integers(-(2**31), 2**31, 2000), [-(2**31), 2**31 - 1, 0, -1, 1]]).astype(
+        np.int64
+    )
     got = np.array([c.lib.sea_rshift_rne_s32(int(x), s) for x in v], dtype=np.int64)
     want = P.rshift_rne(v, s)
     assert np.array_equal(got, want), _first_mismatch(got, want, v)
@@ -73,8 +75,10 @@ def test_compression_pipeline(c):
     ct = c.ffi.new("int32_t[257]", [int(x) for x in table])
     pot = np.concatenate([np.arange(-10, 4110), RNG.integers(-(2**31), 2**31, 200)])
     enc = RNG.integers(-(2**31), 2**31, pot.size)
-    enc[: 4120] = RNG.integers(-3000, 6000, 4120)
-    got = np.array([c.lib.sea_compression_q16(ct, int(e), int(p)) for e, p in zip(enc, pot)], dtype=np.int64)
+    enc[:4120] = RNG.integers(-3000, 6000, 4120)
+    got = np.array(
+        [c.lib.sea_compression_q16(ct, int(e), int(p)) for e, p in zip(enc, pot, strict=True)], dtype=np.int64
+    )
     want = P.compression_q16(table, enc, pot)
     assert np.array_equal(got, want), _first_mismatch(got, want, np.stack([enc, pot], 1))
 

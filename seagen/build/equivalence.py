@@ -41,7 +41,11 @@ def compare(name: str, qm, c: CModel, x: np.ndarray, onnx_model=None) -> Check:
     """Run all four on int16 inputs x (N, n_in); numpy is the reference the others must equal."""
     ref = numpy_ref.infer(qm, x)
     chk = Check(name, len(x))
-    others = {"C": c.infer(x), "torch": torch_ref.infer(qm, x), "onnxruntime": onnx_ref.infer(qm, x, onnx_model)}
+    others = {
+        "C": c.infer(x),
+        "torch": torch_ref.infer(qm, x),
+        "onnxruntime": onnx_ref.infer(qm, x, onnx_model),
+    }
     for impl, got in others.items():
         bad = first_mismatch(got, ref, np.atleast_2d(x))
         if bad:
@@ -64,8 +68,10 @@ class DataReport:
 
     def report(self) -> str:
         lines = [c.line() for c in self.checks]
-        lines.append(f"max |C - float| on the test set: {self.max_err:.5f} {self.unit} "
-                     f"(proven bound over the box: {self.bound:.5f} {self.unit})")
+        lines.append(
+            f"max |C - float| on the test set: {self.max_err:.5f} {self.unit} "
+            f"(proven bound over the box: {self.bound:.5f} {self.unit})"
+        )
         return "\n".join(lines)
 
 
@@ -90,8 +96,14 @@ def check_data_dir(ex, data_dir: str) -> DataReport:
         ref = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), df.enc, df.pot, df.trial, ext))
         got = c.step(df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy(), ext if ext_names else None)
         bad = first_mismatch(got, ref, df[["trial", "enc", "pot"]].to_numpy())
-        checks.append(Check(f"{ex.prefix}_step on {split} trials", len(df), {"C": bad} if bad else {},
-                            "C step == numpy pipeline + reference"))
+        checks.append(
+            Check(
+                f"{ex.prefix}_step on {split} trials",
+                len(df),
+                {"C": bad} if bad else {},
+                "C step == numpy pipeline + reference",
+            )
+        )
         if split == "test":
             fixed = c.infer(xq) * 2.0**-qm.out_frac
             max_err = float(np.max(np.abs(fixed - predict(ex.float_model, df[names].to_numpy()))))

@@ -72,7 +72,8 @@ def build(cdef: str, sources: dict[str, str], *, name: str = "seagen_c") -> Modu
     outdir = CACHE / modname
     built = list(outdir.glob(f"{modname}*.so"))
     if not built:
-        work = Path(tempfile.mkdtemp(dir=CACHE.mkdir(parents=True, exist_ok=True) or CACHE, prefix=".build."))
+        CACHE.mkdir(parents=True, exist_ok=True)
+        work = Path(tempfile.mkdtemp(dir=CACHE, prefix=".build."))
         objs = compile_objects(sources, work)
         headers = "".join(f'#include "{f}"\n' for f in sources if f.endswith(".h"))
         ffi = cffi.FFI()
@@ -99,7 +100,8 @@ def build_exe(sources: dict[str, str], *, sanitize: bool = True, name: str = "ha
     exe = CACHE / f"{name}_{_key(sorted(sources.items()), STRICT_CFLAGS, flags)}"
     if exe.exists():
         return exe
-    work = Path(tempfile.mkdtemp(dir=CACHE.mkdir(parents=True, exist_ok=True) or CACHE, prefix=".exe."))
+    CACHE.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(dir=CACHE, prefix=".exe."))
     objs = compile_objects(sources, work, flags)
     tmp = work / "a.out"
     res = subprocess.run(["gcc", *flags, *map(str, objs), "-o", str(tmp)], capture_output=True, text=True)

@@ -14,15 +14,20 @@ from seagen.codegen.render import environment
 
 def harness_source(prefix: str, n_ext: int) -> str:
     """The batch/streaming harness rendered for `prefix`."""
-    return environment().get_template("harness.c.j2").render(P=prefix, PU=prefix.upper(), n_ext=n_ext,
-                                                             version=__version__)
+    return (
+        environment()
+        .get_template("harness.c.j2")
+        .render(P=prefix, PU=prefix.upper(), n_ext=n_ext, version=__version__)
+    )
 
 
 def cdef(prefix: str) -> str:
     """cffi declarations of the harness entry points."""
-    return (f"void {prefix}_infer_batch(const int16_t *x, int n, int16_t *y);\n"
-            f"void {prefix}_step_batch(const int32_t *enc, const int32_t *pot, const int16_t *ext, "
-            f"const uint8_t *reset, int n, int16_t *y);\n")
+    return (
+        f"void {prefix}_infer_batch(const int16_t *x, int n, int16_t *y);\n"
+        f"void {prefix}_step_batch(const int32_t *enc, const int32_t *pot, const int16_t *ext, "
+        f"const uint8_t *reset, int n, int16_t *y);\n"
+    )
 
 
 class CModel:
@@ -39,23 +44,32 @@ class CModel:
         x = np.ascontiguousarray(np.atleast_2d(x), dtype=np.int16)
         y = np.zeros(len(x), dtype=np.int16)
         ffi, lib = self.mod.ffi, self.mod.lib
-        getattr(lib, f"{self.prefix}_infer_batch")(ffi.from_buffer("int16_t[]", x), len(x),
-                                                   ffi.from_buffer("int16_t[]", y))
+        getattr(lib, f"{self.prefix}_infer_batch")(
+            ffi.from_buffer("int16_t[]", x), len(x), ffi.from_buffer("int16_t[]", y)
+        )
         return y.astype(np.int64)
 
-    def step(self, enc: np.ndarray, pot: np.ndarray, trial: np.ndarray, ext: np.ndarray | None = None) -> np.ndarray:
+    def step(
+        self, enc: np.ndarray, pot: np.ndarray, trial: np.ndarray, ext: np.ndarray | None = None
+    ) -> np.ndarray:
         """NAME_step over recorded samples, NAME_reset at every trial start."""
         n = len(enc)
         enc32 = np.ascontiguousarray(enc, dtype=np.int32)
         pot32 = np.ascontiguousarray(pot, dtype=np.int32)
-        reset = np.ascontiguousarray(np.r_[True, np.asarray(trial)[1:] != np.asarray(trial)[:-1]], dtype=np.uint8)
+        reset = np.ascontiguousarray(
+            np.r_[True, np.asarray(trial)[1:] != np.asarray(trial)[:-1]], dtype=np.uint8
+        )
         e = np.ascontiguousarray(np.zeros((n, max(self.n_ext, 1))) if ext is None else ext, dtype=np.int16)
         y = np.zeros(n, dtype=np.int16)
         ffi, lib = self.mod.ffi, self.mod.lib
         getattr(lib, f"{self.prefix}_step_batch")(
-            ffi.from_buffer("int32_t[]", enc32), ffi.from_buffer("int32_t[]", pot32),
-            ffi.from_buffer("int16_t[]", e), ffi.from_buffer("uint8_t[]", reset), n,
-            ffi.from_buffer("int16_t[]", y))
+            ffi.from_buffer("int32_t[]", enc32),
+            ffi.from_buffer("int32_t[]", pot32),
+            ffi.from_buffer("int16_t[]", e),
+            ffi.from_buffer("uint8_t[]", reset),
+            n,
+            ffi.from_buffer("int16_t[]", y),
+        )
         return y.astype(np.int64)
 
 
@@ -67,5 +81,7 @@ def sanitized_infer(files: dict[str, str], prefix: str, n_in: int, x: np.ndarray
     data = np.ascontiguousarray(np.atleast_2d(x), dtype=np.int16).tobytes()
     res = subprocess.run([str(exe)], input=data, capture_output=True, check=False)
     if res.returncode != 0:
-        raise AssertionError(f"sanitizer run failed ({res.returncode}):\n{res.stderr.decode(errors='replace')}")
+        raise AssertionError(
+            f"sanitizer run failed ({res.returncode}):\n{res.stderr.decode(errors='replace')}"
+        )
     return np.frombuffer(res.stdout, dtype=np.int16).astype(np.int64)

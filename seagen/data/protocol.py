@@ -1,4 +1,4 @@
-"""The paper's calibration protocol on the simulated SEA: 12 contact angles, push into the load cell and back."""
+"""The paper's calibration protocol on the simulated SEA: 12 contact angles, into the load cell and back."""
 
 from __future__ import annotations
 

@@ -45,7 +45,8 @@ def format_summary(s: dict[str, Any]) -> str:
     """Human-readable summary with the paper's figures beside the measured ones."""
     lines = ["rows: " + ", ".join(f"{k} {v}" for k, v in s["rows"].items()) + "   (paper: 10400, 2416, 140)"]
     lines.append(
-        f"naive kinematics error on {s['kinematics_split']} (rows with force > {s['kinematics_threshold_n']:g} N): "
+        f"naive kinematics error on {s['kinematics_split']} "
+        f"(rows with force > {s['kinematics_threshold_n']:g} N): "
         f"average {s['kinematics_error_avg_pct']:.1f} %  (paper 34.31 %), "
         f"maximum {s['kinematics_error_max_pct']:.1f} %  (paper 44.7 %)"
     )

@@ -33,8 +33,9 @@ def mlp_error_bound(model: FloatMLP, qm: QModel) -> float:
     return float(np.max(e))
 
 
-def _through_activation(act: str, q, ez: np.ndarray, zmax: np.ndarray, alpha: float, half: float,
-                        tables: dict, k: int) -> np.ndarray:
+def _through_activation(
+    act: str, q, ez: np.ndarray, zmax: np.ndarray, alpha: float, half: float, tables: dict, k: int
+) -> np.ndarray:
     if act == "leaky_relu":
         return ez + abs(alpha - q.act_params[0] / 2**15) * zmax + half
     if act in ("tanh", "sigmoid"):

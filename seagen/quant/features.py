@@ -47,8 +47,10 @@ def feature_plan(qm: QModel) -> list[FeatureSource]:
         elif base in BASES:
             plan.append(FeatureSource(kind, BASES.index(base), BASE_FRAC[base], qi.frac))
         else:
-            raise UserError(f"input '{name}' is not a feature the firmware pipeline computes "
-                            f"(known: {', '.join(BASES)}, their d_/dd_ differences, angle_deg, force_n)")
+            raise UserError(
+                f"input '{name}' is not a feature the firmware pipeline computes "
+                f"(known: {', '.join(BASES)}, their d_/dd_ differences, angle_deg, force_n)"
+            )
     return plan
 
 
@@ -57,8 +59,14 @@ def external_inputs(qm: QModel) -> list[str]:
     return [qi.signal.name for qi in qm.inputs if qi.signal.name in EXTERNAL]
 
 
-def step_features(qm: QModel, table: np.ndarray, enc: np.ndarray, pot: np.ndarray, trial: np.ndarray,
-                  external: np.ndarray | None = None) -> np.ndarray:
+def step_features(
+    qm: QModel,
+    table: np.ndarray,
+    enc: np.ndarray,
+    pot: np.ndarray,
+    trial: np.ndarray,
+    external: np.ndarray | None = None,
+) -> np.ndarray:
     """The int16 model inputs NAME_step computes, for whole recorded trials (N samples) at once."""
     enc = np.asarray(enc, dtype=np.int64)
     pot = np.asarray(pot, dtype=np.int64)

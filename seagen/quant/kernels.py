@@ -39,7 +39,9 @@ def table_s16(y: np.ndarray, table: np.ndarray, in_shift: int, offset: int) -> n
 
 def horner_s32(x: np.ndarray, t: np.ndarray, add: np.ndarray | int, align: int, shift: int) -> np.ndarray:
     """sea_horner_s32: sat32(rshift_rne(x * t + add * 2^align, shift))."""
-    return sat32(rshift_rne(np.asarray(x) * t + np.asarray(add, dtype=np.int64) * (np.int64(1) << align), shift))
+    return sat32(
+        rshift_rne(np.asarray(x) * t + np.asarray(add, dtype=np.int64) * (np.int64(1) << align), shift)
+    )
 
 
 def to_s16(v: np.ndarray, from_frac: int, to_frac: int) -> np.ndarray:

@@ -44,8 +44,10 @@ def layers_from_modules(mods: list[Any], where: str) -> list[FloatLayer]:
             if kind != "Identity":
                 layers[-1] = _with_activation(layers[-1], kind, m, where, i)
         else:
-            raise UserError(f"{where}: layer {i} is an unsupported {kind} "
-                            "(supported: Linear, ReLU, LeakyReLU, Hardtanh, Tanh, Sigmoid)")
+            raise UserError(
+                f"{where}: layer {i} is an unsupported {kind} "
+                "(supported: Linear, ReLU, LeakyReLU, Hardtanh, Tanh, Sigmoid)"
+            )
     if not layers:
         raise UserError(f"{where}: no Linear layer found")
     return layers
@@ -54,10 +56,21 @@ def layers_from_modules(mods: list[Any], where: str) -> list[FloatLayer]:
 def _with_activation(layer: FloatLayer, kind: str, m: Any, where: str, i: int) -> FloatLayer:
     if layer.activation != "linear":
         raise UserError(f"{where}: layer {i} stacks two activations")
-    act = {"ReLU": "relu", "LeakyReLU": "leaky_relu", "Hardtanh": "hardtanh", "Tanh": "tanh",
-           "Sigmoid": "sigmoid"}[kind]
-    return FloatLayer(layer.weight, layer.bias, act, alpha=float(getattr(m, "negative_slope", 0.01)),
-                      lo=float(getattr(m, "min_val", -1.0)), hi=float(getattr(m, "max_val", 1.0)))
+    act = {
+        "ReLU": "relu",
+        "LeakyReLU": "leaky_relu",
+        "Hardtanh": "hardtanh",
+        "Tanh": "tanh",
+        "Sigmoid": "sigmoid",
+    }[kind]
+    return FloatLayer(
+        layer.weight,
+        layer.bias,
+        act,
+        alpha=float(getattr(m, "negative_slope", 0.01)),
+        lo=float(getattr(m, "min_val", -1.0)),
+        hi=float(getattr(m, "max_val", 1.0)),
+    )
 
 
 def fold_normalization(layers: list[FloatLayer], spec: FeatureSpec) -> list[FloatLayer]:
@@ -65,8 +78,10 @@ def fold_normalization(layers: list[FloatLayer], spec: FeatureSpec) -> list[Floa
     scale = np.array(spec.weights()) / np.array(spec.std)
     first = layers[0]
     if first.weight.shape[1] != len(spec.inputs):
-        raise UserError(f"the first layer takes {first.weight.shape[1]} inputs but the feature specification "
-                        f"names {len(spec.inputs)} ({', '.join(spec.inputs)})")
+        raise UserError(
+            f"the first layer takes {first.weight.shape[1]} inputs but the feature specification "
+            f"names {len(spec.inputs)} ({', '.join(spec.inputs)})"
+        )
     w1 = first.weight * scale[None, :]
     b1 = first.bias - first.weight @ (np.array(spec.mean) * scale)
     out = [FloatLayer(w1, b1, first.activation, first.alpha, first.lo, first.hi), *layers[1:]]
@@ -103,18 +118,26 @@ def from_model_dict(d: dict[str, Any], where: str, ranges: Any = None) -> FloatM
     spec = FeatureSpec.from_dict(d.get("features") or {}, where) if d.get("features") else None
     rng = ranges if ranges is not None else d.get("input_range")
     out_rng = d.get("output_range") or [0.0, 0.0]
-    output = Signal(d.get("output_name", "y"), d.get("output_units", ""), float(out_rng[0]), float(out_rng[1]))
+    output = Signal(
+        d.get("output_name", "y"), d.get("output_units", ""), float(out_rng[0]), float(out_rng[1])
+    )
     task = d.get("task", "calibration")
     if d.get("kind") == "sf":
         sf = d["sf"]
         fake = FeatureSpec(tuple(sf["inputs"]), (0.0, 0.0), (1.0, 1.0))
         coef = np.asarray(sf["coef"], dtype=float)
         _check_finite([coef], where)
-        return FloatSF(signals(fake, rng, d.get("input_units"), where), output,  # type: ignore[arg-type]
-                       tuple(tuple(p) for p in sf["powers"]), tuple(coef.tolist()), task)
+        a, b = signals(fake, rng, d.get("input_units"), where)
+        return FloatSF(
+            (a, b),
+            output,
+            tuple(tuple(p) for p in sf["powers"]),
+            tuple(coef.tolist()),
+            task,
+        )
     if spec is None:
         raise UserError(f"{where}: no feature specification (give --features SPEC)")
-    module = d.get("module")
+    module: Any = d.get("module")
     mods = list(module.children()) if hasattr(module, "children") else []
     layers = fold_normalization(layers_from_modules(mods, where), spec)
     return FloatMLP(signals(spec, rng, d.get("input_units"), where), output, tuple(layers), task)
@@ -154,10 +177,14 @@ def load_float_model(path: str, features: str | None = None, ranges: Any = None)
         d = {"kind": "mlp", **extra, "module": None}
         spec = FeatureSpec.from_dict(extra.get("features") or _need_features(p), str(p))
         layers = fold_normalization(onnx_layers(p), spec)
-        return FloatMLP(signals(spec, ranges if ranges is not None else d.get("input_range"),
-                                d.get("input_units"), str(p)),
-                        Signal(d.get("output_name", "y"), d.get("output_units", ""), 0.0, 0.0), tuple(layers),
-                        d.get("task", "calibration"))
+        return FloatMLP(
+            signals(
+                spec, ranges if ranges is not None else d.get("input_range"), d.get("input_units"), str(p)
+            ),
+            Signal(d.get("output_name", "y"), d.get("output_units", ""), 0.0, 0.0),
+            tuple(layers),
+            d.get("task", "calibration"),
+        )
     obj = _torch_load(p)
     if isinstance(obj, dict) and obj.get("format") == FORMAT:
         return from_model_dict({**obj, **extra}, str(p), ranges)
@@ -169,7 +196,9 @@ def load_float_model(path: str, features: str | None = None, ranges: Any = None)
 
 
 def _need_features(p: Path) -> dict[str, Any]:
-    raise UserError(f"{p}: a bare network needs --features SPEC naming its inputs (and their ranges or --calib)")
+    raise UserError(
+        f"{p}: a bare network needs --features SPEC naming its inputs (and their ranges or --calib)"
+    )
 
 
 def _is_torchscript(p: Path) -> bool:

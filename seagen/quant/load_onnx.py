@@ -22,8 +22,11 @@ def onnx_layers(path: Path) -> list[FloatLayer]:
     except Exception as e:
         raise UserError(f"{path}: not a readable ONNX file: {e}") from None
     init = {t.name: numpy_helper.to_array(t).astype(float) for t in model.graph.initializer}
-    consts = {n.output[0]: numpy_helper.to_array(n.attribute[0].t).astype(float)
-              for n in model.graph.node if n.op_type == "Constant"}
+    consts = {
+        n.output[0]: numpy_helper.to_array(n.attribute[0].t).astype(float)
+        for n in model.graph.node
+        if n.op_type == "Constant"
+    }
     init.update(consts)
     layers: list[FloatLayer] = []
     pending_w: np.ndarray | None = None
@@ -64,4 +67,6 @@ def _act(layer: FloatLayer, op: str, node: object, attrs: dict, init: dict) -> F
         hi = float(init[ins[2]]) if len(ins) > 2 and ins[2] else float(attrs.get("max", np.inf))
         if op == "Clip" and lo == 0 and hi == np.inf:
             return FloatLayer(layer.weight, layer.bias, "relu")
-    return FloatLayer(layer.weight, layer.bias, _ACTS[op], alpha=float(attrs.get("alpha", 0.01)), lo=lo, hi=hi)
+    return FloatLayer(
+        layer.weight, layer.bias, _ACTS[op], alpha=float(attrs.get("alpha", 0.01)), lo=lo, hi=hi
+    )

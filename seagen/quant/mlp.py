@@ -37,7 +37,9 @@ def _acc_bounds(w_q: np.ndarray, b_q: np.ndarray, lo: np.ndarray, hi: np.ndarray
     a, c = w * lo.astype(object)[None, :], w * hi.astype(object)[None, :]
     mn = np.minimum(a, c).sum(axis=1) + b_q.astype(object)
     mx = np.maximum(a, c).sum(axis=1) + b_q.astype(object)
-    worst = (abs(w) * np.maximum(abs(lo), abs(hi)).astype(object)[None, :]).sum(axis=1) + abs(b_q.astype(object))
+    worst = (abs(w) * np.maximum(abs(lo), abs(hi)).astype(object)[None, :]).sum(axis=1) + abs(
+        b_q.astype(object)
+    )
     return mn, mx, max(worst)
 
 
@@ -59,8 +61,9 @@ def _out_frac(mn: np.ndarray, mx: np.ndarray, acc_frac: int, activation: str) ->
     return f
 
 
-def quantize_layer(layer: FloatLayer, w_eff: np.ndarray, in_frac: int, lo: np.ndarray, hi: np.ndarray,
-                   wmax: int, index: int) -> tuple[QLayer, QTable | None]:
+def quantize_layer(
+    layer: FloatLayer, w_eff: np.ndarray, in_frac: int, lo: np.ndarray, hi: np.ndarray, wmax: int, index: int
+) -> tuple[QLayer, QTable | None]:
     """One layer: weight format, integer weights and bias, accumulator width, output format, activation."""
     w_frac = frac_for(float(np.max(np.abs(w_eff))), wmax)
     w_q = quantize(w_eff, w_frac)
@@ -75,8 +78,20 @@ def quantize_layer(layer: FloatLayer, w_eff: np.ndarray, in_frac: int, lo: np.nd
     y_hi = np.array([min(INT16_MAX, _rshift_int(int(v), shift)) for v in mx], dtype=np.int64)
     params, table = _activation(layer, out_frac, index)
     y_lo, y_hi = _act_bounds(layer.activation, params, table, y_lo, y_hi)
-    q = QLayer(w_q, b_q, w_frac, in_frac, out_frac if table is None else TABLE_OUT_FRAC, shift,
-               32 if worst <= ACC32_LIMIT else 64, layer.activation, params, out_frac, y_lo, y_hi)
+    q = QLayer(
+        w_q,
+        b_q,
+        w_frac,
+        in_frac,
+        out_frac if table is None else TABLE_OUT_FRAC,
+        shift,
+        32 if worst <= ACC32_LIMIT else 64,
+        layer.activation,
+        params,
+        out_frac,
+        y_lo,
+        y_hi,
+    )
     return q, table
 
 
@@ -110,7 +125,7 @@ def quantize_mlp(model: FloatMLP, weight_bits: int = 16) -> QModel:
     inputs = quantize_inputs(model)
     lo = np.array([i.lo_q for i in inputs], dtype=np.int64)
     hi = np.array([i.hi_q for i in inputs], dtype=np.int64)
-    scale = np.array([2.0 ** -i.frac for i in inputs])
+    scale = np.array([2.0**-i.frac for i in inputs])
     layers, tables = [], []
     in_frac = 0
     for k, layer in enumerate(model.layers):
@@ -121,7 +136,14 @@ def quantize_mlp(model: FloatMLP, weight_bits: int = 16) -> QModel:
             tables.append(table)
         lo, hi = q.y_lo, q.y_hi
         in_frac = q.out_frac
-    qm = QModel("mlp", inputs, model.output, layers[-1].out_frac, tuple(layers), tuple(tables),
-                weight_bits=weight_bits, task=model.task)
+    qm = QModel(
+        "mlp",
+        inputs,
+        model.output,
+        layers[-1].out_frac,
+        tuple(layers),
+        tuple(tables),
+        weight_bits=weight_bits,
+        task=model.task,
+    )
     return dataclasses.replace(qm, error_bound=mlp_error_bound(model, qm))
-

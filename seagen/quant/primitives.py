@@ -42,7 +42,9 @@ def sat32(v: np.ndarray | int) -> np.ndarray:
     return np.clip(np.asarray(v, dtype=np.int64), INT32_MIN, INT32_MAX)
 
 
-def linkage_table_q16(cb_mm: float = g.CB_MM, ce_mm: float = g.CE_MM, de_home_mm: float = g.DE_HOME_MM) -> np.ndarray:
+def linkage_table_q16(
+    cb_mm: float = g.CB_MM, ce_mm: float = g.CE_MM, de_home_mm: float = g.DE_HOME_MM
+) -> np.ndarray:
     """Q16 mm table of cos(angle(pot)) * CB - (DE_home - CE) at pot = 16 i, i = 0..256 (Eq. 2, 5)."""
     pot = np.arange(LINK_TABLE_LEN, dtype=float) * (1 << LINK_TABLE_SHIFT)
     angle = pot * g.POT_DEG_PER_COUNT + g.POT_OFFSET_DEG

@@ -94,8 +94,17 @@ def quantize_sf(model: FloatSF) -> QModel:
         out_frac -= 1
         shift += 1
     bound = final.err + 2.0 ** -(out_frac + 1)
-    return QModel("sf", inputs, model.output, out_frac, horner=tuple(pl.ops), out_shift=shift,
-                  n_regs=deg + 1, task=model.task, error_bound=bound)
+    return QModel(
+        "sf",
+        inputs,
+        model.output,
+        out_frac,
+        horner=tuple(pl.ops),
+        out_shift=shift,
+        n_regs=deg + 1,
+        task=model.task,
+        error_bound=bound,
+    )
 
 
 def float_sf(model: FloatSF, x: np.ndarray) -> np.ndarray:

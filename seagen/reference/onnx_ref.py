@@ -7,6 +7,8 @@ BitShift is unsigned-only and Sign on int64 is avoided (DESIGN.md §4).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import onnx
 from onnx import TensorProto, helper, numpy_helper
@@ -31,7 +33,7 @@ class _Graph:
         self.inits.append(numpy_helper.from_array(np.asarray(value, dtype=np.int64), full))
         return full
 
-    def op(self, kind: str, *inputs: str, **attrs: object) -> str:
+    def op(self, kind: str, *inputs: str, **attrs: Any) -> str:
         self.n += 1
         out = f"{kind.lower()}_{self.n}"
         self.nodes.append(helper.make_node(kind, list(inputs), [out], **attrs))
@@ -82,7 +84,9 @@ def _sf(g: _Graph, qm: QModel, x: str) -> str:
             regs[op.dst] = g.op("Add", regs[op.dst], g.const(op.coef_q, "k"))
             continue
         add = regs[op.add_reg] if op.add_reg >= 0 else g.const(op.coef_q, "k")
-        acc = g.op("Add", g.op("Mul", cols[op.var], regs[op.src]), g.op("Mul", add, g.const(1 << op.align, "al")))
+        acc = g.op(
+            "Add", g.op("Mul", cols[op.var], regs[op.src]), g.op("Mul", add, g.const(1 << op.align, "al"))
+        )
         regs[op.dst] = g.clip(g.rshift_rne(acc, op.shift), -(2**31), 2**31 - 1)
     return g.clip(g.rshift_rne(regs[qm.horner[-1].dst], qm.out_shift), -(2**15), 2**15 - 1)
 
@@ -98,10 +102,18 @@ def build_onnx(qm: QModel, name: str = "seagen_model") -> onnx.ModelProto:
     g.nodes.append(helper.make_node("Cast", [y], ["y"], to=TensorProto.INT16))
     n_in = len(qm.inputs)
     graph = helper.make_graph(
-        g.nodes, name, [helper.make_tensor_value_info("x", TensorProto.INT16, ["N", n_in])],
-        [helper.make_tensor_value_info("y", TensorProto.INT16, ["N"])], g.inits)
-    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)],
-                              producer_name="seagen", producer_version=__version__)
+        g.nodes,
+        name,
+        [helper.make_tensor_value_info("x", TensorProto.INT16, ["N", n_in])],
+        [helper.make_tensor_value_info("y", TensorProto.INT16, ["N"])],
+        g.inits,
+    )
+    model = helper.make_model(
+        graph,
+        opset_imports=[helper.make_opsetid("", OPSET)],
+        producer_name="seagen",
+        producer_version=__version__,
+    )
     model.ir_version = 8
     onnx.checker.check_model(model)
     return model

@@ -21,8 +21,9 @@ def rshift_rne(v: torch.Tensor, s: int) -> torch.Tensor:
     return q + ((r > half) | ((r == half) & ((q & 1) == 1))).long()
 
 
-def _activate(act: str, params: tuple[int, ...], table: torch.Tensor | None, shift_off: tuple[int, int],
-              y: torch.Tensor) -> torch.Tensor:
+def _activate(
+    act: str, params: tuple[int, ...], table: torch.Tensor | None, shift_off: tuple[int, int], y: torch.Tensor
+) -> torch.Tensor:
     if act == "relu":
         return y.clamp(min=0)
     if act == "leaky_relu":
