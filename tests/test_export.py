@@ -127,7 +127,7 @@ def test_sanitized_build_agrees(built, key):
     """A UBSan+ASan build of the generated C runs random and edge inputs without a report, same integers."""
     ex, c = built[key]
     x = np.vstack([_random_inputs(ex.qmodel, 20_000, 2), _edge_inputs(len(ex.qmodel.inputs))])
-    got = sanitized_infer(ex.files, ex.prefix, len(ex.qmodel.inputs), x)
+    got = sanitized_infer(ex.files, ex.prefix, x, len(external_inputs(ex.qmodel)))
     assert np.array_equal(got, c.infer(x))
 
 

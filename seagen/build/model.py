@@ -73,10 +73,10 @@ class CModel:
         return y.astype(np.int64)
 
 
-def sanitized_infer(files: dict[str, str], prefix: str, n_in: int, x: np.ndarray) -> np.ndarray:
+def sanitized_infer(files: dict[str, str], prefix: str, x: np.ndarray, n_ext: int = 0) -> np.ndarray:
     """Run NAME_infer on rows of x in a UBSan+ASan build (any report aborts: a non-zero exit)."""
     sources = dict(files)
-    sources[f"{prefix}_harness.c"] = f"#define {prefix.upper()}_HARNESS_MAIN\n" + harness_source(prefix, 0)
+    sources[f"{prefix}_harness.c"] = f"#define {prefix.upper()}_HARNESS_MAIN\n" + harness_source(prefix, n_ext)
     exe = build_exe(sources, sanitize=True, name=f"{prefix}_asan")
     data = np.ascontiguousarray(np.atleast_2d(x), dtype=np.int16).tobytes()
     res = subprocess.run([str(exe)], input=data, capture_output=True, check=False)
