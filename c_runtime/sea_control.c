@@ -17,11 +17,15 @@ void sea_control_reset(const sea_control_config *c, sea_control_state *s, int32_
     s->pot_idx = 0;
     s->pot_avg = pot;
     s->pred_count = 0;
+    s->pred_idx = 0;
     s->enc_prev = enc;
     s->stuck_lo = 0;
     s->stuck_hi = 0;
     s->comp = sea_compression_q16(c->link_table, enc, pot);
     s->desired = s->comp;
+    for (i = 0; i < SEA_CTRL_PRED_AVG_MAX; i++) {
+        s->pred_buf[i] = s->comp;
+    }
     s->fault = SEA_FAULT_NONE;
     sea_pid_reset(&c->pid, &s->pid, s->comp, 0);
     s->out = 0;
@@ -69,6 +73,20 @@ static void sea_control_pot(sea_control_state *s, int32_t pot)
     s->pot_avg = sea_div_rne_s32(sea_sat32(sum), SEA_CTRL_POT_AVG_TICKS);
 }
 
+/* Push one prediction; the desired compression is the mean of the last n (rounded half to even). */
+static void sea_control_predict(const sea_control_config *c, sea_control_state *s, int32_t pred)
+{
+    int64_t sum = 0;
+    int32_t i, n = c->pred_avg < 1 ? 1 : c->pred_avg;
+    n = n > SEA_CTRL_PRED_AVG_MAX ? SEA_CTRL_PRED_AVG_MAX : n;
+    s->pred_buf[s->pred_idx] = pred;
+    s->pred_idx = s->pred_idx + 1 < n ? s->pred_idx + 1 : 0;
+    for (i = 0; i < n; i++) {
+        sum += s->pred_buf[i];
+    }
+    s->desired = sea_div_rne_s32(sea_sat32(sum), n);
+}
+
 int16_t sea_control_step(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot,
                          int32_t force_q16)
 {
@@ -84,7 +102,7 @@ int16_t sea_control_step(const sea_control_config *c, sea_control_state *s, int3
     sea_control_pot(s, pot);
     s->comp = sea_compression_q16(c->link_table, enc, s->pot_avg);
     if (c->predictor != NULL && s->pred_count == 0) {
-        s->desired = c->predictor(c->predictor_ctx, enc, pot, force_q16);
+        sea_control_predict(c, s, c->predictor(c->predictor_ctx, enc, pot, force_q16));
     }
     s->pred_count = s->pred_count + 1 < every ? s->pred_count + 1 : 0;
     s->out = sea_pid_step(&c->pid, &s->pid, s->desired, s->comp);

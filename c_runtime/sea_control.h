@@ -2,8 +2,8 @@
  *
  *   tick:  pot -> 10-tick ring buffer; every 10th tick the average is refreshed (10 Hz, rounded half
  *          to even); compression = sea_compression_q16(table, enc, pot average) (Q16 mm, 100 Hz);
- *          every `predict_every` ticks the predictor maps (enc, pot, desired force) to the desired
- *          compression; the PID (sea_pid.h) drives the compression there; returns the motor command, mV.
+ *          every `predict_every` ticks the predictor maps (enc, pot, desired force) to a prediction;
+ *          the desired compression is the mean of the last `pred_avg` predictions; the PID (sea_pid.h) drives the compression there; returns the motor command, mV.
  *   faults: pot stuck at a rail, impossible encoder jump, desired force outside the calibrated range ->
  *          safe state: motor 0 mV, integrator cleared, fault bits latched until sea_control_reset().
  * Integers only, no malloc, C99. Twin: seagen/control/controller.py. Contract: CONTROL.md.
@@ -20,6 +20,7 @@
 #define SEA_FORCE_FRAC_BITS 16      /* desired force: Q16 newtons at the SEA output shaft, int32 */
 #define SEA_CTRL_POT_AVG_TICKS 10   /* pot averaged over the last 10 ticks, refreshed every 10 (10 Hz) */
 #define SEA_CTRL_POT_STUCK_TICKS 10 /* default: 10 consecutive rail readings (100 ms) = stuck */
+#define SEA_CTRL_PRED_AVG_MAX 10    /* the desired compression is the mean of the last pred_avg predictions */
 /* Default encoder-jump bound: no-load 32,300 rpm x 12 CPR / 60 = 6,460 counts/s = 64.6 counts per
  * 10 ms tick; with a 2x margin for overshoot and tick jitter: 130 counts per tick. */
 #define SEA_CTRL_ENC_JUMP_MAX 130
@@ -40,6 +41,7 @@ typedef struct {
     sea_predictor_fn predictor; /* NULL: desired compression supplied by sea_control_set_desired() */
     void *predictor_ctx;
     int32_t predict_every;      /* ticks between predictor calls: 1 = 100 Hz, 10 = 10 Hz (< 1 means 1) */
+    int32_t pred_avg;           /* predictions averaged into the desired compression, 1..10 (clamped) */
     int32_t force_min;          /* calibrated range of the desired force, Q16 N */
     int32_t force_max;
     int32_t enc_jump_max;       /* counts per tick (SEA_CTRL_ENC_JUMP_MAX) */
@@ -52,6 +54,8 @@ typedef struct {
     int32_t pot_idx;   /* next slot in pot_buf; the average refreshes when it wraps to 0 */
     int32_t pot_avg;   /* the averaged pot, counts */
     int32_t pred_count; /* ticks since the last predictor call, 0..predict_every-1 */
+    int32_t pred_buf[SEA_CTRL_PRED_AVG_MAX]; /* the last predictions (Q16 mm), ring of pred_avg */
+    int32_t pred_idx;  /* next slot in pred_buf */
     int32_t enc_prev;  /* encoder at the previous tick */
     int32_t stuck_lo;  /* consecutive ticks with pot <= 0 */
     int32_t stuck_hi;  /* consecutive ticks with pot >= 4095 */

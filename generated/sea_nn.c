@@ -10,56 +10,40 @@ void sea_clamp_s16(const int16_t *x, const int16_t *lo, const int16_t *hi, int n
     }
 }
 
+/* The four dense kernels share one body: W (int8/int16) times x (int16) accumulated from the bias in ACC
+ * (int32 where the generator proved every partial sum fits, else int64), then shifted and saturated. */
+#define SEA_DENSE_BODY(ACC, SHIFT_FN)                                        \
+    int i, j;                                                                \
+    for (j = 0; j < n_out; ++j) {                                            \
+        ACC acc = b[j];                                                      \
+        for (i = 0; i < n_in; ++i) {                                         \
+            acc += (ACC)((int32_t)w[j * n_in + i] * (int32_t)x[i]);          \
+        }                                                                    \
+        y[j] = sea_sat16(SHIFT_FN(acc, shift));                              \
+    }
+
 void sea_dense_w16_a32(const int16_t *w, const int32_t *b, const int16_t *x, int n_in, int n_out, int shift,
                        int16_t *y)
 {
-    int i, j;
-    for (j = 0; j < n_out; ++j) {
-        int32_t acc = b[j];
-        for (i = 0; i < n_in; ++i) {
-            acc += (int32_t)w[j * n_in + i] * (int32_t)x[i];
-        }
-        y[j] = sea_sat16(sea_rshift_rne_s32(acc, shift));
-    }
+    SEA_DENSE_BODY(int32_t, sea_rshift_rne_s32)
 }
 
 void sea_dense_w16_a64(const int16_t *w, const int64_t *b, const int16_t *x, int n_in, int n_out, int shift,
                        int16_t *y)
 {
-    int i, j;
-    for (j = 0; j < n_out; ++j) {
-        int64_t acc = b[j];
-        for (i = 0; i < n_in; ++i) {
-            acc += (int64_t)((int32_t)w[j * n_in + i] * (int32_t)x[i]);
-        }
-        y[j] = sea_sat16(sea_rshift_rne_s64(acc, shift));
-    }
+    SEA_DENSE_BODY(int64_t, sea_rshift_rne_s64)
 }
 
 void sea_dense_w8_a32(const int8_t *w, const int32_t *b, const int16_t *x, int n_in, int n_out, int shift,
                       int16_t *y)
 {
-    int i, j;
-    for (j = 0; j < n_out; ++j) {
-        int32_t acc = b[j];
-        for (i = 0; i < n_in; ++i) {
-            acc += (int32_t)w[j * n_in + i] * (int32_t)x[i];
-        }
-        y[j] = sea_sat16(sea_rshift_rne_s32(acc, shift));
-    }
+    SEA_DENSE_BODY(int32_t, sea_rshift_rne_s32)
 }
 
 void sea_dense_w8_a64(const int8_t *w, const int64_t *b, const int16_t *x, int n_in, int n_out, int shift,
                       int16_t *y)
 {
-    int i, j;
-    for (j = 0; j < n_out; ++j) {
-        int64_t acc = b[j];
-        for (i = 0; i < n_in; ++i) {
-            acc += (int64_t)((int32_t)w[j * n_in + i] * (int32_t)x[i]);
-        }
-        y[j] = sea_sat16(sea_rshift_rne_s64(acc, shift));
-    }
+    SEA_DENSE_BODY(int64_t, sea_rshift_rne_s64)
 }
 
 void sea_relu_s16(int16_t *y, int n)

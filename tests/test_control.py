@@ -11,7 +11,7 @@ from seagen.control.controller import ControlConfig, KinParams, predict_kinemati
 from seagen.control.loop import PyController
 from seagen.quant import primitives as P
 
-FIELDS = ("desired", "comp", "pot_avg", "fault", "stuck_lo", "stuck_hi", "pred_count")
+FIELDS = ("desired", "comp", "pot_avg", "fault", "stuck_lo", "stuck_hi", "pred_count", "pred_idx")
 
 
 @pytest.fixture(scope="module")
@@ -20,10 +20,11 @@ def mod():
     return build_control()
 
 
-def _pair(mod, every: int, with_pred: bool = True):
+def _pair(mod, every: int, with_pred: bool = True, avg: int = 1):
     """The C and Python controllers for the kinematic predictor called every `every` ticks."""
     k = KinParams()
-    c = ControlConfig(predictor=predict_kinematic(k) if with_pred else None, predict_every=every)
+    pred = predict_kinematic(k) if with_pred else None
+    c = ControlConfig(predictor=pred, predict_every=every, pred_avg=avg)
     cc = CController(mod, c, "sea_predict_kinematic" if with_pred else None, kin_ctx(mod, k))
     return cc, PyController(c)
 
@@ -44,12 +45,13 @@ def _inputs(kind: str, n: int, b: int, rng: np.random.Generator) -> tuple[np.nda
 
 
 @pytest.mark.parametrize("kind", ["normal", "faults", "rails"])
-@pytest.mark.parametrize("every", [1, 10, 0])
-def test_control_c_equals_twin(mod, kind, every):
-    """sea_control_step == control_step (command and every state field) on each tick of 600-tick runs."""
-    rng = np.random.default_rng(every * 10 + len(kind))
+@pytest.mark.parametrize("every,avg", [(1, 1), (10, 1), (0, 1), (1, 10), (3, 4), (1, 0), (2, 99)])
+def test_control_c_equals_twin(mod, kind, every, avg):
+    """sea_control_step == control_step (command and every state field) on each tick of 600-tick runs,
+    for predictor periods and prediction averages (pred_avg clamped to 1..10) of every kind."""
+    rng = np.random.default_rng(every * 10 + avg + len(kind))
     enc, pot, force = _inputs(kind, 600, 6, rng)
-    cc, py = _pair(mod, every)
+    cc, py = _pair(mod, every, avg=avg)
     cc.reset(enc[0], pot[0])
     py.reset(enc[0], pot[0])
     for k in range(enc.shape[0]):

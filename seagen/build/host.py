@@ -63,7 +63,10 @@ def compile_objects(sources: dict[str, str], outdir: Path, extra: tuple[str, ...
 
 
 def build(cdef: str, sources: dict[str, str], *, name: str = "seagen_c") -> ModuleType:
-    """Build `sources` ({filename: C text}) exposing the declarations `cdef`; return the cffi module."""
+    """Build `sources` ({filename: C text}) exposing the declarations `cdef`; return the cffi module.
+
+    The glue only #includes the .h files of `sources`: every function in `cdef` must be declared there.
+    """
     import cffi
 
     modname = f"_{name}_{_key(cdef, sorted(sources.items()), STRICT_CFLAGS)}"
@@ -79,7 +82,7 @@ def build(cdef: str, sources: dict[str, str], *, name: str = "seagen_c") -> Modu
         ffi = cffi.FFI()
         ffi.cdef(cdef)
         ffi.set_source(
-            modname, headers + cdef, include_dirs=[str(work / "src")], extra_objects=[str(o) for o in objs]
+            modname, headers, include_dirs=[str(work / "src")], extra_objects=[str(o) for o in objs]
         )
         so = Path(ffi.compile(tmpdir=str(work), verbose=False))
         outdir.mkdir(parents=True, exist_ok=True)

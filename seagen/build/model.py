@@ -36,6 +36,7 @@ class CModel:
     def __init__(self, files: dict[str, str], prefix: str, n_in: int, n_ext: int) -> None:
         sources = dict(files)
         sources[f"{prefix}_harness.c"] = harness_source(prefix, n_ext)
+        sources[f"{prefix}_harness.h"] = "#include <stdint.h>\n" + cdef(prefix)
         self.prefix, self.n_in, self.n_ext, self.files = prefix, n_in, n_ext, sources
         self.mod: ModuleType = build(cdef(prefix), sources, name=prefix)
 
@@ -76,7 +77,9 @@ class CModel:
 def sanitized_infer(files: dict[str, str], prefix: str, x: np.ndarray, n_ext: int = 0) -> np.ndarray:
     """Run NAME_infer on rows of x in a UBSan+ASan build (any report aborts: a non-zero exit)."""
     sources = dict(files)
-    sources[f"{prefix}_harness.c"] = f"#define {prefix.upper()}_HARNESS_MAIN\n" + harness_source(prefix, n_ext)
+    sources[f"{prefix}_harness.c"] = f"#define {prefix.upper()}_HARNESS_MAIN\n" + harness_source(
+        prefix, n_ext
+    )
     exe = build_exe(sources, sanitize=True, name=f"{prefix}_asan")
     data = np.ascontiguousarray(np.atleast_2d(x), dtype=np.int16).tobytes()
     res = subprocess.run([str(exe)], input=data, capture_output=True, check=False)

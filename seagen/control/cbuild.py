@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from pathlib import Path
 from types import ModuleType
 
 import numpy as np
 
-from seagen.build.host import build
+from seagen.build import host
 from seagen.build.runtime import runtime_sources
 from seagen.control.controller import ControlConfig, KinParams
 
 SOURCES = ("sea_fixed.h", "sea_fixed.c", "sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c")
+NN_SOURCES = ("sea_nn.h", "sea_nn.c")
+GENERATED = Path(__file__).resolve().parents[2] / "generated"
 
 PID_CDEF = """
 typedef struct { int32_t kp; int32_t ki; int32_t kd; int32_t d_alpha; int32_t margin;
@@ -27,11 +31,12 @@ CDEF = (
 typedef int32_t (*sea_predictor_fn)(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);
 typedef struct {
     sea_pid_params pid; const int32_t *link_table; sea_predictor_fn predictor; void *predictor_ctx;
-    int32_t predict_every; int32_t force_min; int32_t force_max; int32_t enc_jump_max;
+    int32_t predict_every; int32_t pred_avg; int32_t force_min; int32_t force_max; int32_t enc_jump_max;
     int32_t pot_stuck_ticks;
 } sea_control_config;
 typedef struct {
     sea_pid_state pid; int32_t pot_buf[10]; int32_t pot_idx; int32_t pot_avg; int32_t pred_count;
+    int32_t pred_buf[10]; int32_t pred_idx;
     int32_t enc_prev; int32_t stuck_lo; int32_t stuck_hi; int32_t desired; int32_t comp; int32_t fault;
     int16_t out;
 } sea_control_state;
@@ -47,41 +52,88 @@ int32_t sea_predict_kinematic(void *ctx, int32_t enc, int32_t pot, int32_t force
 
 def build_control(extra_cdef: str = "", extra_sources: dict[str, str] | None = None) -> ModuleType:
     """The controller runtime (plus optional extra C, e.g. a generated predictor) as a cffi module."""
-    return build(CDEF + extra_cdef, {**runtime_sources(*SOURCES), **(extra_sources or {})}, name="control")
+    return host.build(
+        CDEF + extra_cdef, {**runtime_sources(*SOURCES), **(extra_sources or {})}, name="control"
+    )
+
+
+def generated_cdef(prefix: str) -> str:
+    """cffi declarations of a generated control predictor's state, reset and sea_predictor_fn."""
+    return (
+        f"typedef struct {{ int32_t p1[3]; int32_t p2[3]; uint8_t primed; }} {prefix}_state_t;\n"
+        f"void {prefix}_reset({prefix}_state_t *s);\n"
+        f"int32_t {prefix}_predict_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);\n"
+        f"extern const int32_t {prefix}_link_q16[257];\n"
+    )
+
+
+def generated_sources(prefix: str, root: Path = GENERATED) -> dict[str, str]:
+    """The exported {prefix}.c/.h (from generated/) plus the sea_nn runtime they link against."""
+    files = {f"{prefix}{ext}": (root / f"{prefix}{ext}").read_text() for ext in (".h", ".c")}
+    return {**runtime_sources(*NN_SOURCES), **files}
+
+
+def generated_ctx(prefix: str) -> Callable[[ModuleType], object]:
+    """ctx factory: a fresh {prefix}_state_t, reset, for one actuator."""
+
+    def make(mod: ModuleType) -> object:
+        st = mod.ffi.new(f"{prefix}_state_t *")
+        getattr(mod.lib, f"{prefix}_reset")(st)
+        return st
+
+    return make
 
 
 class CController:
-    """A batch of C controllers (one sea_control_state each) sharing one sea_control_config."""
+    """A batch of C controllers, one sea_control_state each; one shared config, or one per actuator when
+    the predictor is stateful (`make_ctx`: a fresh ctx per actuator, made at the first reset and kept)."""
 
-    def __init__(self, mod: ModuleType, c: ControlConfig, predictor: str | None, ctx: object = None) -> None:
-        ffi, lib = mod.ffi, mod.lib
-        self.ffi, self.lib = ffi, lib
-        self.table = ffi.new("int32_t[]", [int(x) for x in c.table])
-        self.ctx = ctx
-        self.cfg = ffi.new("sea_control_config *")
-        p = self.cfg.pid
-        p.kp, p.ki, p.kd, p.d_alpha, p.margin, p.out_min, p.out_max = c.pid.as_tuple()
-        self.cfg.link_table = self.table
-        self.cfg.predictor = ffi.addressof(lib, predictor) if predictor else ffi.NULL
-        self.cfg.predictor_ctx = ffi.cast("void *", ctx) if ctx is not None else ffi.NULL
-        self.cfg.predict_every = c.predict_every
-        self.cfg.force_min, self.cfg.force_max = c.force_min, c.force_max
-        self.cfg.enc_jump_max, self.cfg.pot_stuck_ticks = c.enc_jump_max, c.pot_stuck_ticks
+    def __init__(
+        self,
+        mod: ModuleType,
+        c: ControlConfig,
+        predictor: str | None,
+        ctx: object = None,
+        make_ctx: Callable[[ModuleType], object] | None = None,
+    ) -> None:
+        self.mod, self.ffi, self.lib = mod, mod.ffi, mod.lib
+        self.c, self.predictor, self.make_ctx = c, predictor, make_ctx
+        self.table = self.ffi.new("int32_t[]", [int(x) for x in c.table])
+        self.ctxs: list = [ctx]  # owned: the C config points into them
+        self.cfgs = [] if make_ctx else [self._config(ctx)]
         self.states: list = []
 
+    def _config(self, ctx: object) -> object:
+        """One sea_control_config pointing at `ctx`."""
+        ffi, c = self.ffi, self.c
+        cfg = ffi.new("sea_control_config *")
+        p = cfg.pid
+        p.kp, p.ki, p.kd, p.d_alpha, p.margin, p.out_min, p.out_max = c.pid.as_tuple()
+        cfg.link_table = self.table
+        cfg.predictor = ffi.addressof(self.lib, self.predictor) if self.predictor else ffi.NULL
+        cfg.predictor_ctx = ffi.cast("void *", ctx) if ctx is not None else ffi.NULL
+        cfg.predict_every, cfg.pred_avg = c.predict_every, c.pred_avg
+        cfg.force_min, cfg.force_max = c.force_min, c.force_max
+        cfg.enc_jump_max, cfg.pot_stuck_ticks = c.enc_jump_max, c.pot_stuck_ticks
+        return cfg
+
+    def _cfg(self, i: int) -> object:
+        return self.cfgs[i] if self.make_ctx else self.cfgs[0]
+
     def reset(self, enc: np.ndarray, pot: np.ndarray) -> None:
-        """sea_control_reset for each actuator."""
+        """sea_control_reset for each actuator (a stateful predictor's ctx is kept across resets)."""
+        if self.make_ctx and len(self.cfgs) != len(enc):
+            self.ctxs = [self.make_ctx(self.mod) for _ in range(len(enc))]
+            self.cfgs = [self._config(x) for x in self.ctxs]
         self.states = [self.ffi.new("sea_control_state *") for _ in range(len(enc))]
-        for st, e, p in zip(self.states, enc, pot, strict=True):
-            self.lib.sea_control_reset(self.cfg, st, int(e), int(p))
+        for i, (st, e, p) in enumerate(zip(self.states, enc, pot, strict=True)):
+            self.lib.sea_control_reset(self._cfg(i), st, int(e), int(p))
 
     def step(self, enc: np.ndarray, pot: np.ndarray, force_q16: np.ndarray) -> np.ndarray:
         """sea_control_step for each actuator; returns the commands (mV, int64)."""
         f = np.broadcast_to(force_q16, np.shape(enc))
-        out = [
-            self.lib.sea_control_step(self.cfg, st, int(e), int(p), int(x))
-            for st, e, p, x in zip(self.states, enc, pot, f, strict=True)
-        ]
+        step, n = self.lib.sea_control_step, len(self.states)
+        out = [step(self._cfg(i), self.states[i], int(enc[i]), int(pot[i]), int(f[i])) for i in range(n)]
         return np.array(out, dtype=np.int64)
 
     def set_desired(self, desired_q16: np.ndarray) -> None:

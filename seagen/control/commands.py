@@ -24,12 +24,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    """Run each configuration at 5, 10, 15 N over the contact angles; print the table or JSON."""
-    from seagen.control.experiment import CONFIGS, run_config
+    """Run each configuration at 5, 10, 15 N over the contact angles; print Table II or JSON."""
+    from seagen.control.experiment import TABLE2_CONFIGS, format_table2, run_config
 
     if args.latency < 0:
         raise UserError(f"--latency must be >= 0 s, got {args.latency}")
-    names = args.config or list(CONFIGS)
+    names = args.config or list(TABLE2_CONFIGS)
     results = {n: run_config(n, args.latency, args.impl, args.seed) for n in names}
     if args.plots:
         from seagen.control.plots import step_plot
@@ -40,14 +40,5 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         n: {t: {k: v for k, v in r.items() if k != "trace"} for t, r in res.items()}
         for n, res in results.items()
     }
-    if args.json:
-        print(json.dumps(table, indent=2))
-        return 0
-    print(f"{'config':<14}{'target N':>9}{'error N':>9}{'settling s':>12}{'to final s':>12}{'settled':>9}")
-    for n, res in table.items():
-        for t, r in res.items():
-            s = "-" if r["settling_s"] is None else f"{r['settling_s']:.3f}"
-            print(
-                f"{n:<14}{t:>9}{r['error_avg_n']:>9.3f}{s:>12}{r['settling_final_s']:>12.3f}{r['settled']:>9}"
-            )
+    print(json.dumps(table, indent=2) if args.json else format_table2(table))
     return 0

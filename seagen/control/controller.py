@@ -20,6 +20,7 @@ from seagen.quant.primitives import (
 FORCE_FRAC = 16  # SEA_FORCE_FRAC_BITS: desired force in Q16 N
 POT_AVG_TICKS = 10
 POT_STUCK_TICKS = 10
+PRED_AVG_MAX = 10  # SEA_CTRL_PRED_AVG_MAX
 ENC_JUMP_MAX = 130  # ceil(2 x 32,300 rpm x 12 CPR / 60 / 100 Hz)
 FAULT_POT_STUCK_LOW, FAULT_POT_STUCK_HIGH, FAULT_ENC_JUMP, FAULT_FORCE_RANGE = 1, 2, 4, 8
 FAULT_NAMES = {1: "pot_stuck_low", 2: "pot_stuck_high", 4: "enc_jump", 8: "force_range"}
@@ -61,6 +62,7 @@ class ControlConfig:
     table: np.ndarray = field(default_factory=linkage_table_q16)
     predictor: Predictor | None = None
     predict_every: int = 1
+    pred_avg: int = 1  # predictions averaged into the desired compression (1..10)
     force_min: int = q16(FORCE_RANGE_N[0])
     force_max: int = q16(FORCE_RANGE_N[1])
     enc_jump_max: int = ENC_JUMP_MAX
@@ -76,6 +78,8 @@ class ControlState:
     pot_idx: np.ndarray
     pot_avg: np.ndarray
     pred_count: np.ndarray
+    pred_buf: np.ndarray
+    pred_idx: np.ndarray
     enc_prev: np.ndarray
     stuck_lo: np.ndarray
     stuck_hi: np.ndarray
@@ -103,7 +107,10 @@ def control_reset(c: ControlConfig, enc: np.ndarray, pot: np.ndarray) -> Control
     comp = compression_q16(c.table, enc, pot)
     z = np.zeros_like(enc)
     buf = np.repeat(pot[:, None], POT_AVG_TICKS, axis=1)
-    return ControlState(pid_reset(c.pid, comp, 0), buf, z, pot.copy(), z, enc.copy(), z, z, comp, comp, z, z)
+    pbuf = np.repeat(comp[:, None], PRED_AVG_MAX, axis=1)
+    return ControlState(
+        pid_reset(c.pid, comp, 0), buf, z, pot.copy(), z, pbuf, z, enc.copy(), z, z, comp, comp, z, z
+    )
 
 
 def _check(c: ControlConfig, s: ControlState, enc: np.ndarray, pot: np.ndarray, force: np.ndarray):
@@ -128,6 +135,15 @@ def _pot(s: ControlState, pot: np.ndarray) -> ControlState:
     return replace(s, pot_buf=buf, pot_idx=np.where(wrap, 0, idx), pot_avg=avg)
 
 
+def _predict(c: ControlConfig, s: ControlState, pred: np.ndarray) -> ControlState:
+    """Push one prediction; desired = mean of the last pred_avg (sea_control_predict)."""
+    m = min(max(c.pred_avg, 1), PRED_AVG_MAX)
+    buf = s.pred_buf.copy()
+    buf[np.arange(buf.shape[0]), s.pred_idx] = pred
+    idx = np.where(s.pred_idx + 1 < m, s.pred_idx + 1, 0)
+    return replace(s, pred_buf=buf, pred_idx=idx, desired=div_rne(sat32(buf[:, :m].sum(axis=1)), m))
+
+
 def control_step(
     c: ControlConfig, s: ControlState, enc: np.ndarray, pot: np.ndarray, force_q16: np.ndarray
 ) -> ControlState:
@@ -142,7 +158,9 @@ def control_step(
     desired = s.desired
     due = n.pred_count == 0
     if c.predictor is not None and due.any():
-        desired = np.where(due, np.asarray(c.predictor(enc, pot, force), np.int64), desired)
+        pred = _predict(c, n, np.asarray(c.predictor(enc, pot, force), np.int64))
+        n = _where(due, pred, n)
+        desired = np.where(due, n.desired, desired)
     pid = pid_step(c.pid, s.pid, desired, comp)
     count = np.where(n.pred_count + 1 < every, n.pred_count + 1, 0)
     n = replace(n, comp=comp, desired=desired, pred_count=count, pid=pid, out=pid.out)

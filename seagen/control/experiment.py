@@ -6,8 +6,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from seagen.control.controller import ControlConfig
 from seagen.control.loop import CloudPredictor, McuPredictor, run_closed_loop
-from seagen.control.predictors import kinematic_cloud, kinematic_mcu
+from seagen.control.predictors import generated_cloud, generated_mcu, kinematic_mcu
 
 TARGETS_N = (5.0, 10.0, 15.0)
 CONTACT_DEG = tuple(float(a) for a in np.linspace(7.0, 25.0, 10))  # ten contact angles
@@ -16,11 +17,21 @@ SMOOTH_TICKS = 5  # the reference force is judged on its 50 ms trailing mean (lo
 ERROR_WINDOW_S = 2.0  # the average error is taken over the last 2 s of the run
 DURATION_S = 6.0
 
-# Configuration name -> factory(latency_s) of its predictor; extend with sf_mcu, mlp_cloud, mlp_mcu.
-CONFIGS: dict[str, Callable[[float], McuPredictor | CloudPredictor]] = {
-    "kin_mcu": lambda latency_s: kinematic_mcu(predict_every=1),
-    "kin_cloud": lambda latency_s: kinematic_cloud(latency_s, 10.0),
+MLP_PRED_AVG = 10  # mlp_mcu: desired = mean of the last 10 predictions (breaks the d_enc feedback jitter)
+Setup = tuple[McuPredictor | CloudPredictor, ControlConfig]
+# Configuration name -> factory(latency_s) of its predictor and controller configuration (Table II rows).
+CONFIGS: dict[str, Callable[[float], Setup]] = {
+    "sf_mcu": lambda latency_s: (generated_mcu("ctl_sf"), ControlConfig()),
+    "mlp_cloud": lambda latency_s: (generated_cloud("ctl_mlp", latency_s, 10.0), ControlConfig()),
+    "mlp_mcu": lambda latency_s: (generated_mcu("ctl_mlp"), ControlConfig(pred_avg=MLP_PRED_AVG)),
+    "kin_mcu": lambda latency_s: (kinematic_mcu(predict_every=1), ControlConfig()),  # baseline
 }
+TABLE2_CONFIGS = ("sf_mcu", "mlp_cloud", "mlp_mcu")
+PAPER_TABLE2 = {  # paper Table II: (average force error N, average settling time s) per method and target
+    "SF": {"5": (0.29, 0.32), "10": (0.41, 0.50), "15": (0.18, 0.58)},
+    "MLP": {"5": (0.24, 2.72), "10": (0.30, 3.22), "15": (0.10, 3.15)},
+}
+PAPER_ROW = {"sf_mcu": "SF", "mlp_cloud": "MLP", "mlp_mcu": "MLP", "kin_mcu": "SF"}
 
 
 def smoothed(force: np.ndarray, n: int = SMOOTH_TICKS) -> np.ndarray:
@@ -56,20 +67,54 @@ def metrics(rec: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
 
 
 def run_config(name: str, latency_s: float = 0.1, impl: str = "c", seed: int = 0) -> dict[str, dict]:
-    """Every target at every contact angle for one configuration: {target: {metric: value, ...}}."""
-    pred = CONFIGS[name](latency_s)
+    """Every target at every contact angle for one configuration: {target: {metric: value, ...}};
+    settling_s is the mean over the angles that settle (`settled` of them), None if none does."""
+    pred, ctl = CONFIGS[name](latency_s)
     out: dict[str, dict] = {}
     for i, target in enumerate(TARGETS_N):
         rec = run_closed_loop(
-            pred, target, np.array(CONTACT_DEG), impl=impl, duration_s=DURATION_S, seed=seed + i
+            pred,
+            target,
+            np.array(CONTACT_DEG),
+            impl=impl,
+            duration_s=DURATION_S,
+            seed=seed + i,
+            control_cfg=ctl,
         )
         m = metrics(rec)
         s = m["settling_s"]
         out[f"{target:g}"] = {
             "error_avg_n": round(float(m["error_avg_n"].mean()), 4),
-            "settling_s": None if np.isnan(s).any() else round(float(s.mean()), 3),
+            "settling_s": None if np.isnan(s).all() else round(float(np.nanmean(s)), 3),
             "settled": int(np.isfinite(s).sum()),
             "settling_final_s": round(float(np.nanmean(m["settling_final_s"])), 3),
             "trace": rec,
         }
     return out
+
+
+def table2(
+    configs: tuple[str, ...] = TABLE2_CONFIGS, seed: int = 0, latency_s: float = 0.1, impl: str = "c"
+) -> dict[str, dict[str, dict]]:
+    """Table II measured in closed loop: {config: {"5"|"10"|"15": {error_avg_n, settling_s, ...}}}."""
+    res = {n: run_config(n, latency_s, impl, seed) for n in configs}
+    return {
+        n: {t: {k: v for k, v in r.items() if k != "trace"} for t, r in x.items()} for n, x in res.items()
+    }
+
+
+def format_table2(table: dict[str, dict[str, dict]]) -> str:
+    """Table II as text: measured error and settling time per configuration and target beside the paper's."""
+    head = f"{'config':<11}{'force':>6}{'error N':>9}{'settling s':>12}{'settled':>9}{'to final s':>12}"
+    lines = [head + f"{'paper':>8}{'error N':>9}{'settling s':>12}"]
+    for name, rows in table.items():
+        paper = PAPER_TABLE2[PAPER_ROW.get(name, "SF")]
+        for t, r in rows.items():
+            s = "never" if r["settling_s"] is None else f"{r['settling_s']:.2f}"
+            pe, ps = paper[t]
+            lines.append(
+                f"{name:<11}{t + ' N':>6}{r['error_avg_n']:>9.2f}{s:>12}"
+                f"{r['settled']:>6}/{len(CONTACT_DEG):<2}"
+                f"{r['settling_final_s']:>12.2f}{PAPER_ROW.get(name, 'SF'):>8}{pe:>9.2f}{ps:>12.2f}"
+            )
+    return "\n".join(lines)

@@ -21,19 +21,28 @@ CTRL_FIELDS = ("desired", "comp", "pot_avg", "fault")
 
 @dataclass(frozen=True)
 class McuPredictor:
-    """A fixed-point predictor on the MCU: its C symbol (and ctx), its Python twin, its call period."""
+    """A fixed-point predictor on the MCU: its C symbol, a ctx factory (one ctx per actuator when
+    `stateful`), a factory of its Python twin (a fresh twin per run), its call period."""
 
     c_symbol: str
     make_ctx: Callable[[ModuleType], object]
-    twin: Predictor
+    make_twin: Callable[[], Predictor]
     predict_every: int = 1  # 1 = 100 Hz, 10 = 10 Hz
     cdef: str = ""
     sources: dict[str, str] = field(default_factory=dict)
+    stateful: bool = False
 
 
 @dataclass(frozen=True)
 class CloudPredictor:
-    """A float predictor off the MCU: (enc, pot, force N) -> compression mm, refreshed and delayed."""
+    """A float predictor off the MCU: (enc, pot, force N) -> compression mm over a Bluetooth link.
+
+    `fn` gets the last three 100 Hz samples of enc and pot (rows k-2, k-1, k; the MCU sends them, so the
+    cloud sees the training data's 100 Hz differences) and the desired force. One request in flight:
+    at a 10 Hz slot with no reply outstanding the MCU sends its samples; the reply (the new desired
+    compression) is applied `latency_s` later. So the setpoint changes at most every max(period, latency)
+    and always reflects the state of one round trip ago.
+    """
 
     fn: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
     latency_s: float = 0.1  # Bluetooth round trip
@@ -70,7 +79,7 @@ class PyController:
 def make_controller(impl: str, pred: McuPredictor | CloudPredictor, c: ControlConfig) -> object:
     """The C (`impl='c'`, built by cffi) or Python (`'py'`) controller for this predictor."""
     if isinstance(pred, McuPredictor):
-        c = replace(c, predictor=pred.twin, predict_every=pred.predict_every)
+        c = replace(c, predictor=pred.make_twin(), predict_every=pred.predict_every)
     else:
         c = replace(c, predictor=None)
     if impl == "py":
@@ -79,6 +88,8 @@ def make_controller(impl: str, pred: McuPredictor | CloudPredictor, c: ControlCo
 
     if isinstance(pred, McuPredictor):
         mod = build_control(pred.cdef, pred.sources)
+        if pred.stateful:
+            return CController(mod, c, pred.c_symbol, make_ctx=pred.make_ctx)
         return CController(mod, c, pred.c_symbol, pred.make_ctx(mod))
     return CController(build_control(), c, None)
 
@@ -105,15 +116,14 @@ def run_closed_loop(
     s = plant.read()
     ctrl.reset(s.enc, s.pot)
     target = target_n if callable(target_n) else (lambda _k: float(target_n))
-    cloud = pred if isinstance(pred, CloudPredictor) else None
-    pending: list[tuple[int, np.ndarray]] = []
+    cloud = _Link(pred) if isinstance(pred, CloudPredictor) else None
     rec: dict[str, list[np.ndarray]] = {}
     for k in range(int(round(duration_s / TICK_S))):
         s = plant.read()
         enc, pot = sensor_hook(k, s.enc, s.pot) if sensor_hook else (s.enc, s.pot)
         f_n = target(k)
         if cloud is not None:
-            pending = _cloud(cloud, ctrl, pending, k, enc, pot, f_n)
+            cloud.tick(ctrl, k, enc, pot, f_n)
         out = ctrl.step(enc, pot, np.full(enc.shape, q16(f_n), dtype=np.int64))
         _record(rec, k, s, plant, ctrl, out, enc, pot, f_n)
         for _ in range(PLANT_STEPS_PER_TICK):
@@ -121,17 +131,29 @@ def run_closed_loop(
     return {k: np.array(v) for k, v in rec.items()}
 
 
-def _cloud(
-    cloud: CloudPredictor, ctrl, pending: list[tuple[int, np.ndarray]], k: int, enc, pot, f_n: float
-) -> list[tuple[int, np.ndarray]]:
-    """Request a prediction every refresh period; deliver those whose latency has passed."""
-    if k % max(int(round(1.0 / (cloud.refresh_hz * TICK_S))), 1) == 0:
-        mm = np.asarray(cloud.fn(enc, pot, np.full(enc.shape, f_n)), dtype=float)
-        pending.append((k + int(round(cloud.latency_s / TICK_S)), np.rint(mm * 65536.0).astype(np.int64)))
-    due = [p for p in pending if p[0] <= k]
-    for _, d in due:
-        ctrl.set_desired(d)
-    return [p for p in pending if p[0] > k]
+class _Link:
+    """The Bluetooth link to a CloudPredictor: 100 Hz sample history, one request in flight."""
+
+    def __init__(self, cloud: CloudPredictor) -> None:
+        self.cloud = cloud
+        self.period = max(int(round(1.0 / (cloud.refresh_hz * TICK_S))), 1)
+        self.delay = int(round(cloud.latency_s / TICK_S))
+        self.hist: np.ndarray | None = None  # (3, 2, n): rows k-2, k-1, k of (enc, pot)
+        self.reply: tuple[int, np.ndarray] | None = None
+
+    def tick(self, ctrl, k: int, enc: np.ndarray, pot: np.ndarray, f_n: float) -> None:
+        """Record this tick's sample; apply a due reply; send a request at an idle 10 Hz slot."""
+        now = np.stack([enc, pot]).astype(np.int64)
+        self.hist = np.stack([now] * 3) if self.hist is None else np.concatenate([self.hist[1:], now[None]])
+        if self.reply is not None and self.reply[0] <= k:
+            ctrl.set_desired(self.reply[1])
+            self.reply = None
+        if self.reply is None and k % self.period == 0:
+            mm = self.cloud.fn(self.hist[:, 0], self.hist[:, 1], np.full(enc.shape, f_n))
+            self.reply = (k + self.delay, np.rint(np.asarray(mm, float) * 65536.0).astype(np.int64))
+            if self.delay == 0:
+                ctrl.set_desired(self.reply[1])
+                self.reply = None
 
 
 def _record(rec, k: int, s, plant: Plant, ctrl, out: np.ndarray, enc, pot, f_n: float) -> None:

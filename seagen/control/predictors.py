@@ -1,4 +1,4 @@
-"""Predictors available to the closed loop: the kinematic inverse on the MCU (C + twin) and as a float."""
+"""Predictors available to the closed loop: the kinematic inverse and the generated SF/MLP models."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ def _kin_ctx(mod: ModuleType) -> object:
 
 def kinematic_mcu(predict_every: int = 1) -> McuPredictor:
     """The fixed-point kinematic inverse, sea_predict_kinematic, on the MCU."""
-    return McuPredictor("sea_predict_kinematic", _kin_ctx, predict_kinematic(KIN), predict_every)
+    return McuPredictor("sea_predict_kinematic", _kin_ctx, lambda: predict_kinematic(KIN), predict_every)
 
 
 def kinematic_float(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
@@ -33,3 +33,30 @@ def kinematic_float(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np
 def kinematic_cloud(latency_s: float = 0.1, refresh_hz: float = 10.0) -> CloudPredictor:
     """The float kinematic inverse off the MCU, refreshed at `refresh_hz` with `latency_s` delay."""
     return CloudPredictor(kinematic_float, latency_s, refresh_hz)
+
+
+def generated_mcu(prefix: str, predict_every: int = 1) -> McuPredictor:
+    """The generated fixed-point predictor `prefix` (generated/PREFIX.c, via cffi) with its per-tick twin.
+
+    Its feature pipeline differences consecutive calls, so it is meant to be called at 100 Hz (the
+    training rate); at predict_every > 1 its d_/dd_ inputs are predict_every times the trained scale.
+    """
+    from seagen.control.cbuild import generated_cdef, generated_ctx, generated_sources
+    from seagen.control.gentwin import StepTwin
+
+    return McuPredictor(
+        f"{prefix}_predict_q16",
+        generated_ctx(prefix),
+        lambda: StepTwin(prefix),
+        predict_every,
+        generated_cdef(prefix),
+        generated_sources(prefix),
+        stateful=True,
+    )
+
+
+def generated_cloud(prefix: str, latency_s: float = 0.1, refresh_hz: float = 10.0) -> CloudPredictor:
+    """The float model behind `prefix` off the MCU (the paper's set-up), over the Bluetooth link."""
+    from seagen.control.gentwin import float_predictor
+
+    return CloudPredictor(float_predictor(prefix), latency_s, refresh_hz)
