@@ -27,8 +27,10 @@ def step_data(out: Path, seed: int) -> Path:
         save_csv(df, data / f"{split}.csv")
     print(format_summary(summarize(data)))
     fr = measure_friction(PlantConfig())
-    print("friction at three angles, slow push (paper Fig. 8: 2.1 / 2.4 / 4.45 N): "
-          + ", ".join(f"{a:g}°: {v:.2f} N" for a, v in fr.items()))
+    print(
+        "friction at three angles, slow push (paper Fig. 8: 2.1 / 2.4 / 4.45 N): "
+        + ", ".join(f"{a:g}°: {v:.2f} N" for a, v in fr.items())
+    )
     return data
 
 
@@ -74,8 +76,8 @@ def step_control(out: Path, seed: int) -> None:
     if exp is None or not hasattr(exp, "table2"):
         print("(closed-loop comparison not available)")
         return
-    result = exp.table2(seed=seed)
-    print(exp.format_table2(result))
+    print(exp.format_table2(exp.simulate(seed=seed, plots=str(out / "plots"))))
+    print(f"step-response plots: {out / 'plots'}/step_*.png")
 
 
 def step_discrepancy(out: Path, seed: int) -> None:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 from seagen.errors import UserError
 
@@ -25,20 +24,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Run each configuration at 5, 10, 15 N over the contact angles; print Table II or JSON."""
-    from seagen.control.experiment import TABLE2_CONFIGS, format_table2, run_config
+    from seagen.control.experiment import TABLE2_CONFIGS, format_table2, simulate
 
     if args.latency < 0:
         raise UserError(f"--latency must be >= 0 s, got {args.latency}")
-    names = args.config or list(TABLE2_CONFIGS)
-    results = {n: run_config(n, args.latency, args.impl, args.seed) for n in names}
-    if args.plots:
-        from seagen.control.plots import step_plot
-
-        for n, res in results.items():
-            step_plot(n, res, Path(args.plots) / f"step_{n}.png")
-    table = {
-        n: {t: {k: v for k, v in r.items() if k != "trace"} for t, r in res.items()}
-        for n, res in results.items()
-    }
+    table = simulate(tuple(args.config or TABLE2_CONFIGS), args.latency, args.impl, args.seed, args.plots)
     print(json.dumps(table, indent=2) if args.json else format_table2(table))
     return 0

@@ -97,9 +97,27 @@ def table2(
     configs: tuple[str, ...] = TABLE2_CONFIGS, seed: int = 0, latency_s: float = 0.1, impl: str = "c"
 ) -> dict[str, dict[str, dict]]:
     """Table II measured in closed loop: {config: {"5"|"10"|"15": {error_avg_n, settling_s, ...}}}."""
-    res = {n: run_config(n, latency_s, impl, seed) for n in configs}
+    return simulate(configs, latency_s, impl, seed)
+
+
+def simulate(
+    names: tuple[str, ...] = TABLE2_CONFIGS,
+    latency_s: float = 0.1,
+    impl: str = "c",
+    seed: int = 0,
+    plots: str | None = None,
+) -> dict[str, dict[str, dict]]:
+    """Run the configurations, write a step-response plot of each into `plots`, return Table II."""
+    results = {n: run_config(n, latency_s, impl, seed) for n in names}
+    if plots:
+        from pathlib import Path
+
+        from seagen.control.plots import step_plot
+
+        for n, res in results.items():
+            step_plot(n, res, Path(plots) / f"step_{n}.png")
     return {
-        n: {t: {k: v for k, v in r.items() if k != "trace"} for t, r in x.items()} for n, x in res.items()
+        n: {t: {k: v for k, v in r.items() if k != "trace"} for t, r in x.items()} for n, x in results.items()
     }
 
 

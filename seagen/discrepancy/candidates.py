@@ -75,9 +75,11 @@ def _grid(c: Candidate, center: np.ndarray, half: float) -> list[np.ndarray]:
     return [np.array(p) for p in itertools.product(*axes)]
 
 
-def screen(cfg: PlantConfig, cands: list[Candidate], runs: Runs, sigma: dict, rounds: int = 3) -> None:
-    """Zooming grid search for all candidates at once (one batched replay per round)."""
-    half = {id(c): 0.5 for c in cands}
+def screen(
+    cfg: PlantConfig, cands: list[Candidate], runs: Runs, sigma: dict, rounds: int = 3, half0: float = 0.5
+) -> None:
+    """Zooming grid search for all candidates at once (one batched replay per round), from half-width half0."""
+    half = {id(c): half0 for c in cands}
     for _ in range(rounds):
         pts = [(c, u) for c in cands for u in _grid(c, c.u, half[id(c)])]
         chi = objective(cfg, [c.params(u) for c, u in pts], runs, sigma).sum(axis=1)
@@ -95,9 +97,10 @@ def _residual_vectors(cfg: PlantConfig, c: Candidate, us: list[np.ndarray], runs
     return [np.concatenate([z[ch][k][runs.mask] for ch in SCORE_CHANNELS]) for k in range(len(us))]
 
 
-def polish(cfg: PlantConfig, c: Candidate, runs: Runs, sigma: dict, step: float = 1e-3) -> None:
+def polish(cfg: PlantConfig, c: Candidate, runs: Runs, sigma: dict, nfev: int = POLISH_NFEV) -> None:
     """Refine a candidate with scipy least_squares; value and forward-difference Jacobian in one batch."""
     cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+    step = 1e-3
 
     def both(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         key = np.asarray(u, float).tobytes()
@@ -110,7 +113,7 @@ def polish(cfg: PlantConfig, c: Candidate, runs: Runs, sigma: dict, step: float 
         return cache[key]
 
     sol = least_squares(
-        lambda u: both(u)[0], c.u, jac=lambda u: both(u)[1], bounds=(0, 1), max_nfev=POLISH_NFEV, x_scale=0.1
+        lambda u: both(u)[0], c.u, jac=lambda u: both(u)[1], bounds=(0, 1), max_nfev=nfev, x_scale=0.1
     )
     chi = float(np.sum(sol.fun**2))
     if chi < c.chi2_fit:

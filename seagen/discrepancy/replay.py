@@ -152,9 +152,11 @@ def simulate(base: PlantConfig, sets: list[ParamSet], runs: Runs) -> dict[str, n
         out["force_n"][:, j] = out["load_cell_n"][:, j] / plant.ratio
         if j == t - 1:
             break
-        for _ in range(SAMPLE_EVERY):
+        for k in range(SAMPLE_EVERY):
             plant.step(volts[:, j])
-            drop += (kappa * np.abs(plant.current) - drop) * alpha
-            ptr = (ptr + 1) % size
-            ring[ptr] = plant.structure_force(plant.shaft_mm)[0]
+            if pvd:
+                drop += (kappa * np.abs(plant.current) - drop) * alpha
+            if size > 2 or k == SAMPLE_EVERY - 1:  # without a delay only the sampled force is needed
+                ptr = (ptr + 1) % size
+                ring[ptr] = plant.structure_force(plant.shaft_mm)[0]
     return {c: v.reshape(len(sets), n, t) for c, v in out.items()}

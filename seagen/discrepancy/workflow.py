@@ -8,7 +8,15 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from seagen.discrepancy.candidates import SPACE, Candidate, missing_effects, objective, polish, screen
+from seagen.discrepancy.candidates import (
+    POLISH_NFEV,
+    SPACE,
+    Candidate,
+    missing_effects,
+    objective,
+    polish,
+    screen,
+)
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
 from seagen.discrepancy.residuals import (
     n_scored,
@@ -30,6 +38,7 @@ DRIVE = (
 DBIC_MIN = 10.0  # 'very strong' evidence (Kass & Raftery) before an effect is named
 PER_SPLIT = 6  # trials per split (fit, held-out), spread over the contact angles
 BOOTSTRAP = 400
+PAIR_RMS = 1.2  # polish the best pair when the best single leaves more than this x the noise floor
 
 
 @dataclass
@@ -111,7 +120,7 @@ def _score(cfg, cands, held, sig_h, rng) -> tuple[pd.DataFrame, np.ndarray]:
         {
             "candidate": ["(none)"] + [c.label for c in cands],
             "k": k,
-            "chi2_fit": [np.nan] + [c.chi2_fit for c in cands],
+            "chi2_fit": [np.nan] + [c.chi2_fit if np.isfinite(c.chi2_fit) else np.nan for c in cands],
             "bic_held_out": bic,
             "rms_held_out": np.sqrt(chi.sum(axis=1) / n),
         }
@@ -119,7 +128,10 @@ def _score(cfg, cands, held, sig_h, rng) -> tuple[pd.DataFrame, np.ndarray]:
     return table, wins
 
 
-def best_addition(cfg: PlantConfig, fit: Runs, held: Runs, sig_f, sig_h, rng):
+ZOOM_HALF = 0.08  # final local grid search around the polished best single (unit-box half-width)
+
+
+def best_addition(cfg: PlantConfig, fit: Runs, held: Runs, sig_f, sig_h, rng, noise: float):
     """Fit every missing effect alone and the top ones in pairs; the held-out BIC winner or None."""
     singles = [Candidate((e,), np.full(len(SPACE[e]), 0.5)) for e in missing_effects(cfg)]
     if not singles:
@@ -127,12 +139,16 @@ def best_addition(cfg: PlantConfig, fit: Runs, held: Runs, sig_f, sig_h, rng):
     screen(cfg, singles, fit, sig_f)
     ranked = sorted(singles, key=lambda c: c.chi2_fit)
     polish(cfg, ranked[0], fit, sig_f)
-    top = sorted(ranked[:3], key=lambda c: c.chi2_fit)
-    pairs = [Candidate(a.names + b.names, np.concatenate([a.u, b.u])) for a, b in _pairs(top)]
-    if pairs:
-        polish(cfg, pairs[0], fit, sig_f)
+    screen(
+        cfg, [ranked[0]], fit, sig_f, rounds=3, half0=ZOOM_HALF
+    )  # derivative-free: stick-slip is not smooth
+    pairs = [Candidate(a.names + b.names, np.concatenate([a.u, b.u])) for a, b in _pairs(ranked[:3])]
     cands = singles + pairs
     table, wins = _score(cfg, cands, held, sig_h, rng)
+    best_single = table.loc[table["candidate"] == ranked[0].label, "rms_held_out"].iloc[0]
+    if pairs and best_single > PAIR_RMS * noise:  # one effect is clearly not enough: fit the pair properly
+        polish(cfg, pairs[0], fit, sig_f)
+        table, wins = _score(cfg, cands, held, sig_h, rng)
     table = table.sort_values("bic_held_out").reset_index(drop=True)
     if table["candidate"].iloc[0] == "(none)" or table["bic_held_out"].iloc[0] > _base_bic(table) - DBIC_MIN:
         return None, table
@@ -157,12 +173,17 @@ def _includes(cands: list[Candidate], win: int, effect: str) -> bool:
     return win > 0 and effect in cands[win - 1].names
 
 
-def _refit(base: PlantConfig, named: list[Named], fit: Runs, sig_f) -> list[Named]:
+def _structured(held: Runs, z: dict[str, np.ndarray], labels: dict[str, np.ndarray]) -> bool:
+    """Whether any region of the held-out residual is significantly off the noise."""
+    return bool(region_table(held, z, labels)["significant"].any())
+
+
+def _refit(base: PlantConfig, named: list[Named], fit: Runs, sig_f, nfev: int = POLISH_NFEV) -> list[Named]:
     """Polish all named effects together from the original base (undoes bias of the first fits)."""
     cand = Candidate(tuple(n.name for n in named), np.zeros(0))
     cand.u = np.array([_to_unit(e, p, n.params[p]) for n in named for e, p in cand.keys if e == n.name])
     cand.chi2_fit = float(objective(base, [cand.params()], fit, sig_f).sum())
-    polish(base, cand, fit, sig_f)
+    polish(base, cand, fit, sig_f, nfev=nfev)
     fitted = cand.params()
     return [Named(n.name, fitted[n.name], n.confidence) for n in named]
 
@@ -190,11 +211,16 @@ def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) 
     labels = region_labels(held)
     cfg, named, rounds, verdict = base, [], [], "none"
     z0 = z1 = _residual(base, held, sig_h)
+    floor = noise_floor(held, sig_h)
     for _ in range(max_rounds):
-        if not region_table(held, z1, labels)["significant"].any():
+        if named and _structured(held, z1, labels):  # first try to fit the named effects better
+            named = _refit(base, named, fit, sig_f, nfev=3 * POLISH_NFEV)
+            cfg = _apply(base, {n.name: n.params for n in named})
+            z1 = _residual(cfg, held, sig_h)
+        if not _structured(held, z1, labels):
             verdict = "explained" if named else "none"
             break
-        found, table = best_addition(cfg, fit, held, sig_f, sig_h, rng)
+        found, table = best_addition(cfg, fit, held, sig_f, sig_h, rng, floor)
         if table is not None:
             rounds.append(table)
         if found is None:
@@ -208,6 +234,6 @@ def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) 
         z1 = _residual(cfg, held, sig_h)
     else:
         verdict = "unexplained"
-    res = Result(named, verdict, cfg, held, z0, z1, noise_floor(held, sig_h), rounds)
+    res = Result(named, verdict, cfg, held, z0, z1, floor, rounds)
     res.seconds = time.perf_counter() - t0
     return res

@@ -1,0 +1,120 @@
+"""The generated C cross-compiled for Cortex-M4 and M0+ runs on an emulated core, bit for bit."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from seagen.build.cortexm import CPUS, CortexM, build_image, toolchain_missing
+from seagen.build.equivalence import first_mismatch
+from seagen.codegen.export import prepare
+from seagen.data.schema import load_split
+from seagen.errors import UserError
+from seagen.quant.features import external_inputs, step_features
+from seagen.quant.primitives import linkage_table_q16
+from seagen.reference import numpy_ref
+
+pytest.importorskip("unicorn", reason="unicorn (the Cortex-M emulator) is not installed: pip install unicorn")
+
+MODELS = Path(__file__).resolve().parents[1] / "generated" / "models"
+PREFIX = {
+    "mlp_calibration": "cal_mlp",
+    "sf_calibration": "cal_sf",
+    "mlp_control": "ctl_mlp",
+    "sf_control": "ctl_sf",
+}
+KEYS = [(m, cpu) for m in sorted(PREFIX) for cpu in CPUS]
+IDS = [f"{m}-{cpu}" for m, cpu in KEYS]
+
+
+@pytest.fixture(scope="module")
+def built():
+    """Every default model exported and cross-compiled for both cores, keyed by (model, cpu)."""
+    if msg := toolchain_missing():
+        pytest.skip(msg)
+    out = {}
+    for name, prefix in PREFIX.items():
+        ex = prepare(str(MODELS / f"{name}.pt"), prefix=prefix)
+        for cpu in CPUS:
+            out[(name, cpu)] = (ex, CortexM(ex.files, prefix, cpu))
+    return out
+
+
+def _random_inputs(qm, n: int, seed: int) -> np.ndarray:
+    """Half across the calibrated box widened by its span on each side, half across all of int16."""
+    rng = np.random.default_rng(seed)
+    lo = np.array([i.lo_q for i in qm.inputs])
+    hi = np.array([i.hi_q for i in qm.inputs])
+    span = hi - lo
+    near = rng.integers(
+        np.maximum(lo - span, -(2**15)), np.minimum(hi + span, 2**15 - 1) + 1, (n // 2, len(lo))
+    )
+    return np.vstack([near, rng.integers(-(2**15), 2**15, (n - n // 2, len(lo)))])
+
+
+def _edge_inputs(n_in: int) -> np.ndarray:
+    """0, +-1, INT16_MIN, INT16_MAX in every position (the others 0), and in all positions at once."""
+    vals = [0, 1, -1, -(2**15), 2**15 - 1]
+    rows = [np.full(n_in, v) for v in vals]
+    for i in range(n_in):
+        for v in vals:
+            r = np.zeros(n_in, dtype=np.int64)
+            r[i] = v
+            rows.append(r)
+    return np.array(rows)
+
+
+@pytest.mark.parametrize("key", KEYS, ids=IDS)
+def test_infer_bit_exact_on_random_and_edge_inputs(built, key):
+    """NAME_infer on the emulated core equals numpy_ref.infer exactly on random and edge inputs."""
+    ex, mcu = built[key]
+    x = np.vstack([_random_inputs(ex.qmodel, 400, 7), _edge_inputs(len(ex.qmodel.inputs))])
+    bad = first_mismatch(mcu.infer(x), numpy_ref.infer(ex.qmodel, x), x)
+    assert bad is None, f"{key} NAME_infer on {key[1]} vs numpy: {bad}"
+
+
+@pytest.mark.parametrize("key", KEYS, ids=IDS)
+def test_step_bit_exact_over_recorded_trials(built, key, data_dir):
+    """NAME_step on raw enc/pot (reset at trial starts) equals step_features + numpy_ref.infer exactly."""
+    ex, mcu = built[key]
+    qm = ex.qmodel
+    df = load_split(data_dir, "test")
+    ext = None
+    if names := external_inputs(qm):
+        fr = {i.signal.name: i.frac for i in qm.inputs}
+        cols = [np.rint(df[n].to_numpy() * 2.0 ** fr[n]) for n in names]
+        ext = np.clip(np.stack(cols, axis=1), -(2**15), 2**15 - 1).astype(np.int64)
+    want = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), df.enc, df.pot, df.trial, ext))
+    got = mcu.step(df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy(), ext)
+    bad = first_mismatch(got, want, df[["trial", "enc", "pot"]].to_numpy())
+    assert bad is None, f"{key} NAME_step on {key[1]} vs numpy pipeline: {bad}"
+
+
+def test_missing_toolchain_is_a_clear_error(monkeypatch, tmp_path):
+    """Without arm-none-eabi-gcc on PATH, building raises a UserError naming the packages to install."""
+    monkeypatch.setenv("PATH", str(tmp_path))
+    assert toolchain_missing() is not None
+    with pytest.raises(UserError, match="gcc-arm-none-eabi"):
+        build_image({"a.c": "int a(void);\nint a(void) { return 0; }\n"}, "cortex-m4", ("a",))
+
+
+def test_unknown_cpu_is_rejected():
+    """Only the cores the emulator models are accepted."""
+    if msg := toolchain_missing():
+        pytest.skip(msg)
+    with pytest.raises(UserError, match="cortex-m0plus"):
+        build_image({"a.c": "int a(void);\nint a(void) { return 0; }\n"}, "cortex-m7", ("a",))
+
+
+def test_m0plus_core_is_armv6m(built):
+    """The emulated M0+ has no Thumb-2: the Cortex-M4 image faults on it, so M0+ results are from M0+ code."""
+    from unicorn import UcError
+
+    from seagen.build.cortexm import Machine
+
+    _, m4 = built[("mlp_calibration", "cortex-m4")]
+    m0 = Machine(m4.image, "cortex-m0plus")
+    with pytest.raises(UcError):
+        m0.call("cal_mlp_run", np.zeros((1, m4.n_in), np.int16), 1, np.zeros(1, np.int16))
