@@ -78,7 +78,7 @@ def _grid(c: Candidate, center: np.ndarray, half: float) -> list[np.ndarray]:
 def screen(
     cfg: PlantConfig, cands: list[Candidate], runs: Runs, sigma: dict, rounds: int = 3, half0: float = 0.5
 ) -> None:
-    """Zooming grid search for all candidates at once (one batched replay per round), from half-width half0."""
+    """Zooming grid search for all candidates at once (one batched replay per round), half-width half0."""
     half = {id(c): half0 for c in cands}
     for _ in range(rounds):
         pts = [(c, u) for c in cands for u in _grid(c, c.u, half[id(c)])]
