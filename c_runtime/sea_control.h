@@ -3,10 +3,11 @@
  *   tick:  pot -> 10-tick ring buffer; every 10th tick the average is refreshed (10 Hz, rounded half
  *          to even); compression = sea_compression_q16(table, enc, pot average) (Q16 mm, 100 Hz);
  *          every `predict_every` ticks the predictor maps (enc, pot, desired force) to a prediction;
- *          the desired compression is the mean of the last `pred_avg` predictions; the PID (sea_pid.h) drives the compression there; returns the motor command, mV.
+ *          the desired compression is the mean of the last `pred_avg` predictions; the PID (sea_pid.h)
+ *          drives the compression there; returns the motor command, mV.
  *   faults: pot stuck at a rail, impossible encoder jump, desired force outside the calibrated range ->
  *          safe state: motor 0 mV, integrator cleared, fault bits latched until sea_control_reset().
- * Integers only, no malloc, C99. Twin: seagen/control/controller.py. Contract: CONTROL.md.
+ * Integers only, no malloc, C99. Twin: seagen/control/controller.py. Contract: c_runtime/README.md.
  */
 #ifndef SEA_CONTROL_H
 #define SEA_CONTROL_H

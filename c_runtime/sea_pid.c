@@ -1,4 +1,4 @@
-/* sea_pid.c -- fixed-point PID (contract in sea_pid.h and CONTROL.md); twin: seagen/control/pid.py. */
+/* sea_pid.c -- fixed-point PID (contract: sea_pid.h, c_runtime/README.md); twin: seagen/control/pid.py. */
 #include "sea_pid.h"
 
 #define SEA_PID_TERM_SHIFT (SEA_PID_GAIN_FRAC + SEA_COMP_FRAC_BITS - SEA_PID_OUT_FRAC)

@@ -1,4 +1,4 @@
-/* sea_pid.h -- fixed-point PID for spring-compression control (hand-written C; contract in CONTROL.md).
+/* sea_pid.h -- fixed-point PID for spring-compression control (hand-written C; contract: c_runtime/README.md).
  *
  * Parallel form, one call per control tick (10 ms):
  *   e     = setpoint - meas                          (Q16 mm, saturated to int32)
