@@ -48,7 +48,7 @@ int32_t sea_linkage_q16(const int32_t table[SEA_LINK_TABLE_LEN], int32_t pot);
  * saturated to int32. Any int32 enc and pot. */
 int32_t sea_compression_q16(const int32_t table[SEA_LINK_TABLE_LEN], int32_t enc, int32_t pot);
 
-/* --- added for the controller (c_runtime/CONTROL.md) ------------------------------------------------ */
+/* --- added for the controller (c_runtime/README.md) ------------------------------------------------ */
 
 /* Clamp v to [lo, hi] (lo <= hi expected; if lo > hi the result is lo). Any int64 values. */
 int64_t sea_clamp_s64(int64_t v, int64_t lo, int64_t hi);

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from seagen.codegen.export import Export
 
+GENERATED = Path(__file__).resolve().parents[1] / "generated"  # the repository's exports of the defaults
 DEFAULT_PREFIX = {
     "sf_calibration": "cal_sf",
     "mlp_calibration": "cal_mlp",

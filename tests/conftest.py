@@ -10,8 +10,13 @@ from seagen.data.features import MLP_FEATURES, derive
 from seagen.fit.modelfile import FeatureSpec, save_model
 
 CONTROL_FEATURES = ("force_n", "pot", "d_pot", "dd_pot", "d_enc", "dd_enc", "d_compression_mm")
-ACTS = {"relu": torch.nn.ReLU, "leaky_relu": lambda: torch.nn.LeakyReLU(0.05), "tanh": torch.nn.Tanh,
-        "sigmoid": torch.nn.Sigmoid, "hardtanh": lambda: torch.nn.Hardtanh(-2.0, 2.0)}
+ACTS = {
+    "relu": torch.nn.ReLU,
+    "leaky_relu": lambda: torch.nn.LeakyReLU(0.05),
+    "tanh": torch.nn.Tanh,
+    "sigmoid": torch.nn.Sigmoid,
+    "hardtanh": lambda: torch.nn.Hardtanh(-2.0, 2.0),
+}
 
 
 @pytest.fixture(scope="session")
@@ -56,22 +61,39 @@ def quick_mlp(df, inputs, output, hidden=(16, 32), act="relu", steps=200, seed=0
         loss.backward()
         opt.step()
     spec = FeatureSpec(tuple(inputs), tuple(mean), tuple(std), output_mean=float(ym), output_std=float(ys))
-    return {"kind": "mlp", "task": "control" if output == "compression_mm" else "calibration", "module": net,
-            "features": spec.to_dict(), "output_name": output, "output_units": "mm" if output != "force_n" else "N",
-            "input_range": [[float(x[:, i].min()), float(x[:, i].max())] for i in range(len(inputs))],
-            "output_range": [float(y.min()), float(y.max())], "loss": "mse", "seed": seed, "hidden": list(hidden)}
+    return {
+        "kind": "mlp",
+        "task": "control" if output == "compression_mm" else "calibration",
+        "module": net,
+        "features": spec.to_dict(),
+        "output_name": output,
+        "output_units": "mm" if output != "force_n" else "N",
+        "input_range": [[float(x[:, i].min()), float(x[:, i].max())] for i in range(len(inputs))],
+        "output_range": [float(y.min()), float(y.max())],
+        "loss": "mse",
+        "seed": seed,
+        "hidden": list(hidden),
+    }
 
 
 def quick_sf(df, inputs, output) -> dict:
     """A least-squares 3rd-order surface fit as a seagen model dict."""
     a, b = df[inputs[0]].to_numpy(), df[inputs[1]].to_numpy()
     powers = [(i, j) for i in range(4) for j in range(4) if i + j <= 3]
-    coef, *_ = np.linalg.lstsq(np.stack([a**i * b**j for i, j in powers], 1), df[output].to_numpy(), rcond=None)
-    return {"kind": "sf", "task": "control" if output == "compression_mm" else "calibration",
-            "sf": {"inputs": list(inputs), "powers": [list(p) for p in powers], "coef": coef.tolist()},
-            "output_name": output, "output_units": "mm" if output != "force_n" else "N",
-            "input_range": [[float(a.min()), float(a.max())], [float(b.min()), float(b.max())]],
-            "output_range": [float(df[output].min()), float(df[output].max())], "loss": "mse", "seed": 0}
+    coef, *_ = np.linalg.lstsq(
+        np.stack([a**i * b**j for i, j in powers], 1), df[output].to_numpy(), rcond=None
+    )
+    return {
+        "kind": "sf",
+        "task": "control" if output == "compression_mm" else "calibration",
+        "sf": {"inputs": list(inputs), "powers": [list(p) for p in powers], "coef": coef.tolist()},
+        "output_name": output,
+        "output_units": "mm" if output != "force_n" else "N",
+        "input_range": [[float(a.min()), float(a.max())], [float(b.min()), float(b.max())]],
+        "output_range": [float(df[output].min()), float(df[output].max())],
+        "loss": "mse",
+        "seed": 0,
+    }
 
 
 MODEL_CASES = {

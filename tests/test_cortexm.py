@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from seagen.build.cortexm import CPUS, CortexM, build_image, toolchain_missing
-from seagen.build.equivalence import first_mismatch
+from seagen.build.equivalence import edge_inputs, first_mismatch, random_inputs
 from seagen.codegen.export import prepare
 from seagen.data.schema import load_split
+from seagen.demo import DEFAULT_PREFIX, GENERATED
 from seagen.errors import UserError
 from seagen.quant.features import external_inputs, step_features
 from seagen.quant.primitives import linkage_table_q16
@@ -18,13 +17,8 @@ from seagen.reference import numpy_ref
 
 pytest.importorskip("unicorn", reason="unicorn (the Cortex-M emulator) is not installed: pip install unicorn")
 
-MODELS = Path(__file__).resolve().parents[1] / "generated" / "models"
-PREFIX = {
-    "mlp_calibration": "cal_mlp",
-    "sf_calibration": "cal_sf",
-    "mlp_control": "ctl_mlp",
-    "sf_control": "ctl_sf",
-}
+MODELS = GENERATED / "models"
+PREFIX = DEFAULT_PREFIX
 KEYS = [(m, cpu) for m in sorted(PREFIX) for cpu in CPUS]
 IDS = [f"{m}-{cpu}" for m, cpu in KEYS]
 
@@ -42,35 +36,11 @@ def built():
     return out
 
 
-def _random_inputs(qm, n: int, seed: int) -> np.ndarray:
-    """Half across the calibrated box widened by its span on each side, half across all of int16."""
-    rng = np.random.default_rng(seed)
-    lo = np.array([i.lo_q for i in qm.inputs])
-    hi = np.array([i.hi_q for i in qm.inputs])
-    span = hi - lo
-    near = rng.integers(
-        np.maximum(lo - span, -(2**15)), np.minimum(hi + span, 2**15 - 1) + 1, (n // 2, len(lo))
-    )
-    return np.vstack([near, rng.integers(-(2**15), 2**15, (n - n // 2, len(lo)))])
-
-
-def _edge_inputs(n_in: int) -> np.ndarray:
-    """0, +-1, INT16_MIN, INT16_MAX in every position (the others 0), and in all positions at once."""
-    vals = [0, 1, -1, -(2**15), 2**15 - 1]
-    rows = [np.full(n_in, v) for v in vals]
-    for i in range(n_in):
-        for v in vals:
-            r = np.zeros(n_in, dtype=np.int64)
-            r[i] = v
-            rows.append(r)
-    return np.array(rows)
-
-
 @pytest.mark.parametrize("key", KEYS, ids=IDS)
-def test_infer_bit_exact_on_random_and_edge_inputs(built, key):
+def test_infer_bit_exact_on_random_andedge_inputs(built, key):
     """NAME_infer on the emulated core equals numpy_ref.infer exactly on random and edge inputs."""
     ex, mcu = built[key]
-    x = np.vstack([_random_inputs(ex.qmodel, 400, 7), _edge_inputs(len(ex.qmodel.inputs))])
+    x = np.vstack([random_inputs(ex.qmodel, 400, 7), edge_inputs(len(ex.qmodel.inputs))])
     bad = first_mismatch(mcu.infer(x), numpy_ref.infer(ex.qmodel, x), x)
     assert bad is None, f"{key} NAME_infer on {key[1]} vs numpy: {bad}"
 

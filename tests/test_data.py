@@ -47,7 +47,11 @@ def _set_cell(lines, row, col, value):
 
 
 BAD_CSV = {
-    "missing column": (lambda L: L.__setitem__(0, L[0].replace("pot", "pott")), "column 'pot'", "missing column"),
+    "missing column": (
+        lambda L: L.__setitem__(0, L[0].replace("pot", "pott")),
+        "column 'pot'",
+        "missing column",
+    ),
     "non-numeric": (lambda L: _set_cell(L, 7, "enc", "abc"), "row 7, column 'enc'", "not a number"),
     "nan": (lambda L: _set_cell(L, 9, "force_n", "nan"), "row 9, column 'force_n'", "NaN"),
     "time backwards": (lambda L: _set_cell(L, 12, "t_s", "-1"), "row 12, column 't_s'", "backwards"),
@@ -60,8 +64,11 @@ def test_bad_csv_names_file_row_column_exit_2(case, data_dir, tmp_path):
     """A bad cell or column: message names file, row and column; exit 2; no traceback."""
     edit, where, what = BAD_CSV[case]
     p = _corrupt(data_dir, tmp_path, edit)
-    res = subprocess.run([sys.executable, "-m", "seagen.cli", "data", "summary", str(tmp_path), "--json"],
-                         capture_output=True, text=True)
+    res = subprocess.run(
+        [sys.executable, "-m", "seagen.cli", "data", "summary", str(tmp_path), "--json"],
+        capture_output=True,
+        text=True,
+    )
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert str(p) in res.stderr and where in res.stderr and what in res.stderr, res.stderr
 
@@ -71,8 +78,11 @@ def test_generate_with_bad_config_writes_nothing(tmp_path):
     cfg = tmp_path / "bad.toml"
     cfg.write_text("[effects.nope]\nenabled = true\n")
     out = tmp_path / "out"
-    res = subprocess.run([sys.executable, "-m", "seagen.cli", "data", "generate", "--out", str(out),
-                          "--config", str(cfg)], capture_output=True, text=True)
+    res = subprocess.run(
+        [sys.executable, "-m", "seagen.cli", "data", "generate", "--out", str(out), "--config", str(cfg)],
+        capture_output=True,
+        text=True,
+    )
     assert res.returncode == 2 and "effects.nope" in res.stderr
     assert not out.exists() or not any(out.iterdir())
 

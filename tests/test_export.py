@@ -7,7 +7,7 @@ import re
 import numpy as np
 import pytest
 
-from seagen.build.equivalence import compare, first_mismatch
+from seagen.build.equivalence import compare, edge_inputs, first_mismatch, random_inputs
 from seagen.build.model import CModel, sanitized_infer
 from seagen.codegen.export import prepare
 from seagen.data.features import derive
@@ -40,39 +40,14 @@ def built(model_files):
 KEYS = [(n, w) for n in CASES for w in WEIGHTS.get(n, ("int16",))]
 
 
-def _random_inputs(qm, n: int, seed: int) -> np.ndarray:
-    """Half across the calibrated box widened by its span, half across all of int16."""
-    rng = np.random.default_rng(seed)
-    lo = np.array([i.lo_q for i in qm.inputs])
-    hi = np.array([i.hi_q for i in qm.inputs])
-    span = hi - lo
-    near = rng.integers(
-        np.maximum(lo - span, -(2**15)), np.minimum(hi + span, 2**15 - 1) + 1, (n // 2, len(lo))
-    )
-    wide = rng.integers(-(2**15), 2**15, (n - n // 2, len(lo)))
-    return np.vstack([near, wide])
-
-
-def _edge_inputs(n_in: int) -> np.ndarray:
-    """0, +-1, INT16_MIN, INT16_MAX in every position (others 0), and all positions at once."""
-    vals = [0, 1, -1, -(2**15), 2**15 - 1]
-    rows = [np.full(n_in, v) for v in vals]
-    for i in range(n_in):
-        for v in vals:
-            r = np.zeros(n_in, dtype=np.int64)
-            r[i] = v
-            rows.append(r)
-    return np.array(rows)
-
-
 @pytest.mark.parametrize("key", KEYS, ids=[f"{n}-{w}" for n, w in KEYS])
 def test_random_and_edge_inputs_bit_exact(built, key):
     """100,000 random inputs across and beyond the calibrated range, and edge inputs: all four agree."""
     ex, c = built[key]
     onnx_model = None
     for name, x in (
-        ("random", _random_inputs(ex.qmodel, 100_000, 1)),
-        ("edge", _edge_inputs(len(ex.qmodel.inputs))),
+        ("random", random_inputs(ex.qmodel, 100_000, 1)),
+        ("edge", edge_inputs(len(ex.qmodel.inputs))),
     ):
         chk = compare(f"{key} {name}", ex.qmodel, c, x, onnx_model)
         assert chk.ok, chk.line()
@@ -126,7 +101,7 @@ def test_step_features_within_quantization_of_float_features(built, key, data_di
 def test_sanitized_build_agrees(built, key):
     """A UBSan+ASan build of the generated C runs random and edge inputs without a report, same integers."""
     ex, c = built[key]
-    x = np.vstack([_random_inputs(ex.qmodel, 20_000, 2), _edge_inputs(len(ex.qmodel.inputs))])
+    x = np.vstack([random_inputs(ex.qmodel, 20_000, 2), edge_inputs(len(ex.qmodel.inputs))])
     got = sanitized_infer(ex.files, ex.prefix, x, len(external_inputs(ex.qmodel)))
     assert np.array_equal(got, c.infer(x))
 

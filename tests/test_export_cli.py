@@ -15,10 +15,8 @@ from onnx import TensorProto, helper, numpy_helper
 
 from seagen.cli import main
 from seagen.codegen.export import prepare
-from seagen.demo import DEFAULT_PREFIX, regenerate
+from seagen.demo import DEFAULT_PREFIX, GENERATED, regenerate
 from seagen.fit.modelfile import load_model
-
-ROOT = Path(__file__).resolve().parent.parent
 
 
 def test_generated_is_regenerated_byte_for_byte(tmp_path):
@@ -26,12 +24,12 @@ def test_generated_is_regenerated_byte_for_byte(tmp_path):
     out = tmp_path / "gen"
     (out / "models").mkdir(parents=True)
     for name in DEFAULT_PREFIX:
-        (out / "models" / f"{name}.pt").write_bytes((ROOT / "generated/models" / f"{name}.pt").read_bytes())
+        (out / "models" / f"{name}.pt").write_bytes((GENERATED / "models" / f"{name}.pt").read_bytes())
     regenerate(out)
-    expected = sorted(p.name for p in (ROOT / "generated").iterdir() if p.is_file())
+    expected = sorted(p.name for p in (GENERATED).iterdir() if p.is_file())
     assert sorted(p.name for p in out.iterdir() if p.is_file()) == expected
     for name in expected:
-        assert (out / name).read_bytes() == (ROOT / "generated" / name).read_bytes(), f"{name} differs"
+        assert (out / name).read_bytes() == (GENERATED / name).read_bytes(), f"{name} differs"
 
 
 @pytest.mark.parametrize("name", ["mlp_calibration", "sf_calibration"])
@@ -39,7 +37,7 @@ def test_default_models_within_002_n(name, data_dir):
     """The default calibration MLP and SF, int16 weights: max |C - float| on the test set <= 0.02 N."""
     from seagen.build.equivalence import check_data_dir
 
-    ex = prepare(str(ROOT / "generated/models" / f"{name}.pt"), prefix=f"d_{name}")
+    ex = prepare(str(GENERATED / "models" / f"{name}.pt"), prefix=f"d_{name}")
     rep = check_data_dir(ex, str(data_dir))
     assert rep.ok, rep.report()
     assert rep.max_err <= 0.02, rep.report()

@@ -11,9 +11,9 @@ from seagen.data.features import derive
 from seagen.data.protocol import Move, run_trials
 from seagen.fit.kinematics import ERROR_THRESHOLD_N, kinematics_errors, shaft_force
 from seagen.plant import EFFECT_NAMES, PlantConfig, load_config, save_config
+from seagen.plant import geometry as g
 from seagen.plant.config import ConfigError
 from seagen.plant.experiments import measure_friction
-from seagen.plant import geometry as g
 
 K = g.SPRING_N_PER_MM
 
@@ -45,13 +45,17 @@ def m_onset_friction(df):  # k x compression at which the load cell leaves zero
 
 
 METRICS = {
-    "naive_excess": lambda df: float((shaft_force(loading(df, 8, 12).compression_mm, 0.0)
-                                      - loading(df, 8, 12).force_n).mean()),
+    "naive_excess": lambda df: float(
+        (shaft_force(loading(df, 8, 12).compression_mm, 0.0) - loading(df, 8, 12).force_n).mean()
+    ),
     "onset_friction": m_onset_friction,
     "enc_at_3_6n": lambda df: float(loading(df, 3, 6).enc.mean()),
-    "force_minus_k_delta_high": lambda df: float((loading(df, 9, 12).force_n
-                                                  - K * loading(df, 9, 12).compression_mm).mean()),
-    "force_minus_k_delta": lambda df: float((loading(df, 3, 10).force_n - K * loading(df, 3, 10).compression_mm).mean()),
+    "force_minus_k_delta_high": lambda df: float(
+        (loading(df, 9, 12).force_n - K * loading(df, 9, 12).compression_mm).mean()
+    ),
+    "force_minus_k_delta": lambda df: float(
+        (loading(df, 3, 10).force_n - K * loading(df, 3, 10).compression_mm).mean()
+    ),
     "pot_while_moving": lambda df: float(loading(df, 3, 10).pot.mean()),
     "pot_jitter": lambda df: float(loading(df, 3, 10).d_pot.std()),
     "load_cell_at_rest": lambda df: float(df.load_cell_n.iloc[:5].mean()),
@@ -135,12 +139,15 @@ def test_config_toml_round_trip(tmp_path):
     assert load_config(tmp_path / "p.toml") == cfg
 
 
-@pytest.mark.parametrize("text, where", [
-    ("[effects.backlash]\nwidth = 1\n", "effects.backlash.width"),
-    ("[effects.backlash]\nenabled = 3\n", "effects.backlash.enabled"),
-    ("[motor]\nstall_force_n = 'x'\n", "motor.stall_force_n"),
-    ("motor = [1", "not valid TOML"),
-])
+@pytest.mark.parametrize(
+    "text, where",
+    [
+        ("[effects.backlash]\nwidth = 1\n", "effects.backlash.width"),
+        ("[effects.backlash]\nenabled = 3\n", "effects.backlash.enabled"),
+        ("[motor]\nstall_force_n = 'x'\n", "motor.stall_force_n"),
+        ("motor = [1", "not valid TOML"),
+    ],
+)
 def test_bad_config_names_file_and_key(tmp_path, text, where):
     """A bad key or value raises ConfigError naming the file and the key."""
     p = tmp_path / "bad.toml"

@@ -15,20 +15,15 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
 
 import numpy as np
 
 from seagen.build.cortexm import CPUS, CortexM, Machine, build_image, toolchain_missing
+from seagen.demo import DEFAULT_PREFIX, GENERATED
 from seagen.ir import FloatMLP, FloatSF
 
-MODELS = Path(__file__).resolve().parents[2] / "generated" / "models"
-PREFIX = {
-    "mlp_calibration": "cal_mlp",
-    "mlp_control": "ctl_mlp",
-    "sf_calibration": "cal_sf",
-    "sf_control": "ctl_sf",
-}
+MODELS = GENERATED / "models"
+PREFIX = DEFAULT_PREFIX
 FLOAT_FLAGS = {"cortex-m4": ("-mfloat-abi=hard", "-mfpu=fpv4-sp-d16"), "cortex-m0plus": ("-mfloat-abi=soft",)}
 ACT = {"relu": "{v} > 0.0f ? {v} : 0.0f", "linear": "{v}"}
 

@@ -37,6 +37,30 @@ def first_mismatch(a: np.ndarray, b: np.ndarray, inputs: np.ndarray) -> str | No
     return f"row {i}, input {inputs[i].tolist()}: {int(a[i])} vs {int(b[i])}"
 
 
+def random_inputs(qm, n: int, seed: int) -> np.ndarray:
+    """n int16 input rows: half across the calibrated box widened by its span, half across all of int16."""
+    rng = np.random.default_rng(seed)
+    lo = np.array([i.lo_q for i in qm.inputs])
+    hi = np.array([i.hi_q for i in qm.inputs])
+    span = hi - lo
+    near = rng.integers(
+        np.maximum(lo - span, -(2**15)), np.minimum(hi + span, 2**15 - 1) + 1, (n // 2, len(lo))
+    )
+    return np.vstack([near, rng.integers(-(2**15), 2**15, (n - n // 2, len(lo)))])
+
+
+def edge_inputs(n_in: int) -> np.ndarray:
+    """0, +-1, INT16_MIN, INT16_MAX in every position (the others 0), and in all positions at once."""
+    vals = [0, 1, -1, -(2**15), 2**15 - 1]
+    rows = [np.full(n_in, v) for v in vals]
+    for i in range(n_in):
+        for v in vals:
+            r = np.zeros(n_in, dtype=np.int64)
+            r[i] = v
+            rows.append(r)
+    return np.array(rows)
+
+
 def compare(name: str, qm, c: CModel, x: np.ndarray, onnx_model=None) -> Check:
     """Run all four on int16 inputs x (N, n_in); numpy is the reference the others must equal."""
     ref = numpy_ref.infer(qm, x)

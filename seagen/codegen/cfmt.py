@@ -11,17 +11,50 @@ from seagen.errors import UserError
 
 _IDENT = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,30}$")
 _C_KEYWORDS = {
-    "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else", "enum", "extern",
-    "float", "for", "goto", "if", "inline", "int", "long", "register", "restrict", "return", "short", "signed",
-    "sizeof", "static", "struct", "switch", "typedef", "union", "unsigned", "void", "volatile", "while",
+    "auto",
+    "break",
+    "case",
+    "char",
+    "const",
+    "continue",
+    "default",
+    "do",
+    "double",
+    "else",
+    "enum",
+    "extern",
+    "float",
+    "for",
+    "goto",
+    "if",
+    "inline",
+    "int",
+    "long",
+    "register",
+    "restrict",
+    "return",
+    "short",
+    "signed",
+    "sizeof",
+    "static",
+    "struct",
+    "switch",
+    "typedef",
+    "union",
+    "unsigned",
+    "void",
+    "volatile",
+    "while",
 }
 
 
 def assert_valid_prefix(prefix: str) -> str:
     """A C identifier usable as the prefix of every emitted symbol (letters, digits, _, <= 31 chars)."""
     if not _IDENT.match(prefix) or prefix in _C_KEYWORDS or keyword.iskeyword(prefix):
-        raise UserError(f"invalid prefix {prefix!r}: use a C identifier of letters, digits and '_', starting "
-                        "with a letter, at most 31 characters, not a C keyword")
+        raise UserError(
+            f"invalid prefix {prefix!r}: use a C identifier of letters, digits and '_', starting "
+            "with a letter, at most 31 characters, not a C keyword"
+        )
     if prefix.lower().startswith("sea_"):
         raise UserError(f"invalid prefix {prefix!r}: 'sea_' is reserved for the seagen runtime")
     return prefix

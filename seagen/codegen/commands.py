@@ -8,7 +8,8 @@ import argparse
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the `export` command."""
     p = sub.add_parser(
-        "export", help="quantize a model and emit integer-only C (NAME.h, NAME.c + runtime)",
+        "export",
+        help="quantize a model and emit integer-only C (NAME.h, NAME.c + runtime)",
         description="Quantize MODEL to fixed point and write NAME.h/NAME.c rendered from templates, the C "
         "runtime it needs, and optionally the quantized ONNX graph. MODEL: a model.pt from `seagen train`, "
         "a torch.save'd nn.Sequential, a TorchScript module, or an .onnx (Linear/Gemm with ReLU, LeakyReLU, "
@@ -17,12 +18,20 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("model", metavar="MODEL", help="model file (.pt, TorchScript or .onnx)")
     p.add_argument("--out", default=".", help="output directory (default: current)")
     p.add_argument("--prefix", help="C symbol prefix NAME (default: from the file name)")
-    p.add_argument("--weights", choices=("int16", "int8"), default="int16", help="weight width (default int16)")
+    p.add_argument(
+        "--weights", choices=("int16", "int8"), default="int16", help="weight width (default int16)"
+    )
     p.add_argument("--calib", metavar="DIR", help="data directory whose train.csv gives the input ranges")
-    p.add_argument("--features", metavar="SPEC", help="feature specification (JSON or TOML) for bare networks")
+    p.add_argument(
+        "--features", metavar="SPEC", help="feature specification (JSON or TOML) for bare networks"
+    )
     p.add_argument("--onnx", action="store_true", help="also write the quantized integer graph NAME.onnx")
-    p.add_argument("--check", metavar="DIR", help="after writing, check C == numpy == torch == onnxruntime on "
-                   "DIR's test and validation sets and report max |C - float|")
+    p.add_argument(
+        "--check",
+        metavar="DIR",
+        help="after writing, check C == numpy == torch == onnxruntime on "
+        "DIR's test and validation sets and report max |C - float|",
+    )
     p.set_defaults(func=cmd_export)
 
 

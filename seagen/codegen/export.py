@@ -61,8 +61,14 @@ def default_prefix(model_path: str) -> str:
     return stem if stem[:1].isalpha() else f"m_{stem}"
 
 
-def prepare(model_path: str, prefix: str | None = None, weights: str = "int16", calib: str | None = None,
-            features: str | None = None, with_onnx: bool = False) -> Export:
+def prepare(
+    model_path: str,
+    prefix: str | None = None,
+    weights: str = "int16",
+    calib: str | None = None,
+    features: str | None = None,
+    with_onnx: bool = False,
+) -> Export:
     """Everything of an export, in memory (nothing is written)."""
     prefix = assert_valid_prefix(prefix or default_prefix(model_path))
     bits = {"int16": 16, "int8": 8}.get(weights)

@@ -23,7 +23,10 @@ def environment() -> jinja2.Environment:
     """Jinja with StrictUndefined, trim_blocks, lstrip_blocks and the C formatting filters."""
     env = jinja2.Environment(
         loader=jinja2.FunctionLoader(lambda name: (resources.files("seagen.templates") / name).read_text()),
-        undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
         autoescape=False,
     )
     env.filters["c_array"] = c_array
@@ -48,21 +51,45 @@ def _layers(qm: QModel, prefix: str) -> list[dict[str, Any]]:
     out = []
     for k, q in enumerate(qm.layers):
         t = tables.get(f"l{k}_{q.activation}")
-        out.append({
-            "k": k, "n_in": q.w_q.shape[1], "n_out": q.w_q.shape[0], "w": q.w_q, "b": q.b_q,
-            "wbits": qm.weight_bits, "abits": q.acc_bits, "shift": q.shift, "act": q.activation,
-            "params": q.act_params, "src": f"buf{k % 2}", "dst": f"buf{(k + 1) % 2}",
-            "table": None if t is None else {"name": f"{prefix}_{t.name}", "values": t.values,
-                                             "in_shift": t.in_shift, "offset": t.offset},
-        })
+        out.append(
+            {
+                "k": k,
+                "n_in": q.w_q.shape[1],
+                "n_out": q.w_q.shape[0],
+                "w": q.w_q,
+                "b": q.b_q,
+                "wbits": qm.weight_bits,
+                "abits": q.acc_bits,
+                "shift": q.shift,
+                "act": q.activation,
+                "params": q.act_params,
+                "src": f"buf{k % 2}",
+                "dst": f"buf{(k + 1) % 2}",
+                "table": None
+                if t is None
+                else {
+                    "name": f"{prefix}_{t.name}",
+                    "values": t.values,
+                    "in_shift": t.in_shift,
+                    "offset": t.offset,
+                },
+            }
+        )
     return out
 
 
 def _features(qm: QModel) -> list[dict[str, Any]]:
-    expr = {"base": "b[{i}]", "d": "d[{i}]", "dd": "dd[{i}]", "external": "ext[{i}]",
-            "angle": "(int64_t)pot * SEA_POT_DEG_Q24 + SEA_POT_OFFSET_Q24"}
-    return [{"expr": expr[s.kind].format(i=s.index), "from": s.from_frac, "to": s.to_frac, "kind": s.kind}
-            for s in feature_plan(qm)]
+    expr = {
+        "base": "b[{i}]",
+        "d": "d[{i}]",
+        "dd": "dd[{i}]",
+        "external": "ext[{i}]",
+        "angle": "(int64_t)pot * SEA_POT_DEG_Q24 + SEA_POT_OFFSET_Q24",
+    }
+    return [
+        {"expr": expr[s.kind].format(i=s.index), "from": s.from_frac, "to": s.to_frac, "kind": s.kind}
+        for s in feature_plan(qm)
+    ]
 
 
 def _predictor(qm: QModel) -> dict[str, int] | None:
@@ -78,12 +105,27 @@ def context(qm: QModel, prefix: str) -> dict[str, Any]:
     prefix = assert_valid_prefix(prefix)
     width = max([len(qm.inputs)] + [q.w_q.shape[0] for q in qm.layers])
     return {
-        "P": prefix, "PU": prefix.upper(), "version": __version__, "hash": model_hash(qm), "qm": qm,
-        "kind": qm.kind, "n_in": len(qm.inputs), "inputs": qm.inputs, "output": qm.output,
-        "out_frac": qm.out_frac, "summary": summary_lines(qm), "layers": _layers(qm, prefix), "width": width,
-        "n_layers": len(qm.layers), "horner": qm.horner, "n_regs": qm.n_regs, "out_shift": qm.out_shift,
-        "features": _features(qm), "needs_diff": any(f["kind"] in ("d", "dd") for f in _features(qm)),
-        "externals": external_inputs(qm), "link": linkage_table_q16(),
+        "P": prefix,
+        "PU": prefix.upper(),
+        "version": __version__,
+        "hash": model_hash(qm),
+        "qm": qm,
+        "kind": qm.kind,
+        "n_in": len(qm.inputs),
+        "inputs": qm.inputs,
+        "output": qm.output,
+        "out_frac": qm.out_frac,
+        "summary": summary_lines(qm),
+        "layers": _layers(qm, prefix),
+        "width": width,
+        "n_layers": len(qm.layers),
+        "horner": qm.horner,
+        "n_regs": qm.n_regs,
+        "out_shift": qm.out_shift,
+        "features": _features(qm),
+        "needs_diff": any(f["kind"] in ("d", "dd") for f in _features(qm)),
+        "externals": external_inputs(qm),
+        "link": linkage_table_q16(),
         "predictor": _predictor(qm),
     }
 
@@ -92,5 +134,7 @@ def render(qm: QModel, prefix: str) -> dict[str, str]:
     """{NAME.h, NAME.c} rendered from templates/ (the runtime files are added by the exporter)."""
     env = environment()
     ctx = context(qm, prefix)
-    return {f"{prefix}.h": env.get_template("model.h.j2").render(ctx),
-            f"{prefix}.c": env.get_template("model.c.j2").render(ctx)}
+    return {
+        f"{prefix}.h": env.get_template("model.h.j2").render(ctx),
+        f"{prefix}.c": env.get_template("model.c.j2").render(ctx),
+    }

@@ -25,15 +25,23 @@ def summary_lines(qm: QModel) -> list[str]:
     lines = [f"model: {qm.kind} ({qm.task}), output {qm.output.name} [{qm.output.unit}] in Q{qm.out_frac}"]
     for i, qi in enumerate(qm.inputs):
         s = qi.signal
-        lines.append(f"in[{i}] {s.name} [{s.unit}] Q{qi.frac}, calibrated {s.lo:.6g}..{s.hi:.6g}, "
-                     f"clamped to {qi.lo_q}..{qi.hi_q}")
+        lines.append(
+            f"in[{i}] {s.name} [{s.unit}] Q{qi.frac}, calibrated {s.lo:.6g}..{s.hi:.6g}, "
+            f"clamped to {qi.lo_q}..{qi.hi_q}"
+        )
     for k, q in enumerate(qm.layers):
-        lines.append(f"layer {k}: {q.w_q.shape[1]}->{q.w_q.shape[0]} {q.activation}, weights int{qm.weight_bits} "
-                     f"Q{q.w_frac}, acc int{q.acc_bits} Q{q.w_frac + q.in_frac}, out Q{q.out_frac} (shift {q.shift})")
+        lines.append(
+            f"layer {k}: {q.w_q.shape[1]}->{q.w_q.shape[0]} {q.activation}, weights int{qm.weight_bits} "
+            f"Q{q.w_frac}, acc int{q.acc_bits} Q{q.w_frac + q.in_frac}, out Q{q.out_frac} (shift {q.shift})"
+        )
     if qm.kind == "sf":
-        lines.append(f"surface fit: {len(qm.horner)} Horner steps on {qm.n_regs} int32 registers, int64 products")
+        lines.append(
+            f"surface fit: {len(qm.horner)} Horner steps on {qm.n_regs} int32 registers, int64 products"
+        )
     m = memory(qm)
     lines.append(f"flash (const data) {m['flash_data_bytes']} B, RAM {m['ram_bytes']} B")
-    lines.append(f"proven |fixed - float| <= {qm.error_bound:.6g} {qm.output.unit} over the calibrated box "
-                 f"(widened 12.5 % each side)")
+    lines.append(
+        f"proven |fixed - float| <= {qm.error_bound:.6g} {qm.output.unit} over the calibrated box "
+        f"(widened 12.5 % each side)"
+    )
     return lines

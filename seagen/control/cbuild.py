@@ -11,10 +11,10 @@ import numpy as np
 from seagen.build import host
 from seagen.build.runtime import runtime_sources
 from seagen.control.controller import ControlConfig, KinParams
+from seagen.demo import GENERATED
 
 SOURCES = ("sea_fixed.h", "sea_fixed.c", "sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c")
 NN_SOURCES = ("sea_nn.h", "sea_nn.c")
-GENERATED = Path(__file__).resolve().parents[2] / "generated"
 
 PID_CDEF = """
 typedef struct { int32_t kp; int32_t ki; int32_t kd; int32_t d_alpha; int32_t margin;

@@ -3,18 +3,17 @@
 from __future__ import annotations
 
 from functools import cache
-from pathlib import Path
 
 import numpy as np
 
 from seagen.control.controller import FORCE_FRAC
+from seagen.demo import GENERATED
 from seagen.plant import geometry as g
 from seagen.quant import kernels as K
 from seagen.quant import primitives as P
 from seagen.quant.features import feature_plan
 from seagen.reference import float_ref, numpy_ref
 
-GENERATED = Path(__file__).resolve().parents[2] / "generated"
 MODEL_FILES = {"ctl_sf": "sf_control.pt", "ctl_mlp": "mlp_control.pt"}
 
 

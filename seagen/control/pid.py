@@ -48,7 +48,7 @@ class PidParams:
         return (self.kp, self.ki, self.kd, self.d_alpha, self.margin, self.out_min, self.out_max)
 
 
-# The gains tuned on the simulated plant (see c_runtime/README.md): 24 V/mm, 6 V/(mm s), 0.1 V s/mm, alpha 0.5.
+# Gains tuned on the simulated plant (c_runtime/README.md): 24 V/mm, 6 V/(mm s), 0.1 V s/mm, alpha 0.5.
 DEFAULT_PID = PidParams.from_si(24.0, 6.0, 0.1, 0.5)
 
 

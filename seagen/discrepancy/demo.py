@@ -41,6 +41,8 @@ def run_demo(out: Path, seed: int = 0) -> dict:
     for e in s["effects"]:
         params = ", ".join(f"{k}={v:.4g}" for k, v in e["params"].items())
         print(f"named: {e['name']} ({params}), confidence {e['confidence']:.0%}")
-    print(f"verdict: {s['verdict']}; held-out residual RMS {s['rms_before']:.3g} -> {s['rms_after']:.3g} "
-          f"noise sigmas (noise floor {s['noise_floor']:.3g}); report: {out / 'report' / 'report.md'}")
+    print(
+        f"verdict: {s['verdict']}; held-out residual RMS {s['rms_before']:.3g} -> {s['rms_after']:.3g} "
+        f"noise sigmas (noise floor {s['noise_floor']:.3g}); report: {out / 'report' / 'report.md'}"
+    )
     return s
