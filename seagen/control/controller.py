@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
+from typing import Any
 
 import numpy as np
 
@@ -91,7 +92,7 @@ class ControlState:
 
 def _where(mask: np.ndarray, a: ControlState, b: ControlState) -> ControlState:
     """Per element: `a` where mask, else `b`."""
-    vals = {}
+    vals: dict[str, Any] = {}
     for f in fields(ControlState):
         x, y = getattr(a, f.name), getattr(b, f.name)
         if f.name == "pid":

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from types import ModuleType
+from typing import Any
 
 import numpy as np
 
@@ -76,7 +77,7 @@ class PyController:
         return np.asarray(getattr(self.s, name), dtype=np.int64)
 
 
-def make_controller(impl: str, pred: McuPredictor | CloudPredictor, c: ControlConfig) -> object:
+def make_controller(impl: str, pred: McuPredictor | CloudPredictor, c: ControlConfig) -> Any:
     """The C (`impl='c'`, built by cffi) or Python (`'py'`) controller for this predictor."""
     if isinstance(pred, McuPredictor):
         c = replace(c, predictor=pred.make_twin(), predict_every=pred.predict_every)

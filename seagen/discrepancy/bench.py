@@ -108,7 +108,7 @@ def run_case(kind: str, effects: tuple[str, ...], seed: int) -> dict:
 
 def plan(seeds: int) -> list[tuple[str, tuple[str, ...], int]]:
     """Cases per seed: every hideable effect alone, the control, one random pair and one hard pair."""
-    out = []
+    out: list[tuple[str, tuple[str, ...], int]] = []
     for s in range(seeds):
         rng = np.random.default_rng(10_000 + s)
         out += [("single", (e,), 100 * s + i) for i, e in enumerate(HIDEABLE)]

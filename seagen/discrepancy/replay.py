@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -111,7 +112,7 @@ def union_config(base: PlantConfig, sets: list[ParamSet], n: int) -> tuple[Plant
     """A config whose effect parameters are arrays over sets x trials, and the sensor-side arrays."""
     used = {e for s in sets for e in s}
     cfg = base.with_effect("pot_noise", False)
-    post: dict[str, dict[str, np.ndarray]] = {}
+    post: dict[str, dict[str, Any]] = {}
     for e in EFFECT_NAMES:
         if e == "pot_noise" or (e not in used and not base.on(e)):
             continue
@@ -121,7 +122,7 @@ def union_config(base: PlantConfig, sets: list[ParamSet], n: int) -> tuple[Plant
             post[e] = arrays
             cfg = cfg.with_effect(e, False)
         else:
-            cfg = cfg.with_effect(e, True, **arrays)
+            cfg = cfg.with_effect(e, True, **arrays)  # type: ignore[arg-type]  # arrays broadcast like floats
     return cfg, post
 
 

@@ -209,7 +209,8 @@ def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) 
     fit, held = runs.take(fit_i), runs.take(held_i)
     sig_f, sig_h = ({c: s[i] for c, s in sig.items()} for i in (fit_i, held_i))
     labels = region_labels(held)
-    cfg, named, rounds, verdict = base, [], [], "none"
+    named: list[Named] = []
+    cfg, rounds, verdict = base, [], "none"
     z0 = z1 = _residual(base, held, sig_h)
     floor = noise_floor(held, sig_h)
     for _ in range(max_rounds):
