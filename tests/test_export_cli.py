@@ -155,7 +155,26 @@ def _no_range(tmp: Path, files: dict) -> list[str]:
     return [str(tmp / "bare.pt"), "--features", str(tmp / "s.json")]
 
 
+def _bad_onnx(tmp: Path, files: dict) -> list[str]:
+    w = numpy_helper.from_array(np.ones((1, 9), dtype=np.float32), "W")
+    b = numpy_helper.from_array(np.zeros(1, dtype=np.float32), "B")
+    nodes = [
+        helper.make_node("Gemm", ["input", "W", "B"], ["h"], transB=1),
+        helper.make_node("Softmax", ["h"], ["y"]),
+    ]
+    graph = helper.make_graph(
+        nodes,
+        "g",
+        [helper.make_tensor_value_info("input", TensorProto.FLOAT, ["N", 9])],
+        [helper.make_tensor_value_info("y", TensorProto.FLOAT, ["N", 1])],
+        [w, b],
+    )
+    onnx.save(helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)]), tmp / "soft.onnx")
+    return [str(tmp / "soft.onnx"), "--features", str(_spec_file(tmp / "s.json", files["mlp_relu"]))]
+
+
 BAD = {
+    "unsupported onnx node": (_bad_onnx, "unsupported ONNX node Softmax"),
     "unsupported layer": (_bad_layer, "unsupported Dropout"),
     "input width": (_bad_width, "takes 9 inputs"),
     "nan weights": (_bad_nan, "NaN or Inf"),

@@ -21,9 +21,11 @@ class Check:
 
     @property
     def ok(self) -> bool:
+        """No implementation differed."""
         return not self.mismatches
 
     def line(self) -> str:
+        """One line for the console."""
         if self.ok:
             return f"{self.name}: {self.rows} rows, {self.compared} (bit for bit)"
         return f"{self.name}: MISMATCH " + "; ".join(f"{k}: {v}" for k, v in self.mismatches.items())
@@ -88,9 +90,11 @@ class DataReport:
 
     @property
     def ok(self) -> bool:
+        """Every check passed."""
         return all(c.ok for c in self.checks)
 
     def report(self) -> str:
+        """The checks and the float-vs-fixed error as text."""
         lines = [c.line() for c in self.checks]
         lines.append(
             f"max |C - float| on the test set: {self.max_err:.5f} {self.unit} "

@@ -12,45 +12,52 @@ from seagen.ir import FloatLayer
 _ACTS = {"Relu": "relu", "LeakyRelu": "leaky_relu", "Clip": "hardtanh", "Tanh": "tanh", "Sigmoid": "sigmoid"}
 
 
-def onnx_layers(path: Path) -> list[FloatLayer]:
-    """Walk the graph in order; every node must be one of the supported layer types."""
+def _read(path: Path) -> tuple[object, dict[str, np.ndarray]]:
+    """The ONNX model and its constant tensors (initializers and Constant nodes) as float arrays."""
     import onnx
     from onnx import numpy_helper
 
     try:
         model = onnx.load(str(path))
-    except Exception as e:
+    except Exception as e:  # onnx raises several types for unreadable files
         raise UserError(f"{path}: not a readable ONNX file: {e}") from None
     init = {t.name: numpy_helper.to_array(t).astype(float) for t in model.graph.initializer}
-    consts = {
-        n.output[0]: numpy_helper.to_array(n.attribute[0].t).astype(float)
-        for n in model.graph.node
-        if n.op_type == "Constant"
-    }
-    init.update(consts)
+    for n in model.graph.node:
+        if n.op_type == "Constant":
+            init[n.output[0]] = numpy_helper.to_array(n.attribute[0].t).astype(float)
+    return model, init
+
+
+def _apply(layers: list[FloatLayer], node, attrs: dict, init: dict, path: Path) -> None:
+    """Append or complete a layer for one graph node; anything else is an unsupported node."""
+    op = node.op_type
+    if op == "Gemm":
+        w = init[node.input[1]]
+        w = w if attrs.get("transB", 0) else w.T
+        b = init[node.input[2]] if len(node.input) > 2 else np.zeros(w.shape[0])
+        layers.append(FloatLayer(w * attrs.get("alpha", 1.0), b * attrs.get("beta", 1.0)))
+    elif op == "MatMul" and node.input[1] in init:
+        w = init[node.input[1]].T
+        layers.append(FloatLayer(w, np.zeros(w.shape[0])))
+    elif op == "Add" and layers and any(i in init for i in node.input):
+        bias = init[next(i for i in node.input if i in init)].reshape(-1)
+        layers[-1] = FloatLayer(layers[-1].weight, layers[-1].bias + bias)
+    elif op in _ACTS and layers:
+        layers[-1] = _act(layers[-1], op, node, attrs, init)
+    else:
+        raise UserError(f"{path}: unsupported ONNX node {op} ('{node.name}')")
+
+
+def onnx_layers(path: Path) -> list[FloatLayer]:
+    """Walk the graph in order; every node must be one of the supported layer types."""
+    import onnx
+
+    model, init = _read(path)
     layers: list[FloatLayer] = []
-    pending_w: np.ndarray | None = None
-    for node in model.graph.node:
-        op = node.op_type
-        attrs = {a.name: onnx.helper.get_attribute_value(a) for a in node.attribute}
-        if op == "Constant":
-            continue
-        if op == "Gemm":
-            w = init[node.input[1]]
-            w = w if attrs.get("transB", 0) else w.T
-            b = init[node.input[2]] if len(node.input) > 2 else np.zeros(w.shape[0])
-            layers.append(FloatLayer(w * attrs.get("alpha", 1.0), b * attrs.get("beta", 1.0)))
-        elif op == "MatMul":
-            pending_w = init[node.input[1]].T
-            layers.append(FloatLayer(pending_w, np.zeros(pending_w.shape[0])))
-        elif op == "Add" and pending_w is not None:
-            name = next(i for i in node.input if i in init)
-            layers[-1] = FloatLayer(layers[-1].weight, init[name].reshape(-1))
-            pending_w = None
-        elif op in _ACTS and layers:
-            layers[-1] = _act(layers[-1], op, node, attrs, init)
-        else:
-            raise UserError(f"{path}: unsupported ONNX node {op} ('{node.name}')")
+    for node in model.graph.node:  # type: ignore[attr-defined]
+        if node.op_type != "Constant":
+            attrs = {a.name: onnx.helper.get_attribute_value(a) for a in node.attribute}
+            _apply(layers, node, attrs, init, path)
     if not layers:
         raise UserError(f"{path}: no Gemm or MatMul layer found")
     for i, lay in enumerate(layers):

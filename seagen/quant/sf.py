@@ -25,6 +25,7 @@ class _Reg:
 
     @property
     def mag(self) -> float:
+        """Largest magnitude of the interval."""
         return max(abs(self.lo), abs(self.hi))
 
 
@@ -42,6 +43,7 @@ class _Planner:
         self.regs: dict[int, _Reg] = {}
 
     def load(self, dst: int, c: float) -> None:
+        """r[dst] = constant c in its own Q format."""
         f = frac_for(abs(c), REG_LIMIT)
         q = int(np.rint(c * 2.0**f))
         self.ops.append(QHorner(dst, -1, -1, -1, q, 0, 0, f))

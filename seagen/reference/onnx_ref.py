@@ -28,12 +28,14 @@ class _Graph:
         self.n = 0
 
     def const(self, value: object, name: str = "c") -> str:
+        """An int64 initializer; returns its name."""
         self.n += 1
         full = f"{name}_{self.n}"
         self.inits.append(numpy_helper.from_array(np.asarray(value, dtype=np.int64), full))
         return full
 
     def op(self, kind: str, *inputs: str, **attrs: Any) -> str:
+        """A node with one output; returns the output's name."""
         self.n += 1
         out = f"{kind.lower()}_{self.n}"
         self.nodes.append(helper.make_node(kind, list(inputs), [out], **attrs))
@@ -52,6 +54,7 @@ class _Graph:
         return self.op("Add", q, self.op("Cast", up, to=TensorProto.INT64))
 
     def clip(self, v: str, lo: object, hi: object) -> str:
+        """Saturate v to [lo, hi] (int64 Clip)."""
         return self.op("Clip", v, self.const(lo, "lo"), self.const(hi, "hi"))
 
 
