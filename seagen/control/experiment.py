@@ -112,10 +112,11 @@ def simulate(
     if plots:
         from pathlib import Path
 
-        from seagen.control.plots import step_plot
+        from seagen.control.plots import comparison_plot, step_plot
 
         for n, res in results.items():
             step_plot(n, res, Path(plots) / f"step_{n}.png")
+        comparison_plot(results, Path(plots) / "step_compare.png")
     return {
         n: {t: {k: v for k, v in r.items() if k != "trace"} for t, r in x.items()} for n, x in results.items()
     }

@@ -29,3 +29,29 @@ def step_plot(name: str, results: dict[str, dict], path: Path, angle_index: int 
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=120)
     plt.close(fig)
+
+
+def comparison_plot(results: dict[str, dict[str, dict]], path: Path, angle_index: int = 2) -> None:
+    """Paper Fig. 17 style: every configuration's force at every target, one contact angle, one panel."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from seagen.control.experiment import CONTACT_DEG, smoothed
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    styles = dict(zip(results, ("-", "--", ":", "-."), strict=False))
+    for (name, res), color in zip(results.items(), ("C0", "C1", "C2", "C3"), strict=False):
+        for k, (target, r) in enumerate(res.items()):
+            rec = r["trace"]
+            f = smoothed(rec["force_n"])[:, angle_index]
+            ax.plot(rec["t_s"][:, angle_index], f, styles[name], color=color, label=name if k == 0 else None)
+            ax.axhline(float(target), color="grey", lw=0.5)
+    ax.set(xlabel="time (s)", ylabel="force at the SEA shaft (N)", xlim=(0, 4))
+    ax.set_title(f"5 / 10 / 15 N, contact at {CONTACT_DEG[angle_index]:.0f} deg")
+    ax.legend()
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=120)
+    plt.close(fig)
