@@ -5,13 +5,13 @@ from __future__ import annotations
 from types import ModuleType
 
 import numpy as np
+import pandas as pd
 
 from seagen.control.controller import KinParams, predict_kinematic
 from seagen.control.loop import CloudPredictor, McuPredictor
-from seagen.plant import geometry as g
+from seagen.fit.predict import kinematics_predict
 
 KIN = KinParams()
-KIN_FRICTION_N = 2.7  # the actuator friction the kinematic inverse assumes (paper Fig. 7)
 
 
 def _kin_ctx(mod: ModuleType) -> object:
@@ -26,8 +26,8 @@ def kinematic_mcu(predict_every: int = 1) -> McuPredictor:
 
 
 def kinematic_float(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
-    """The kinematic inverse in float: compression (mm) = (F + 2.7 N) / 4.2 N/mm."""
-    return (np.asarray(force_n, dtype=float) + KIN_FRICTION_N) / g.SPRING_N_PER_MM
+    """The kinematic inverse in float: compression (mm) = (F + 2.7 N) / 4.2 N/mm (seagen.fit.predict)."""
+    return kinematics_predict("control", pd.DataFrame({"force_n": np.asarray(force_n, dtype=float)}))
 
 
 def kinematic_cloud(latency_s: float = 0.1, refresh_hz: float = 10.0) -> CloudPredictor:
