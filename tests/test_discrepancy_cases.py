@@ -67,6 +67,22 @@ def test_hard_pairs_hidden_together(pair: tuple[str, str]) -> None:
     _check_pair(pair, FAST_SEED)
 
 
+@pytest.mark.parametrize(
+    "hidden, seed",
+    [
+        (("stribeck_friction",), 103),
+        pytest.param(("series_compliance", "spring_nonlinearity"), 160, marks=pytest.mark.slow),
+    ],
+)
+def test_bench_regressions(hidden: tuple[str, ...], seed: int) -> None:
+    """Bench cases that once failed: stick-slip (a stepped objective) and compliance with a progressive
+    spring (narrow valley, the pair needs its own search)."""
+    if len(hidden) == 1:
+        _check_single(hidden[0], seed)
+    else:
+        _check_pair(hidden, seed)
+
+
 def _member_cases() -> list:
     """Both directions of every hard pair; fast when the partner is on in the default plant (the
     single-effect table already has the other member as a candidate otherwise)."""

@@ -76,19 +76,37 @@ def _grid(c: Candidate, center: np.ndarray, half: float) -> list[np.ndarray]:
 
 
 def screen(
-    cfg: PlantConfig, cands: list[Candidate], runs: Runs, sigma: dict, rounds: int = 3, half0: float = 0.5
+    cfg: PlantConfig,
+    cands: list[Candidate],
+    runs: Runs,
+    sigma: dict,
+    rounds: int = 3,
+    half0: float = 0.5,
+    beam: int = 1,
 ) -> None:
-    """Zooming grid search for all candidates at once (one batched replay per round), half-width half0."""
-    half = {id(c): half0 for c in cands}
+    """Zooming grid search for all candidates at once (one batched replay per round), half-width half0.
+
+    Each candidate keeps its `beam` best distinct points and zooms around all of them (a multi-start
+    search: the stick-slip and compliance objectives have narrow valleys and flat steps)."""
+    centers = {id(c): [c.u] for c in cands}
+    half = half0
     for _ in range(rounds):
-        pts = [(c, u) for c in cands for u in _grid(c, c.u, half[id(c)])]
+        pts = [(c, u) for c in cands for u in _unique(p for x in centers[id(c)] for p in _grid(c, x, half))]
         chi = objective(cfg, [c.params(u) for c, u in pts], runs, sigma).sum(axis=1)
         for c in cands:
-            idx = [i for i, (cc, _) in enumerate(pts) if cc is c]
-            best = idx[int(np.argmin(chi[idx]))]
-            if chi[best] < c.chi2_fit:
-                c.u, c.chi2_fit = pts[best][1], float(chi[best])
-            half[id(c)] /= 2.5
+            idx = sorted((i for i, (cc, _) in enumerate(pts) if cc is c), key=lambda i: chi[i])
+            centers[id(c)] = [pts[i][1] for i in idx[:beam]]
+            if chi[idx[0]] < c.chi2_fit:
+                c.u, c.chi2_fit = pts[idx[0]][1], float(chi[idx[0]])
+        half /= 2.5
+
+
+def _unique(points) -> list[np.ndarray]:
+    """Points without repeats (overlapping grids of a beam share points)."""
+    out: dict[bytes, np.ndarray] = {}
+    for p in points:
+        out.setdefault(np.round(p, 9).tobytes(), p)
+    return list(out.values())
 
 
 def _residual_vectors(cfg: PlantConfig, c: Candidate, us: list[np.ndarray], runs: Runs, sigma: dict):

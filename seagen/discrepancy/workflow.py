@@ -129,38 +129,43 @@ def _score(cfg, cands, held, sig_h, rng) -> tuple[pd.DataFrame, np.ndarray]:
 
 
 ZOOM_HALF = 0.08  # final local grid search around the polished best single (unit-box half-width)
+DEEP_TOP = 2  # singles that get the multi-start search after the first screen
+DEEP = {"rounds": 8, "beam": 4}  # multi-start zoom of the best singles (narrow valleys, stick-slip steps)
+PAIR_DEEP = {"rounds": 6, "beam": 3}  # the same for the pairs with the best single
+PAIR_NFEV = 12  # least-squares evaluations for the best pair
+
+
+def _deep_fit(cfg: PlantConfig, cands: list[Candidate], fit: Runs, sig_f, search: dict, nfev: int) -> None:
+    """Multi-start grid search of cands (one batch a round), then polish and a local zoom of the best."""
+    screen(cfg, cands, fit, sig_f, **search)
+    best = min(cands, key=lambda c: c.chi2_fit)
+    polish(cfg, best, fit, sig_f, nfev=nfev)
+    screen(cfg, [best], fit, sig_f, rounds=3, half0=ZOOM_HALF)  # derivative-free: stick-slip is not smooth
 
 
 def best_addition(cfg: PlantConfig, fit: Runs, held: Runs, sig_f, sig_h, rng, noise: float):
-    """Fit every missing effect alone and the top ones in pairs; the held-out BIC winner or None."""
+    """Fit every missing effect alone and the best one in pairs; the held-out BIC winner or None."""
     singles = [Candidate((e,), np.full(len(SPACE[e]), 0.5)) for e in missing_effects(cfg)]
     if not singles:
         return None, None
     screen(cfg, singles, fit, sig_f)
     ranked = sorted(singles, key=lambda c: c.chi2_fit)
-    polish(cfg, ranked[0], fit, sig_f)
-    screen(
-        cfg, [ranked[0]], fit, sig_f, rounds=3, half0=ZOOM_HALF
-    )  # derivative-free: stick-slip is not smooth
-    pairs = [Candidate(a.names + b.names, np.concatenate([a.u, b.u])) for a, b in _pairs(ranked[:3])]
+    _deep_fit(cfg, ranked[:DEEP_TOP], fit, sig_f, DEEP, POLISH_NFEV)
+    ranked = sorted(singles, key=lambda c: c.chi2_fit)
+    table, wins = _score(cfg, singles, held, sig_h, rng)
+    best_single = table.loc[table["candidate"] == ranked[0].label, "rms_held_out"].iloc[0]
+    pairs: list[Candidate] = []
+    if best_single > PAIR_RMS * noise:  # one effect is clearly not enough: search the pairs with the best
+        pairs = [Candidate(ranked[0].names + o.names, np.concatenate([ranked[0].u, o.u])) for o in ranked[1:]]
+        _deep_fit(cfg, pairs, fit, sig_f, PAIR_DEEP, PAIR_NFEV)
     cands = singles + pairs
     table, wins = _score(cfg, cands, held, sig_h, rng)
-    best_single = table.loc[table["candidate"] == ranked[0].label, "rms_held_out"].iloc[0]
-    if pairs and best_single > PAIR_RMS * noise:  # one effect is clearly not enough: fit the pair properly
-        polish(cfg, pairs[0], fit, sig_f)
-        table, wins = _score(cfg, cands, held, sig_h, rng)
     table = table.sort_values("bic_held_out").reset_index(drop=True)
     if table["candidate"].iloc[0] == "(none)" or table["bic_held_out"].iloc[0] > _base_bic(table) - DBIC_MIN:
         return None, table
     winner = next(c for c in cands if c.label == table["candidate"].iloc[0])
     conf = {e: float(np.mean([_includes(cands, w, e) for w in wins])) for e in winner.names}
     return (winner, conf), table
-
-
-def _pairs(top: list[Candidate]) -> list[tuple[Candidate, Candidate]]:
-    """Pairs of the top single candidates, best pair (by fit chi-square sum) first."""
-    out = [(a, b) for i, a in enumerate(top) for b in top[i + 1 :]]
-    return sorted(out, key=lambda ab: ab[0].chi2_fit + ab[1].chi2_fit)
 
 
 def _base_bic(table: pd.DataFrame) -> float:
