@@ -2,11 +2,8 @@
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
 import time
 from pathlib import Path
-from typing import Any
 
 
 def _banner(title: str) -> None:
@@ -65,29 +62,21 @@ def step_export(out: Path, data: Path, models: dict[str, Path]) -> None:
             raise SystemExit(f"equivalence check failed for {prefix}")
 
 
-def _optional(module: str) -> Any:
-    return importlib.import_module(module) if importlib.util.find_spec(module) else None
-
-
 def step_control(out: Path, seed: int) -> None:
     """The paper's force-control experiment in closed loop (Table II)."""
-    exp = _optional("seagen.control.experiment")
+    from seagen.control import experiment as exp
+
     _banner("4. closed-loop force control (paper Table II)")
-    if exp is None or not hasattr(exp, "table2"):
-        print("(closed-loop comparison not available)")
-        return
     print(exp.format_table2(exp.simulate(seed=seed, plots=str(out / "plots"))))
     print(f"step-response plots: {out / 'plots'}/step_*.png")
 
 
 def step_discrepancy(out: Path, seed: int) -> None:
     """The discrepancy workflow on data with a hidden effect."""
+    from seagen.discrepancy.demo import run_demo as discrepancy_demo
+
     _banner("5. discrepancy workflow: a hidden effect found, named, added")
-    wf = _optional("seagen.discrepancy.demo")
-    if wf is None:
-        print("(discrepancy workflow not available)")
-        return
-    wf.run_demo(out / "discrepancy", seed)
+    discrepancy_demo(out / "discrepancy", seed)
 
 
 def run_demo(out: Path, seed: int = 0) -> None:
