@@ -24,11 +24,7 @@ def step_plot(name: str, results: dict[str, dict], path: Path, angle_index: int 
         ax.axhline(float(target), color="grey", lw=0.5, ls="--")
     ax.set(xlabel="time (s)", ylabel="force at the SEA shaft (N)")
     ax.set_title(f"{name}: contact at {CONTACT_DEG[angle_index]:.0f} deg")
-    ax.legend()
-    fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=120)
-    plt.close(fig)
+    _save(fig, ax, path)
 
 
 def comparison_plot(results: dict[str, dict[str, dict]], path: Path, angle_index: int = 2) -> None:
@@ -50,6 +46,13 @@ def comparison_plot(results: dict[str, dict[str, dict]], path: Path, angle_index
             ax.axhline(float(target), color="grey", lw=0.5)
     ax.set(xlabel="time (s)", ylabel="force at the SEA shaft (N)", xlim=(0, 4))
     ax.set_title(f"5 / 10 / 15 N, contact at {CONTACT_DEG[angle_index]:.0f} deg")
+    _save(fig, ax, path)
+
+
+def _save(fig, ax, path: Path) -> None:
+    """Legend, tight layout, PNG written atomically, figure closed."""
+    import matplotlib.pyplot as plt
+
     ax.legend()
     fig.tight_layout()
     with atomic_path(path) as tmp:
