@@ -120,7 +120,7 @@ def check_data_dir(ex, data_dir: str) -> DataReport:
         df = derive(load_split(data_dir, split))
         xq = quantize_features(qm, df[names].to_numpy())
         checks.append(compare(f"{ex.prefix}_infer on {split}", qm, c, xq))
-        ext = quantize_features(qm, df[names].to_numpy())[:, [names.index(n) for n in ext_names]]
+        ext = xq[:, [names.index(n) for n in ext_names]]
         ref = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), df.enc, df.pot, df.trial, ext))
         got = c.step(df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy(), ext if ext_names else None)
         bad = first_mismatch(got, ref, df[["trial", "enc", "pot"]].to_numpy())

@@ -104,12 +104,12 @@ def context(qm: QModel, prefix: str) -> dict[str, Any]:
     """Everything the templates print, decided here."""
     prefix = assert_valid_prefix(prefix)
     width = max([len(qm.inputs)] + [q.w_q.shape[0] for q in qm.layers])
+    features = _features(qm)
     return {
         "P": prefix,
         "PU": prefix.upper(),
         "version": __version__,
         "hash": model_hash(qm),
-        "qm": qm,
         "kind": qm.kind,
         "n_in": len(qm.inputs),
         "inputs": qm.inputs,
@@ -118,12 +118,11 @@ def context(qm: QModel, prefix: str) -> dict[str, Any]:
         "summary": summary_lines(qm),
         "layers": _layers(qm, prefix),
         "width": width,
-        "n_layers": len(qm.layers),
         "horner": qm.horner,
         "n_regs": qm.n_regs,
         "out_shift": qm.out_shift,
-        "features": _features(qm),
-        "needs_diff": any(f["kind"] in ("d", "dd") for f in _features(qm)),
+        "features": features,
+        "needs_diff": any(f["kind"] in ("d", "dd") for f in features),
         "externals": external_inputs(qm),
         "link": linkage_table_q16(),
         "predictor": _predictor(qm),

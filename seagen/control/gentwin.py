@@ -5,13 +5,14 @@ from __future__ import annotations
 from functools import cache
 
 import numpy as np
+import pandas as pd
 
 from seagen.control.controller import FORCE_FRAC
+from seagen.data.features import derive
 from seagen.demo import GENERATED
-from seagen.plant import geometry as g
 from seagen.quant import kernels as K
 from seagen.quant import primitives as P
-from seagen.quant.features import feature_plan
+from seagen.quant.features import EXTERNAL, model_inputs
 from seagen.reference import float_ref, numpy_ref
 
 MODEL_FILES = {"ctl_sf": "sf_control.pt", "ctl_mlp": "mlp_control.pt"}
@@ -34,7 +35,6 @@ class StepTwin:
 
     def __init__(self, prefix: str) -> None:
         self.qm = export(prefix).qmodel
-        self.plan = feature_plan(self.qm)
         self.table = P.linkage_table_q16()
         self.p1: np.ndarray | None = None
         self.p2: np.ndarray | None = None
@@ -48,37 +48,19 @@ class StepTwin:
         d, dd = b - self.p1, b - 2 * self.p1 + self.p2
         self.p2, self.p1 = self.p1, b
         force = np.broadcast_to(np.asarray(force_q16, np.int64), enc.shape)
-        cols = []
-        for src in self.plan:
-            if src.kind == "angle":
-                v = pot * P.POT_DEG_Q24 + P.POT_OFFSET_Q24
-            elif src.kind == "external":
-                v = K.to_s16(force, FORCE_FRAC, src.to_frac)
-            else:
-                v = {"base": b, "d": d, "dd": dd}[src.kind][src.index]
-            cols.append(K.to_s16(v, src.from_frac, src.to_frac))
-        y = numpy_ref.infer(self.qm, np.stack(cols, axis=1))
+        ext = [K.to_s16(force, FORCE_FRAC, q.frac) for q in self.qm.inputs if q.signal.name in EXTERNAL]
+        x = model_inputs(self.qm, b, d, dd, np.stack(ext, axis=1) if ext else None)
+        y = numpy_ref.infer(self.qm, x)
         return P.sat32(np.asarray(y, np.int64) * (1 << (16 - self.qm.out_frac)))
 
 
 def float_features(names: list[str], enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
-    """Physical model inputs (n, n_in) from the last three samples (rows k-2, k-1, k) of enc and pot."""
-    enc, pot = np.asarray(enc, float), np.asarray(pot, float)
-    angle = g.angle_from_pot(pot)
-    base = {"pot": pot, "enc": enc, "compression_mm": g.compression_mm(angle, enc), "angle_deg": angle}
-    cols = []
-    for name in names:
-        if name == "force_n":
-            cols.append(np.asarray(force_n, float))
-        elif name.startswith("dd_"):
-            x = base[name[3:]]
-            cols.append(x[2] - 2 * x[1] + x[0])
-        elif name.startswith("d_"):
-            x = base[name[2:]]
-            cols.append(x[2] - x[1])
-        else:
-            cols.append(base[name][2])
-    return np.stack(cols, axis=1)
+    """Physical model inputs (n, n_in) from the last three samples (rows k-2, k-1, k) of enc and pot,
+    computed by the one feature function (seagen.data.features.derive), one trial per actuator."""
+    n = np.shape(enc)[1]
+    rows = pd.DataFrame({"trial": np.tile(np.arange(n), 3), "enc": np.ravel(enc), "pot": np.ravel(pot)})
+    last = derive(rows.sort_values("trial", kind="stable")).groupby("trial").tail(1)
+    return last.assign(force_n=np.asarray(force_n, float))[names].to_numpy(dtype=float)
 
 
 def float_predictor(prefix: str):

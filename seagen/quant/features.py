@@ -70,16 +70,24 @@ def step_features(
     """The int16 model inputs NAME_step computes, for whole recorded trials (N samples) at once."""
     enc = np.asarray(enc, dtype=np.int64)
     pot = np.asarray(pot, dtype=np.int64)
-    bases = [pot, enc, P.compression_q16(table, enc, pot)]
-    diffs = [differences(b, np.asarray(trial)) for b in bases]
+    bases = np.stack([pot, enc, P.compression_q16(table, enc, pot)])
+    d, dd = zip(*(differences(b, np.asarray(trial)) for b in bases), strict=True)
+    return model_inputs(qm, bases, np.stack(d), np.stack(dd), external)
+
+
+def model_inputs(
+    qm: QModel, bases: np.ndarray, d: np.ndarray, dd: np.ndarray, external: np.ndarray | None
+) -> np.ndarray:
+    """int16 model inputs (N, n_in) from the base signals (pot, enc, compression Q16; shape (3, N)), their
+    differences and the already-quantized external inputs (N, n_ext): what NAME_step does after the state."""
     cols = []
     for src in feature_plan(qm):
         if src.kind == "angle":
-            v = pot * P.POT_DEG_Q24 + P.POT_OFFSET_Q24
+            v = bases[0] * P.POT_DEG_Q24 + P.POT_OFFSET_Q24
         elif src.kind == "external":
             assert external is not None, "this model needs external inputs (desired force)"
-            v = np.asarray(external, dtype=np.int64).reshape(len(enc), -1)[:, src.index]
+            v = np.asarray(external, dtype=np.int64).reshape(bases.shape[1], -1)[:, src.index]
         else:
-            v = bases[src.index] if src.kind == "base" else diffs[src.index][0 if src.kind == "d" else 1]
+            v = {"base": bases, "d": d, "dd": dd}[src.kind][src.index]
         cols.append(K.to_s16(v, src.from_frac, src.to_frac))
     return np.stack(cols, axis=1)

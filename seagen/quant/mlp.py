@@ -10,6 +10,7 @@ from seagen.errors import UserError
 from seagen.ir import FloatLayer, FloatMLP, QInput, QLayer, QModel, QTable
 from seagen.quant.activations import TABLE_OUT_FRAC, make_table
 from seagen.quant.bound import mlp_error_bound
+from seagen.quant.primitives import rshift_rne
 from seagen.quant.qformat import frac_for, quantize, widened
 
 INT16_MAX = 2**15 - 1
@@ -43,20 +44,13 @@ def _acc_bounds(w_q: np.ndarray, b_q: np.ndarray, lo: np.ndarray, hi: np.ndarray
     return mn, mx, max(worst)
 
 
-def _rshift_int(v: int, s: int) -> int:
-    """Exact round-half-to-even shift on a Python int (for interval end points)."""
-    q, r = v >> s, v - ((v >> s) << s)
-    half = 1 << (s - 1) if s > 0 else 0
-    return q + (1 if s > 0 and (r > half or (r == half and q & 1)) else 0)
-
-
 def _out_frac(mn: np.ndarray, mx: np.ndarray, acc_frac: int, activation: str) -> int:
     """Largest output format with no saturation over the box (acc_frac >= result >= acc_frac - 62)."""
     hi = max(max(mx), 0) if activation == "relu" else max(max(abs(mn)), max(abs(mx)))
     if activation in ("tanh", "sigmoid"):
         hi = min(hi, 8 << acc_frac)  # beyond +-8 the table saturates anyway
     f = acc_frac
-    while f > acc_frac - 62 and _rshift_int(int(hi), acc_frac - f) > INT16_MAX:
+    while f > acc_frac - 62 and int(rshift_rne(int(hi), acc_frac - f)) > INT16_MAX:
         f -= 1
     return f
 
@@ -74,8 +68,9 @@ def quantize_layer(
         raise UserError(f"layer {index}: accumulator bound 2^{int(worst).bit_length()} exceeds int64")
     out_frac = _out_frac(mn, mx, acc_frac, layer.activation)
     shift = acc_frac - out_frac
-    y_lo = np.array([max(-(2**15), _rshift_int(int(v), shift)) for v in mn], dtype=np.int64)
-    y_hi = np.array([min(INT16_MAX, _rshift_int(int(v), shift)) for v in mx], dtype=np.int64)
+    # the interval end points fit int64 (|acc| < 2^62 was checked above)
+    y_lo = np.maximum(rshift_rne(mn.astype(np.int64), shift), -(2**15))
+    y_hi = np.minimum(rshift_rne(mx.astype(np.int64), shift), INT16_MAX)
     params, table = _activation(layer, out_frac, index)
     y_lo, y_hi = _act_bounds(layer.activation, params, table, y_lo, y_hi)
     q = QLayer(

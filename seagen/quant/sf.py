@@ -8,7 +8,8 @@ import numpy as np
 
 from seagen.errors import UserError
 from seagen.ir import FloatSF, QHorner, QModel
-from seagen.quant.mlp import INT16_MAX, _rshift_int, quantize_inputs
+from seagen.quant.mlp import INT16_MAX, quantize_inputs
+from seagen.quant.primitives import rshift_rne
 from seagen.quant.qformat import frac_for, widened
 
 REG_LIMIT = 2**30  # registers keep a bit of headroom below int32
@@ -92,7 +93,7 @@ def quantize_sf(model: FloatSF) -> QModel:
     final = pl.regs[acc]
     out_frac = min(frac_for(final.mag, INT16_MAX), final.frac)
     shift = final.frac - out_frac
-    if _rshift_int(int(np.ceil(final.mag * 2.0**final.frac)), shift) > INT16_MAX:
+    if int(rshift_rne(int(np.ceil(final.mag * 2.0**final.frac)), shift)) > INT16_MAX:
         out_frac -= 1
         shift += 1
     bound = final.err + 2.0 ** -(out_frac + 1)
