@@ -11,7 +11,7 @@ import pytest
 from seagen.cli import main
 from seagen.data.schema import save_csv
 from seagen.discrepancy.bench import make_case, measure
-from seagen.discrepancy.replay import ReplayPlant, simulate
+from seagen.discrepancy.replay import simulate
 from seagen.plant import Plant, PlantConfig, load_config
 
 
@@ -42,19 +42,19 @@ def test_replay_reproduces_the_plant(effect: str | None, params: dict) -> None:
         assert err.max() <= tol, f"{effect}: {c} off by {err.max()}"
 
 
-def test_replay_plant_structure_law_matches_plant() -> None:
-    """The array-safe structure law equals the plant's for scalar parameters."""
+def test_plant_structure_law_accepts_per_element_parameters() -> None:
+    """Per-element compliance parameters (as the replay batches them) give each element's scalar law."""
     cfg = PlantConfig()
     y = np.linspace(0.0, 6.0, 50)
-    a, b = Plant(cfg, 12.0).structure_force(y), ReplayPlant(cfg, 12.0).structure_force(y)
-    assert np.allclose(a[0], b[0]) and np.allclose(a[1], b[1])
-    arr = cfg.with_effect(
-        "series_compliance", True, k_n_per_mm=np.full(50, 30.0), beta_mm_per_n2=np.zeros(50)
-    )
-    lin = cfg.with_effect("series_compliance", True, k_n_per_mm=30.0, beta_mm_per_n2=0.0)
-    assert np.allclose(
-        ReplayPlant(arr, np.full(50, 12.0)).structure_force(y)[0], Plant(lin, 12.0).structure_force(y)[0]
-    )
+    k, beta = np.where(np.arange(50) % 2 == 0, 30.0, 45.0), np.where(np.arange(50) % 3 == 0, 0.0, 0.005)
+    arr = cfg.with_effect("series_compliance", True, k_n_per_mm=k, beta_mm_per_n2=beta)
+    f_arr, s_arr = Plant(arr, np.full(50, 12.0)).structure_force(y)
+    for i in range(50):
+        one = cfg.with_effect(
+            "series_compliance", True, k_n_per_mm=float(k[i]), beta_mm_per_n2=float(beta[i])
+        )
+        f, sl = Plant(one, 12.0).structure_force(y[i : i + 1])
+        assert np.allclose(f_arr[i], f[0]) and np.allclose(s_arr[i], sl[0]), i
 
 
 def _write(case_runs_cfg: PlantConfig, path, seed: int = 3) -> None:

@@ -79,23 +79,6 @@ def runs_from_frames(frames: list[tuple[str, pd.DataFrame]]) -> Runs:
     return Runs(angle, volts, meas, mask, [name for name, _ in trials])
 
 
-class ReplayPlant(Plant):
-    """The plant, with a structure law that also accepts per-element compliance parameters."""
-
-    def structure_force(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Same law as Plant.structure_force, array-safe in k and beta."""
-        sc = self.cfg.effects.series_compliance
-        if not sc.enabled or np.ndim(sc.beta_mm_per_n2) == 0:
-            return super().structure_force(y)
-        d = np.maximum(y - self.y_contact, 0.0)
-        a, b = 1.0 / np.asarray(sc.k_n_per_mm, float), np.asarray(sc.beta_mm_per_n2, float)
-        bs = np.where(b > 0, b, 1.0)
-        root = np.sqrt(a * a + 4 * bs * d)
-        f = np.where(b > 0, (root - a) / (2 * bs), d / a)
-        s = np.where(b > 0, 1.0 / root, 1.0 / a)
-        return f, np.where(y > self.y_contact, s, 0.0)
-
-
 def _value(base: PlantConfig, s: ParamSet, effect: str, param: str) -> float:
     """A parameter for one set: the set's own, else the base's (if on), else neutral."""
     if param in s.get(effect, {}):
@@ -131,7 +114,7 @@ def simulate(base: PlantConfig, sets: list[ParamSet], runs: Runs) -> dict[str, n
     n, t = runs.volts.shape
     e_n = n * len(sets)
     cfg, post = union_config(base, sets, n)
-    plant = ReplayPlant(cfg, np.tile(runs.angle, len(sets)))
+    plant = Plant(cfg, np.tile(runs.angle, len(sets)))
     volts = np.tile(runs.volts, (len(sets), 1))
     zero = np.zeros(e_n)
     pvd = post.get("pot_voltage_drop")

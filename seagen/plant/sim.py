@@ -70,16 +70,22 @@ class Plant:
         return s
 
     def structure_force(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Force the loaded linkage pushes back with, and its slope, for shaft advance y."""
+        """Force the loaded linkage pushes back with, and its slope, for shaft advance y.
+
+        The compliance parameters may be scalars or arrays over the batch (the discrepancy replay fits
+        one parameter set per element): beta > 0 inverts d = F/k + beta F^2, beta = 0 is linear.
+        """
         d = np.maximum(y - self.y_contact, 0.0)
         sc = self.cfg.effects.series_compliance
         if not sc.enabled:
             return _RIGID_N_PER_MM * d, np.where(y > self.y_contact, _RIGID_N_PER_MM, 0.0)
-        a, b = 1.0 / sc.k_n_per_mm, sc.beta_mm_per_n2
-        if b <= 0:
-            return d / a, np.where(y > self.y_contact, 1.0 / a, 0.0)
-        root = np.sqrt(a * a + 4 * b * d)
-        return (root - a) / (2 * b), np.where(y > self.y_contact, 1.0 / root, 0.0)
+        a, b = 1.0 / np.asarray(sc.k_n_per_mm, float), np.asarray(sc.beta_mm_per_n2, float)
+        quad = b > 0
+        bq = np.where(quad, b, 1.0)
+        root = np.sqrt(a * a + 4 * bq * d)
+        force = np.where(quad, (root - a) / (2 * bq), d / a)
+        slope = np.where(quad, 1.0 / root, 1.0 / a)
+        return force, np.where(y > self.y_contact, slope, 0.0)
 
     def friction_limits(self, angle_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Coulomb friction on the shaft (forward, reverse) at this linkage angle, before speed terms."""
@@ -112,7 +118,7 @@ class Plant:
         pvd = cfg.effects.pot_voltage_drop
         if pvd.enabled:
             target = pvd.counts_per_unit_current * np.abs(self.current)
-            self.pot_drop += (target - self.pot_drop) * min(dt / pvd.time_constant_s, 1.0)
+            self.pot_drop += (target - self.pot_drop) * np.minimum(dt / np.asarray(pvd.time_constant_s), 1.0)
         self._history = np.roll(self._history, 1, axis=0)
         self._history[0] = self.structure_force(self.shaft_mm)[0]
         self.t += dt
