@@ -93,3 +93,23 @@ def test_generate_cli_and_seed(tmp_path):
         assert main(["data", "generate", "--out", str(tmp_path / d), "--seed", "3"]) == 0
     for s in ("train", "test", "validation"):
         assert (tmp_path / "a" / f"{s}.csv").read_bytes() == (tmp_path / "b" / f"{s}.csv").read_bytes()
+
+
+def test_stair_move_holds_at_rest_on_the_loading_side():
+    """A stair move climbs in position-held steps after contact: most of its loaded rows are at rest
+    (|d_enc| <= 1 count), the force of successive holds rises, and a constant-volts move has no such rows."""
+    import numpy as np
+
+    from seagen.data.features import derive
+    from seagen.data.protocol import Move, run_trials
+    from seagen.plant import PlantConfig
+
+    moves = [Move(16.0, 3.0, 14.0, -6.0, 0.5), Move(16.0, 3.0, 14.0, -6.0)]
+    stair, plain = (derive(df.assign(trial=0)) for df in run_trials(PlantConfig(), moves, 2))
+    for df, want in ((stair, True), (plain, False)):
+        loaded = df[(df["force_n"] > 2.0) & (df["d_enc"] >= -1)]
+        rest = loaded[loaded["d_enc"].abs() <= 1]
+        assert (len(rest) > 0.4 * len(loaded)) is want
+    rest = stair[(stair["force_n"] > 2.0) & (stair["d_enc"].abs() <= 1)]
+    holds = rest.groupby((rest.index.to_series().diff() != 1).cumsum())["force_n"].median()
+    assert len(holds) >= 4 and np.all(np.diff(holds.to_numpy()) > 0.5)

@@ -59,11 +59,9 @@ def test_plant_structure_law_accepts_per_element_parameters() -> None:
 
 def _write(case_runs_cfg: PlantConfig, path, seed: int = 3) -> None:
     """A measured CSV from the plant `cfg` (two trials at six angles)."""
-    from seagen.data.protocol import TRAIN_MOVES, Move, run_trials
+    from seagen.data.protocol import PUSH_MOVES, Move, run_trials
 
-    moves = [
-        Move(a, *TRAIN_MOVES[(i + k) % 5]) for i, a in enumerate((6, 10, 14, 18, 22, 26)) for k in (0, 1)
-    ]
+    moves = [Move(a, *PUSH_MOVES[(i + k) % 5]) for i, a in enumerate((6, 10, 14, 18, 22, 26)) for k in (0, 1)]
     dfs = run_trials(case_runs_cfg, moves, seed=seed)
     save_csv(pd.concat([d.assign(trial=i) for i, d in enumerate(dfs)], ignore_index=True), path)
 

@@ -158,10 +158,12 @@ def test_bumpless_reset(c, meas, out):
     assert got[0][0] == want and _twin(p, *(np.array([[x]]) for x in (sp, meas, 1, out)))[0][0, 0] == want
 
 
-@pytest.mark.parametrize("err", [-6554, -1, 0, 1, 6554])
-def test_margin_holds_integrator(c, err):
-    """Inside +-0.1 mm the integrator is held and P is zero: out = integrator with a still measurement."""
-    p = DEFAULT_PID
+@pytest.mark.parametrize("pid", ["paper", "default"])
+@pytest.mark.parametrize("err", [-1.0, -1e-5, 0.0, 1e-5, 1.0])  # x the margin (paper: 0.1 mm = 6554 Q16)
+def test_margin_holds_integrator(c, err, pid):
+    """Inside the margin the integrator is held and P is zero: out = integrator with a still measurement."""
+    p = PidParams.from_si(24.0, 6.0, 0.1, 0.5, margin_mm=0.1) if pid == "paper" else DEFAULT_PID
+    err = int(np.sign(err)) if abs(err) < 1 and err else int(err * p.margin)
     n = 20
     got = _c_run(
         c, p, np.full(n, 50_000 + err), np.full(n, 50_000), np.r_[1, np.zeros(n - 1, int)], np.full(n, 777)

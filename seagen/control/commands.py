@@ -14,20 +14,38 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser("simulate", help="closed-loop force control on the simulated SEA (paper Table II)")
     p.add_argument("--json", action="store_true", help="print one JSON object keyed by configuration")
-    p.add_argument("--plots", metavar="DIR", help="write a step-response plot per configuration")
+    p.add_argument("--plots", metavar="DIR", help="write a step-response plot per configuration (first seed)")
     p.add_argument("--config", action="append", choices=sorted(CONFIGS), help="configurations (default all)")
     p.add_argument("--latency", type=float, default=0.1, help="cloud round-trip latency, s (default 0.1)")
     p.add_argument("--impl", choices=("c", "py"), default="c", help="controller: C via cffi or Python twin")
     p.add_argument("--seed", type=int, default=0, help="plant noise seed (default 0)")
+    p.add_argument(
+        "--seeds",
+        type=int,
+        default=1,
+        metavar="N",
+        help="repeat over N noise seeds (seed..seed+N-1) and report the mean and range (default 1)",
+    )
     p.set_defaults(func=cmd_simulate)
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Run each configuration at 5, 10, 15 N over the contact angles; print Table II or JSON."""
-    from seagen.control.experiment import TABLE2_CONFIGS, format_table2, simulate
+    from seagen.control.experiment import TABLE2_CONFIGS, format_table2, simulate, sweep
 
     if args.latency < 0:
         raise UserError(f"--latency must be >= 0 s, got {args.latency}")
-    table = simulate(tuple(args.config or TABLE2_CONFIGS), args.latency, args.impl, args.seed, args.plots)
+    if args.seeds < 1:
+        raise UserError(f"--seeds must be >= 1, got {args.seeds}")
+    names = tuple(args.config or TABLE2_CONFIGS)
+    if args.seeds == 1:
+        table = simulate(names, args.latency, args.impl, args.seed, args.plots)
+    else:
+        from tqdm import tqdm
+
+        with tqdm(total=args.seeds, desc="seeds", unit="seed", disable=args.json) as bar:
+            table = sweep(
+                names, args.seeds, args.latency, args.impl, args.seed, lambda _k: bar.update(), args.plots
+            )
     print(json.dumps(table, indent=2) if args.json else format_table2(table))
     return 0

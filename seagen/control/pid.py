@@ -14,7 +14,7 @@ OUT_FRAC = 16  # SEA_PID_OUT_FRAC
 TERM_SHIFT = GAIN_FRAC + COMP_FRAC_BITS - OUT_FRAC
 MOTOR_MAX_MV = 12000
 TICK_S = 0.01  # the controller's tick (100 Hz)
-MARGIN_MM = 0.1  # the paper's control margin
+PAPER_MARGIN_MM = 0.1  # the paper's control margin (its compression came from the noisy pot at 10 Hz)
 
 
 @dataclass(frozen=True)
@@ -31,16 +31,26 @@ class PidParams:
 
     @classmethod
     def from_si(
-        cls, kp_v_mm: float, ki_v_mm_s: float, kd_v_s_mm: float, d_alpha: float, margin_mm: float = MARGIN_MM
+        cls,
+        kp_v_mm: float,
+        ki_v_mm_s: float,
+        kd_v_s_mm: float,
+        d_alpha: float,
+        margin_mm: float = PAPER_MARGIN_MM,
+        limit_v: float = MOTOR_MAX_MV / 1000,
     ) -> PidParams:
-        """Quantize gains given in V/mm, V/(mm s), V s/mm at the 10 ms tick (rounded to nearest)."""
+        """Quantize gains given in V/mm, V/(mm s), V s/mm at the 10 ms tick (rounded to nearest); the
+        output is limited to +-limit_v."""
         q = float(1 << GAIN_FRAC)
+        lim = round(min(limit_v, MOTOR_MAX_MV / 1000) * 1000)
         return cls(
             kp=round(kp_v_mm * 1000 * q),
             ki=round(ki_v_mm_s * 1000 * TICK_S * q),
             kd=round(kd_v_s_mm * 1000 / TICK_S * q),
             d_alpha=round(d_alpha * (1 << ALPHA_FRAC)),
             margin=round(margin_mm * (1 << COMP_FRAC_BITS)),
+            out_min=-lim,
+            out_max=lim,
         )
 
     def as_tuple(self) -> tuple[int, ...]:
@@ -48,8 +58,9 @@ class PidParams:
         return (self.kp, self.ki, self.kd, self.d_alpha, self.margin, self.out_min, self.out_max)
 
 
-# Gains tuned on the simulated plant (c_runtime/README.md): 24 V/mm, 6 V/(mm s), 0.1 V s/mm, alpha 0.5.
-DEFAULT_PID = PidParams.from_si(24.0, 6.0, 0.1, 0.5)
+# Tuned on the simulated plant (c_runtime/README.md "Tuned gains"): 31 V/mm, 6.5 V/(mm s), 0.85 V s/mm,
+# alpha 0.95, margin 0.025 mm, output +-6.5 V.
+DEFAULT_PID = PidParams.from_si(31.0, 6.5, 0.85, 0.95, margin_mm=0.025, limit_v=6.5)
 
 
 @dataclass(frozen=True)

@@ -16,19 +16,50 @@ ROWS = {"train": 10_400, "test": 2_416, "validation": 140}  # paper §VIII-A
 SAMPLE_EVERY = 10  # 1 kHz plant, 100 Hz samples
 FREE_DRIVE_V = 4.0  # approach speed until the linkage reaches the load cell
 # (push volts, peak force at the shaft N, retract volts): "several speeds" (chosen)
-TRAIN_MOVES = ((2.5, 17.0, -5.0), (4.0, 12.0, -7.0), (3.0, 19.0, -6.0), (5.0, 9.0, -8.0), (2.0, 14.0, -4.0))
+PUSH_MOVES = ((2.5, 17.0, -5.0), (4.0, 12.0, -7.0), (3.0, 19.0, -6.0), (5.0, 9.0, -8.0), (2.0, 14.0, -4.0))
+# The calibration protocol: the third push climbs in 0.5 mm position-controlled stairs instead ("PID
+# position control is used to drive the SEA", paper §IV), so the data also hold the actuator at rest on
+# the loading side, where the force controller ends up.
+TRAIN_MOVES = tuple(m + (0.5,) if i == 2 else m for i, m in enumerate(PUSH_MOVES))
 TEST_MOVES = TRAIN_MOVES  # same protocol, other trials and noise
 VALIDATION_MOVES = ((3.2, 16.0, -6.0),)
 
 
 @dataclass(frozen=True)
 class Move:
-    """One trial: drive into the load cell at `push_v` until the reference force reaches `peak_n`, retract."""
+    """One trial: drive into the load cell at `push_v` until the reference force reaches `peak_n`, retract.
+
+    With `stair_mm` > 0 the push after contact is a staircase: the nut target advances `stair_mm` every
+    STAIR_S and a proportional position loop (at most `push_v`) drives it there and holds it.
+    """
 
     angle_deg: float
     push_v: float
     peak_n: float
     retract_v: float
+    stair_mm: float = 0.0
+
+
+STAIR_S = 0.3  # one stair: move and hold (s)
+STAIR_KP_V = 0.05  # position loop gain: V per encoder count of error
+CONTACT_N = 0.3  # the stairs start when the reference force first exceeds this
+
+
+def _stairs(moves: list[Move], dt_s: float) -> Callable[[int, np.ndarray, np.ndarray], np.ndarray]:
+    """The push command of every trial at 100 Hz sample k: constant volts, or the staircase position loop."""
+    push = np.array([m.push_v for m in moves])
+    step = np.array([m.stair_mm for m in moves]) / g.MM_PER_COUNT  # counts per stair
+    every = max(int(round(STAIR_S / (dt_s * SAMPLE_EVERY))), 1)  # samples per stair
+    start = np.full(len(moves), -1)  # sample of contact, -1 before
+    base = np.zeros(len(moves))
+
+    def volts(k: int, enc: np.ndarray, force: np.ndarray) -> np.ndarray:
+        touch = (step > 0) & (start < 0) & (force > CONTACT_N)
+        start[touch], base[touch] = k, enc[touch]
+        target = base + step * ((k - start) // every)  # held at the contact position first
+        return np.where(start >= 0, np.clip(STAIR_KP_V * (target - enc), -push, push), push)
+
+    return volts
 
 
 def run_trials(cfg: PlantConfig, moves: list[Move], seed: int, max_s: float = 8.0) -> list[pd.DataFrame]:
@@ -38,6 +69,7 @@ def run_trials(cfg: PlantConfig, moves: list[Move], seed: int, max_s: float = 8.
     peak = np.array([m.peak_n for m in moves])
     back = np.array([m.retract_v for m in moves])
     phase = np.zeros(len(moves), dtype=int)  # 0 push, 1 retract, 2 done
+    pushing = _stairs(moves, cfg.dt_s)
     quiet = np.zeros(len(moves), dtype=int)
     cols: dict[str, list[np.ndarray]] = {
         k: [] for k in ("t_s", "motor_v", "enc", "pot", "load_cell_n", "force_n")
@@ -62,7 +94,8 @@ def run_trials(cfg: PlantConfig, moves: list[Move], seed: int, max_s: float = 8.
             phase = np.where((phase == 1) & ((quiet >= 8) | (s.enc <= 0)), 2, phase)
             if (phase == 2).all():
                 break
-            volts = np.where(phase == 0, push, np.where(phase == 1, back, 0.0))
+            push_now = pushing(k // SAMPLE_EVERY, s.enc, s.force_n)
+            volts = np.where(phase == 0, push_now, np.where(phase == 1, back, 0.0))
         plant.step(volts)
     keep = np.array(alive)
     out = []
@@ -83,7 +116,7 @@ def _quotas(total: int, n: int) -> list[int]:
 def collect(
     cfg: PlantConfig,
     angles: tuple[float, ...],
-    moves: tuple[tuple[float, float, float], ...],
+    moves: tuple[tuple[float, ...], ...],
     total: int,
     seed: int,
 ) -> pd.DataFrame:

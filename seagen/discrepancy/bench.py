@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from seagen.data.protocol import TRAIN_MOVES, Move, run_trials
+from seagen.data.protocol import PUSH_MOVES, Move, run_trials
 from seagen.discrepancy.replay import ParamSet, Runs, runs_from_frames, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS, noise_sigma, zscores
 from seagen.discrepancy.workflow import Result, identify
@@ -59,8 +59,8 @@ def draw(effect: str, rng: np.random.Generator) -> dict[str, float]:
 
 def measure(cfg: PlantConfig, seed: int) -> Runs:
     """A reduced data set (two trials at each of six angles, paper protocol) from the plant cfg."""
-    n = len(TRAIN_MOVES)
-    moves = [Move(a, *TRAIN_MOVES[(i + k) % n]) for i, a in enumerate(CASE_ANGLES) for k in (0, 1)]
+    n = len(PUSH_MOVES)
+    moves = [Move(a, *PUSH_MOVES[(i + k) % n]) for i, a in enumerate(CASE_ANGLES) for k in (0, 1)]
     dfs = run_trials(cfg, moves, seed=seed)
     return runs_from_frames([("sim", df.assign(trial=i)) for i, df in enumerate(dfs)])
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from seagen.data.protocol import TRAIN_MOVES, Move, run_trials
+from seagen.data.protocol import PUSH_MOVES, Move, run_trials
 from seagen.data.schema import save_csv
 from seagen.plant import PlantConfig
 
@@ -18,7 +18,7 @@ def measured_csv(out: Path, seed: int) -> tuple[Path, PlantConfig]:
     """Two trials at each of six angles from the plant with HIDDEN switched on, as one data-schema CSV."""
     name, params = HIDDEN
     truth = PlantConfig().with_effect(name, True, **params)
-    moves = [Move(a, *TRAIN_MOVES[(i + k) % len(TRAIN_MOVES)]) for i, a in enumerate(ANGLES) for k in (0, 1)]
+    moves = [Move(a, *PUSH_MOVES[(i + k) % len(PUSH_MOVES)]) for i, a in enumerate(ANGLES) for k in (0, 1)]
     frames = [df.assign(trial=i) for i, df in enumerate(run_trials(truth, moves, seed=seed + 101))]
     path = out / "measured.csv"
     save_csv(pd.concat(frames, ignore_index=True), path)

@@ -1,0 +1,77 @@
+"""Closed-loop PID tuning with Optuna: how DEFAULT_PID was chosen (`python -m seagen.control.tune`)."""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+
+import numpy as np
+
+from seagen.control.experiment import CONFIGS, CONTACT_DEG, DURATION_S, PAPER_TABLE2, TARGETS_N, metrics
+from seagen.control.loop import run_closed_loop
+from seagen.control.pid import PidParams
+
+NEVER_S = DURATION_S  # an angle that never settles counts as the whole run
+
+
+def mean_settling(name: str, pid: PidParams, pred_avg: int, seeds: tuple[int, ...]) -> dict[float, float]:
+    """Per target: settling time of configuration `name` averaged over angles and seeds (NaN = the run)."""
+    pred, ctl = CONFIGS[name](0.1)
+    cfg = replace(ctl, pid=pid, pred_avg=pred_avg)
+    out: dict[float, list[float]] = {t: [] for t in TARGETS_N}
+    for seed in seeds:
+        for i, target in enumerate(TARGETS_N):
+            rec = run_closed_loop(
+                pred, target, np.array(CONTACT_DEG), duration_s=DURATION_S, seed=seed + i, control_cfg=cfg
+            )
+            out[target].append(float(np.nan_to_num(metrics(rec)["settling_s"], nan=NEVER_S).mean()))
+    return {t: float(np.mean(v)) for t, v in out.items()}
+
+
+def objective(mlp: dict[float, float], sf: dict[float, float]) -> float:
+    """Worst MLP-on-MCU target plus 0.3 x its mean, plus a penalty for SF outside +-50 % of the paper's."""
+    paper = {float(t): s for t, (_, s) in PAPER_TABLE2["SF"].items()}
+    pen = sum(max(0.0, sf[t] - 1.5 * paper[t]) + max(0.0, 0.5 * paper[t] - sf[t]) for t in TARGETS_N)
+    return max(mlp.values()) + 0.3 * float(np.mean(list(mlp.values()))) + 3.0 * pen
+
+
+def tune(trials: int, seeds: tuple[int, ...], sampler_seed: int = 1):
+    """Search gains, margin, output limit and the MLP prediction average; returns the Optuna study."""
+    import optuna
+
+    def trial_fn(trial: optuna.Trial) -> float:
+        pid = PidParams.from_si(
+            trial.suggest_float("kp_v_mm", 20, 40),
+            trial.suggest_float("ki_v_mm_s", 2, 8),
+            trial.suggest_float("kd_v_s_mm", 0.5, 1.2),
+            trial.suggest_float("d_alpha", 0.5, 1.0),
+            margin_mm=trial.suggest_float("margin_mm", 0.02, 0.05),
+            limit_v=trial.suggest_float("limit_v", 6.0, 10.0, step=0.5),
+        )
+        mlp = mean_settling("mlp_mcu", pid, trial.suggest_int("pred_avg", 4, 10), seeds)
+        sf = mean_settling("sf_mcu", pid, 1, seeds[:2])
+        trial.set_user_attr("mlp_mcu", mlp)
+        trial.set_user_attr("sf_mcu", sf)
+        return objective(mlp, sf)
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    study = optuna.create_study(sampler=optuna.samplers.TPESampler(seed=sampler_seed))
+    study.optimize(trial_fn, n_trials=trials, show_progress_bar=True)
+    return study
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the search and print the best parameters with their settling times."""
+    p = argparse.ArgumentParser(prog="python -m seagen.control.tune", description=__doc__)
+    p.add_argument("--trials", type=int, default=40, help="Optuna trials (default 40, ~25 s each)")
+    p.add_argument("--seeds", type=int, default=4, help="noise seeds per trial (default 4)")
+    a = p.parse_args(argv)
+    study = tune(a.trials, tuple(10 * k for k in range(a.seeds)))
+    best = study.best_trial
+    print("best:", {k: round(v, 4) for k, v in best.params.items()})
+    print("settling s, mlp_mcu:", best.user_attrs["mlp_mcu"], "sf_mcu:", best.user_attrs["sf_mcu"])
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

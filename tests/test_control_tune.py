@@ -1,0 +1,20 @@
+"""The tuning objective behind DEFAULT_PID (seagen.control.tune)."""
+
+from __future__ import annotations
+
+from seagen.control.tune import objective
+
+SF_PAPER = {5.0: 0.32, 10.0: 0.50, 15.0: 0.58}
+
+
+def test_objective_is_worst_mlp_target_plus_mean_when_sf_is_inside_the_paper_window():
+    mlp = {5.0: 0.2, 10.0: 0.4, 15.0: 0.6}
+    assert abs(objective(mlp, SF_PAPER) - (0.6 + 0.3 * 0.4)) < 1e-12
+
+
+def test_objective_penalizes_sf_outside_plus_minus_50_percent_of_the_paper():
+    mlp = {5.0: 0.2, 10.0: 0.4, 15.0: 0.6}
+    inside = objective(mlp, {5.0: 0.47, 10.0: 0.26, 15.0: 0.86})
+    slow = objective(mlp, {5.0: 0.58, 10.0: 0.50, 15.0: 0.58})  # 0.1 s above 1.5 x 0.32 at 5 N
+    fast = objective(mlp, {5.0: 0.32, 10.0: 0.15, 15.0: 0.58})  # 0.1 s below 0.5 x 0.50 at 10 N
+    assert abs(inside - 0.72) < 1e-12 and abs(slow - 1.02) < 1e-9 and abs(fast - 1.02) < 1e-9
