@@ -9,7 +9,7 @@ import pytest
 
 from seagen.cli import main
 from seagen.control import controller as ct
-from seagen.control.experiment import metrics
+from seagen.control.experiment import CONTACT_DEG, metrics
 from seagen.control.loop import run_closed_loop
 from seagen.control.predictors import kinematic_cloud, kinematic_mcu
 
@@ -84,3 +84,25 @@ def test_cli_bad_latency(capsys):
     """A negative latency is a user error (exit 2) naming the option."""
     assert main(["simulate", "--latency", "-1"]) == 2
     assert "--latency" in capsys.readouterr().err
+
+
+def test_cli_simulate_seed_sweep_is_the_mean_of_single_seeds(capsys):
+    """`--seeds 2` reports per target the mean of the two single-seed runs and their settling range."""
+    runs = []
+    for seed in (3, 4):
+        assert main(["simulate", "--json", "--config", "kin_mcu", "--seed", str(seed)]) == 0
+        runs.append(json.loads(capsys.readouterr().out)["kin_mcu"])
+    assert main(["simulate", "--json", "--config", "kin_mcu", "--seed", "3", "--seeds", "2"]) == 0
+    swept = json.loads(capsys.readouterr().out)["kin_mcu"]
+    for t, r in swept.items():
+        one = [x[t] for x in runs]
+        st = [x["settling_s"] for x in one if x["settling_s"] is not None]
+        assert abs(r["error_avg_n"] - np.mean([x["error_avg_n"] for x in one])) < 1e-4
+        assert r["settled"] == sum(x["settled"] for x in one) and r["angles"] == 2 * len(CONTACT_DEG)
+        assert (r["settling_min_s"], r["settling_max_s"]) == ((min(st), max(st)) if st else (None, None))
+
+
+def test_cli_bad_seeds(capsys):
+    """--seeds below 1 is a user error (exit 2) naming the option."""
+    assert main(["simulate", "--seeds", "0"]) == 2
+    assert "--seeds" in capsys.readouterr().err
