@@ -18,3 +18,15 @@ def test_objective_penalizes_sf_outside_plus_minus_50_percent_of_the_paper():
     slow = objective(mlp, {5.0: 0.58, 10.0: 0.50, 15.0: 0.58})  # 0.1 s above 1.5 x 0.32 at 5 N
     fast = objective(mlp, {5.0: 0.32, 10.0: 0.15, 15.0: 0.58})  # 0.1 s below 0.5 x 0.50 at 10 N
     assert abs(inside - 0.72) < 1e-12 and abs(slow - 1.02) < 1e-9 and abs(fast - 1.02) < 1e-9
+
+
+def test_shipped_parameters_are_the_defaults():
+    """The tuner's baseline trial is exactly what ships (DEFAULT_PID and the MLP prediction average)."""
+    from seagen.control.experiment import CONFIGS
+    from seagen.control.pid import DEFAULT_PID, PidParams
+    from seagen.control.tune import SHIPPED
+
+    p = dict(SHIPPED)
+    pred_avg = p.pop("pred_avg")
+    assert PidParams.from_si(**p) == DEFAULT_PID
+    assert CONFIGS["mlp_mcu"](0.1)[1].pred_avg == pred_avg and CONFIGS["mlp_mcu"](0.1)[1].pid == DEFAULT_PID
