@@ -33,10 +33,10 @@ demo: venv
 	$(VENV)/bin/seagen demo --out $(DEMO)
 
 test: venv
-	$(PY) -m pytest -n $(JOBS) -q
+	$(PY) -m pytest -n $(JOBS) --dist worksteal -q
 
 test-slow: venv
-	$(PY) -m pytest -n $(JOBS) -q -m slow
+	$(PY) -m pytest -n $(JOBS) --dist worksteal -q -m slow
 
 check: venv
 	$(VENV)/bin/ruff check .
