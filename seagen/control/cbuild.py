@@ -63,7 +63,6 @@ def generated_cdef(prefix: str) -> str:
         f"typedef struct {{ int32_t p1[3]; int32_t p2[3]; uint8_t primed; }} {prefix}_state_t;\n"
         f"void {prefix}_reset({prefix}_state_t *s);\n"
         f"int32_t {prefix}_predict_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);\n"
-        f"extern const int32_t {prefix}_link_q16[257];\n"
     )
 
 

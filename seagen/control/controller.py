@@ -156,15 +156,12 @@ def control_step(
     every = max(c.predict_every, 1)
     n = _pot(checked, pot)
     comp = compression_q16(c.table, enc, n.pot_avg)
-    desired = s.desired
     due = n.pred_count == 0
     if c.predictor is not None and due.any():
-        pred = _predict(c, n, np.asarray(c.predictor(enc, pot, force), np.int64))
-        n = _where(due, pred, n)
-        desired = np.where(due, n.desired, desired)
-    pid = pid_step(c.pid, s.pid, desired, comp)
+        n = _where(due, _predict(c, n, np.asarray(c.predictor(enc, pot, force), np.int64)), n)
+    pid = pid_step(c.pid, s.pid, n.desired, comp)
     count = np.where(n.pred_count + 1 < every, n.pred_count + 1, 0)
-    n = replace(n, comp=comp, desired=desired, pred_count=count, pid=pid, out=pid.out)
+    n = replace(n, comp=comp, pred_count=count, pid=pid, out=pid.out)
     safe = replace(checked, fault=s.fault | bits, pid=pid_reset(c.pid, s.comp, 0), out=np.zeros_like(enc))
     return _where(latched, s, _where(bits != 0, safe, n))
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
@@ -66,11 +66,11 @@ def metrics(rec: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     }
 
 
-def run_config(name: str, latency_s: float = 0.1, impl: str = "c", seed: int = 0) -> dict[str, dict]:
-    """Every target at every contact angle for one configuration: {target: {metric: value, ...}};
-    settling_s is the mean over the angles that settle (`settled` of them), None if none does."""
-    pred, ctl = CONFIGS[name](latency_s)
-    out: dict[str, dict] = {}
+def runs(
+    pred: McuPredictor | CloudPredictor, ctl: ControlConfig, impl: str = "c", seed: int = 0
+) -> Iterator[tuple[float, dict[str, np.ndarray]]]:
+    """The experiment for one predictor and controller: (target, record) per target, all contact angles
+    at once, plant-noise seed `seed + i` for the i-th target."""
     for i, target in enumerate(TARGETS_N):
         rec = run_closed_loop(
             pred,
@@ -81,6 +81,14 @@ def run_config(name: str, latency_s: float = 0.1, impl: str = "c", seed: int = 0
             seed=seed + i,
             control_cfg=ctl,
         )
+        yield target, rec
+
+
+def run_config(name: str, latency_s: float = 0.1, impl: str = "c", seed: int = 0) -> dict[str, dict]:
+    """Every target at every contact angle for one configuration: {target: {metric: value, ...}};
+    settling_s is the mean over the angles that settle (`settled` of them), None if none does."""
+    out: dict[str, dict] = {}
+    for target, rec in runs(*CONFIGS[name](latency_s), impl=impl, seed=seed):
         m = metrics(rec)
         s = m["settling_s"]
         out[f"{target:g}"] = {
@@ -91,13 +99,6 @@ def run_config(name: str, latency_s: float = 0.1, impl: str = "c", seed: int = 0
             "trace": rec,
         }
     return out
-
-
-def table2(
-    configs: tuple[str, ...] = TABLE2_CONFIGS, seed: int = 0, latency_s: float = 0.1, impl: str = "c"
-) -> dict[str, dict[str, dict]]:
-    """Table II measured in closed loop: {config: {"5"|"10"|"15": {error_avg_n, settling_s, ...}}}."""
-    return simulate(configs, latency_s, impl, seed)
 
 
 def simulate(

@@ -9,13 +9,13 @@ import pandas as pd
 
 from seagen.control.controller import FORCE_FRAC
 from seagen.data.features import derive
-from seagen.demo import GENERATED
+from seagen.demo import DEFAULT_PREFIX, GENERATED
 from seagen.quant import kernels as K
 from seagen.quant import primitives as P
 from seagen.quant.features import EXTERNAL, model_inputs
 from seagen.reference import float_ref, numpy_ref
 
-MODEL_FILES = {"ctl_sf": "sf_control.pt", "ctl_mlp": "mlp_control.pt"}
+MODEL_FILES = {prefix: f"{name}.pt" for name, prefix in DEFAULT_PREFIX.items()}  # prefix -> model file
 
 
 @cache

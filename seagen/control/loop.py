@@ -79,8 +79,8 @@ class PyController:
 
 def make_controller(impl: str, pred: McuPredictor | CloudPredictor, c: ControlConfig) -> Any:
     """The C (`impl='c'`, built by cffi) or Python (`'py'`) controller for this predictor."""
-    if isinstance(pred, McuPredictor):
-        c = replace(c, predictor=pred.make_twin(), predict_every=pred.predict_every)
+    if isinstance(pred, McuPredictor):  # the C controller calls the C predictor; only the twin needs its twin
+        c = replace(c, predictor=pred.make_twin() if impl == "py" else None, predict_every=pred.predict_every)
     else:
         c = replace(c, predictor=None)
     if impl == "py":

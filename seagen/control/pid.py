@@ -58,9 +58,16 @@ class PidParams:
         return (self.kp, self.ki, self.kd, self.d_alpha, self.margin, self.out_min, self.out_max)
 
 
-# Tuned on the simulated plant (c_runtime/README.md "Tuned gains"): 31 V/mm, 6.5 V/(mm s), 0.85 V s/mm,
-# alpha 0.95, margin 0.025 mm, output +-6.5 V.
-DEFAULT_PID = PidParams.from_si(31.0, 6.5, 0.85, 0.95, margin_mm=0.025, limit_v=6.5)
+# Tuned on the simulated plant (c_runtime/README.md "Tuned gains"; python -m seagen.control.tune).
+DEFAULT_PID_SI = {
+    "kp_v_mm": 31.0,
+    "ki_v_mm_s": 6.5,
+    "kd_v_s_mm": 0.85,
+    "d_alpha": 0.95,
+    "margin_mm": 0.025,
+    "limit_v": 6.5,
+}
+DEFAULT_PID = PidParams.from_si(**DEFAULT_PID_SI)
 
 
 @dataclass(frozen=True)

@@ -4,19 +4,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from seagen.atomic import atomic_path
+from seagen.plotting import figure, save_png
 
 
 def step_plot(name: str, results: dict[str, dict], path: Path, angle_index: int = 2) -> None:
     """One configuration: smoothed shaft force vs time for each target at one contact angle."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     from seagen.control.experiment import CONTACT_DEG, smoothed
 
-    fig, ax = plt.subplots(figsize=(6, 3.5))
+    fig = figure(figsize=(6, 3.5))
+    ax = fig.add_subplot()
     for target, r in results.items():
         rec = r["trace"]
         f = smoothed(rec["force_n"])[:, angle_index]
@@ -29,14 +25,10 @@ def step_plot(name: str, results: dict[str, dict], path: Path, angle_index: int 
 
 def comparison_plot(results: dict[str, dict[str, dict]], path: Path, angle_index: int = 2) -> None:
     """Paper Fig. 17 style: every configuration's force at every target, one contact angle, one panel."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     from seagen.control.experiment import CONTACT_DEG, smoothed
 
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig = figure(figsize=(7, 4))
+    ax = fig.add_subplot()
     styles = dict(zip(results, ("-", "--", ":", "-."), strict=False))
     for (name, res), color in zip(results.items(), ("C0", "C1", "C2", "C3"), strict=False):
         for k, (target, r) in enumerate(res.items()):
@@ -51,10 +43,6 @@ def comparison_plot(results: dict[str, dict[str, dict]], path: Path, angle_index
 
 def _save(fig, ax, path: Path) -> None:
     """Legend, tight layout, PNG written atomically, figure closed."""
-    import matplotlib.pyplot as plt
-
     ax.legend()
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=120)
-    plt.close(fig)
+    save_png(fig, path, dpi=120)

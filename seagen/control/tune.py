@@ -9,26 +9,17 @@ import numpy as np
 
 from seagen.control.experiment import (
     CONFIGS,
-    CONTACT_DEG,
     DURATION_S,
     MLP_PRED_AVG,
     PAPER_TABLE2,
     TARGETS_N,
     metrics,
+    runs,
 )
-from seagen.control.loop import run_closed_loop
-from seagen.control.pid import PidParams
+from seagen.control.pid import DEFAULT_PID_SI, PidParams
 
 # The shipped choice (DEFAULT_PID, MLP_PRED_AVG) in the search's parameters: the first trial, as a baseline.
-SHIPPED = {
-    "kp_v_mm": 31.0,
-    "ki_v_mm_s": 6.5,
-    "kd_v_s_mm": 0.85,
-    "d_alpha": 0.95,
-    "margin_mm": 0.025,
-    "limit_v": 6.5,
-    "pred_avg": MLP_PRED_AVG,
-}
+SHIPPED = {**DEFAULT_PID_SI, "pred_avg": MLP_PRED_AVG}
 
 NEVER_S = DURATION_S  # an angle that never settles counts as the whole run
 
@@ -39,10 +30,7 @@ def mean_settling(name: str, pid: PidParams, pred_avg: int, seeds: tuple[int, ..
     cfg = replace(ctl, pid=pid, pred_avg=pred_avg)
     out: dict[float, list[float]] = {t: [] for t in TARGETS_N}
     for seed in seeds:
-        for i, target in enumerate(TARGETS_N):
-            rec = run_closed_loop(
-                pred, target, np.array(CONTACT_DEG), duration_s=DURATION_S, seed=seed + i, control_cfg=cfg
-            )
+        for target, rec in runs(pred, cfg, seed=seed):
             out[target].append(float(np.nan_to_num(metrics(rec)["settling_s"], nan=NEVER_S).mean()))
     return {t: float(np.mean(v)) for t, v in out.items()}
 

@@ -9,30 +9,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from seagen.atomic import write_with
 from seagen.fit.predict import TARGET, TASKS, UNIT, kinematics_predict, predict
 from seagen.fit.sf import eval_sf
+from seagen.plotting import figure, save_png
 
 MAX_SCATTER = 3000
 LABELS = {"angle_deg": "angle (deg)", "compression_mm": "compression (mm)", "force_n": "force (N)"}
-
-
-def _figure() -> Any:
-    """A new figure on the non-interactive backend."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt.figure(figsize=(7, 5), dpi=100)
-
-
-def _save(fig: Any, path: Path) -> None:
-    """Write a figure atomically as PNG and close it."""
-    import matplotlib.pyplot as plt
-
-    write_with(path, lambda tmp: fig.savefig(tmp, format="png", bbox_inches="tight"))
-    plt.close(fig)
 
 
 def plot_surface(model: dict[str, Any], train: pd.DataFrame, path: Path, title: str) -> None:
@@ -43,7 +25,7 @@ def plot_surface(model: dict[str, Any], train: pd.DataFrame, path: Path, title: 
     ga, gb = np.meshgrid(np.linspace(alo, ahi, 40), np.linspace(blo, bhi, 40))
     gz = eval_sf(model["sf"], ga.ravel(), gb.ravel()).reshape(ga.shape)
     rows = train.iloc[:: max(1, len(train) // MAX_SCATTER)]
-    fig = _figure()
+    fig = figure(figsize=(7, 5), dpi=100)
     ax = fig.add_subplot(projection="3d")
     ax.plot_surface(ga, gb, gz, cmap="viridis", alpha=0.6, linewidth=0)
     ax.scatter(rows[a], rows[b], rows[out], s=2, c="k", alpha=0.4, label="training data")
@@ -52,12 +34,12 @@ def plot_surface(model: dict[str, Any], train: pd.DataFrame, path: Path, title: 
     ax.set_zlabel(LABELS.get(out, out))
     ax.set_title(title)
     ax.legend(loc="upper left")
-    _save(fig, path)
+    save_png(fig, path, bbox_inches="tight")
 
 
 def plot_validation(task: str, named: dict[str, dict[str, Any]], val: pd.DataFrame, path: Path) -> None:
     """Measured vs predicted output per validation sample: kinematics and every model of the task."""
-    fig = _figure()
+    fig = figure(figsize=(7, 5), dpi=100)
     ax = fig.add_subplot()
     x = np.arange(len(val))
     ax.plot(x, val[TARGET[task]], "k-", lw=2, label="measured")
@@ -71,7 +53,7 @@ def plot_validation(task: str, named: dict[str, dict[str, Any]], val: pd.DataFra
     ax.set_title(f"{kind} on the validation set ({angle:.2f} deg contact)")
     ax.grid(alpha=0.3)
     ax.legend()
-    _save(fig, path)
+    save_png(fig, path, bbox_inches="tight")
 
 
 def write_plots(
