@@ -33,7 +33,7 @@ def built(model_files):
     out = {}
     for name, w, ex in _exports(model_files):
         n_ext = len(external_inputs(ex.qmodel))
-        out[(name, w)] = (ex, CModel(ex.files, ex.prefix, len(ex.qmodel.inputs), n_ext))
+        out[(name, w)] = (ex, CModel(ex.files, ex.prefix, n_ext))
     return out
 
 

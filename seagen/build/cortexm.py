@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from seagen import __version__
-from seagen.build.host import CACHE, STRICT_CFLAGS, _key
+from seagen.build.host import CACHE, STRICT_CFLAGS, _key, compile_objects
 from seagen.errors import UserError
 
 GCC = "arm-none-eabi-gcc"
@@ -114,16 +114,8 @@ def _compile_link(
     work: Path, sources: dict[str, str], flags: tuple[str, ...], roots: tuple[str, ...]
 ) -> Path:
     """Compile every .c with the strict flags for the target and link them (+ libgcc) into work/fw.elf."""
-    src = work / "src"
-    src.mkdir(parents=True)
-    for fname, text in sources.items():
-        (src / fname).write_text(text)
-    objs = []
-    for fname in sorted(f for f in sources if f.endswith(".c")):
-        obj = work / (Path(fname).stem + ".o")
-        cmd = [GCC, *flags, *STRICT_CFLAGS, *FREESTANDING, "-I", str(src), "-c", str(src / fname)]
-        _run([*cmd, "-o", str(obj)], f"cross-compiling {fname}")
-        objs.append(obj)
+    ordered = dict(sorted(sources.items()))
+    objs = compile_objects(ordered, work, (*flags, *FREESTANDING), cc=GCC, pic=False)
     (work / "link.ld").write_text(LINKER_SCRIPT)
     elf = work / "fw.elf"
     undef = [f"-Wl,--undefined={r}" for r in roots]
@@ -309,10 +301,6 @@ class CortexM:
         x = np.ascontiguousarray(np.atleast_2d(x), dtype=np.int16)
         infer, out = f"{self.prefix}_infer", np.zeros(1, np.int16)
         return np.array([self.machine.call(infer, row, out, count=True)[1] for row in x])
-
-    def instructions_per_inference(self, x: np.ndarray) -> float:
-        """Mean executed instructions of one NAME_infer call over the rows of x."""
-        return float(self.instructions(x).mean())
 
     def step(
         self, enc: np.ndarray, pot: np.ndarray, trial: np.ndarray, ext: np.ndarray | None = None

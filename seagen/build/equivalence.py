@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import onnx
 
 from seagen.build.model import CModel
 from seagen.reference import numpy_ref, onnx_ref, torch_ref
@@ -18,6 +19,7 @@ class Check:
     rows: int
     mismatches: dict[str, str] = field(default_factory=dict)  # implementation -> first mismatching input
     compared: str = "C == numpy == torch == onnxruntime"
+    c_out: np.ndarray | None = field(default=None, repr=False, compare=False)  # what C returned, if run
 
     @property
     def ok(self) -> bool:
@@ -66,9 +68,10 @@ def edge_inputs(n_in: int) -> np.ndarray:
 def compare(name: str, qm, c: CModel, x: np.ndarray, onnx_model=None) -> Check:
     """Run all four on int16 inputs x (N, n_in); numpy is the reference the others must equal."""
     ref = numpy_ref.infer(qm, x)
-    chk = Check(name, len(x))
+    c_out = c.infer(x)
+    chk = Check(name, len(x), c_out=c_out)
     others = {
-        "C": c.infer(x),
+        "C": c_out,
         "torch": torch_ref.infer(qm, x),
         "onnxruntime": onnx_ref.infer(qm, x, onnx_model),
     }
@@ -107,19 +110,23 @@ def check_data_dir(ex, data_dir: str) -> DataReport:
     """NAME_infer on the test and validation features, NAME_step on whole recorded trials, and |C - float|."""
     from seagen.data.features import derive
     from seagen.data.schema import load_split
-    from seagen.quant.features import step_features
+    from seagen.quant.features import external_inputs, step_features
     from seagen.quant.primitives import linkage_table_q16
     from seagen.reference.float_ref import predict, quantize_features
 
     qm = ex.qmodel
     names = [i.signal.name for i in qm.inputs]
-    ext_names = [n for n in names if n == "force_n"]
-    c = CModel(ex.files, ex.prefix, len(names), len(ext_names))
+    ext_names = external_inputs(qm)
+    c = CModel(ex.files, ex.prefix, len(ext_names))
+    onnx_model = (
+        onnx.load_model_from_string(ex.onnx_bytes) if ex.onnx_bytes is not None else onnx_ref.build_onnx(qm)
+    )
     checks, max_err = [], 0.0
     for split in ("test", "validation"):
         df = derive(load_split(data_dir, split))
         xq = quantize_features(qm, df[names].to_numpy())
-        checks.append(compare(f"{ex.prefix}_infer on {split}", qm, c, xq))
+        infer_check = compare(f"{ex.prefix}_infer on {split}", qm, c, xq, onnx_model)
+        checks.append(infer_check)
         ext = xq[:, [names.index(n) for n in ext_names]]
         ref = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), df.enc, df.pot, df.trial, ext))
         got = c.step(df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy(), ext if ext_names else None)
@@ -133,6 +140,7 @@ def check_data_dir(ex, data_dir: str) -> DataReport:
             )
         )
         if split == "test":
-            fixed = c.infer(xq) * 2.0**-qm.out_frac
+            assert infer_check.c_out is not None
+            fixed = infer_check.c_out * 2.0**-qm.out_frac
             max_err = float(np.max(np.abs(fixed - predict(ex.float_model, df[names].to_numpy()))))
     return DataReport(checks, max_err, qm.output.unit, qm.error_bound)

@@ -49,12 +49,15 @@ def _write_sources(srcdir: Path, sources: dict[str, str]) -> list[Path]:
     return [srcdir / f for f in sources if f.endswith(".c")]
 
 
-def compile_objects(sources: dict[str, str], outdir: Path, extra: tuple[str, ...] = ()) -> list[Path]:
-    """Compile every .c of `sources` with the strict flags (-fPIC) into objects under `outdir`."""
+def compile_objects(
+    sources: dict[str, str], outdir: Path, extra: tuple[str, ...] = (), *, cc: str = "gcc", pic: bool = True
+) -> list[Path]:
+    """Compile every .c of `sources` (in order) with `cc` and the strict flags (+ -fPIC) into `outdir`."""
     objs = []
     for c in _write_sources(outdir / "src", sources):
         obj = outdir / (c.stem + ".o")
-        cmd = ["gcc", *STRICT_CFLAGS, *extra, "-fPIC", "-I", str(c.parent), "-c", str(c), "-o", str(obj)]
+        fpic = ("-fPIC",) if pic else ()
+        cmd = [cc, *STRICT_CFLAGS, *extra, *fpic, "-I", str(c.parent), "-c", str(c), "-o", str(obj)]
         res = subprocess.run(cmd, capture_output=True, text=True)
         if res.returncode != 0:
             raise UserError(f"C compilation of {c.name} failed:\n{res.stderr}")

@@ -33,11 +33,11 @@ def cdef(prefix: str) -> str:
 class CModel:
     """The generated C of one model, loaded through cffi."""
 
-    def __init__(self, files: dict[str, str], prefix: str, n_in: int, n_ext: int) -> None:
+    def __init__(self, files: dict[str, str], prefix: str, n_ext: int) -> None:
         sources = dict(files)
         sources[f"{prefix}_harness.c"] = harness_source(prefix, n_ext)
         sources[f"{prefix}_harness.h"] = "#include <stdint.h>\n" + cdef(prefix)
-        self.prefix, self.n_in, self.n_ext, self.files = prefix, n_in, n_ext, sources
+        self.prefix, self.n_ext = prefix, n_ext
         self.mod: ModuleType = build(cdef(prefix), sources, name=prefix)
 
     def infer(self, x: np.ndarray) -> np.ndarray:

@@ -9,8 +9,6 @@ import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
 from seagen.build.runtime import runtime_sources
 from seagen.codegen.cfmt import assert_valid_prefix
 from seagen.codegen.render import RUNTIME, render
@@ -103,11 +101,3 @@ def write(ex: Export, out_dir: str | os.PathLike[str]) -> list[Path]:
         return written
     finally:
         shutil.rmtree(stage, ignore_errors=True)
-
-
-def float_vs_fixed(ex: Export, x: np.ndarray) -> float:
-    """max |fixed - float| (output units) on physical feature rows x, via the numpy integer reference."""
-    from seagen.reference import float_ref, numpy_ref
-
-    q = numpy_ref.infer(ex.qmodel, float_ref.quantize_features(ex.qmodel, x))
-    return float(np.max(np.abs(q * 2.0**-ex.qmodel.out_frac - float_ref.predict(ex.float_model, x))))

@@ -11,7 +11,7 @@ import numpy as np
 
 from seagen import __version__
 from seagen.codegen.cfmt import assert_valid_prefix, c_array, c_int
-from seagen.codegen.summary import summary_lines
+from seagen.codegen.summary import buffer_width, summary_lines
 from seagen.ir import QModel
 from seagen.quant.features import external_inputs, feature_plan
 from seagen.quant.primitives import linkage_table_q16
@@ -103,7 +103,7 @@ def _predictor(qm: QModel) -> dict[str, int] | None:
 def context(qm: QModel, prefix: str) -> dict[str, Any]:
     """Everything the templates print, decided here."""
     prefix = assert_valid_prefix(prefix)
-    width = max([len(qm.inputs)] + [q.w_q.shape[0] for q in qm.layers])
+    width = buffer_width(qm)
     features = _features(qm)
     return {
         "P": prefix,

@@ -3,8 +3,14 @@
 from __future__ import annotations
 
 from seagen.ir import QModel
+from seagen.quant.primitives import LINK_TABLE_LEN
 
 STATE_BYTES = 4 * 6 + 4  # NAME_state_t: p1[3], p2[3] int32 + the primed flag (padded)
+
+
+def buffer_width(qm: QModel) -> int:
+    """Elements of each int16 working buffer of an MLP: the widest of the inputs and every layer's output."""
+    return max([len(qm.inputs)] + [q.w_q.shape[0] for q in qm.layers])
 
 
 def memory(qm: QModel) -> dict[str, int]:
@@ -13,10 +19,9 @@ def memory(qm: QModel) -> dict[str, int]:
     for q in qm.layers:
         flash += q.w_q.size * (qm.weight_bits // 8) + q.b_q.size * (q.acc_bits // 8)
     flash += sum(2 * len(t.values) for t in qm.tables)
-    flash += 4 * 257  # linkage table of the feature pipeline
+    flash += 4 * LINK_TABLE_LEN  # linkage table of the feature pipeline
     flash += 4 * sum(1 for op in qm.horner if op.var < 0 or op.add_reg < 0)
-    width = max([len(qm.inputs)] + [q.w_q.shape[0] for q in qm.layers])
-    ram = (2 * 2 * width if qm.kind == "mlp" else 2 * len(qm.inputs) + 4 * qm.n_regs) + STATE_BYTES
+    ram = (2 * 2 * buffer_width(qm) if qm.kind == "mlp" else 2 * len(qm.inputs) + 4 * qm.n_regs) + STATE_BYTES
     return {"flash_data_bytes": flash, "ram_bytes": ram}
 
 
