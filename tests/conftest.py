@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 import torch
 
-from seagen.data.features import MLP_FEATURES, derive
+from seagen.data.features import MLP_FEATURES
+from seagen.fit.mlp import CONTROL_FEATURES
 from seagen.fit.modelfile import FeatureSpec, save_model
 
-CONTROL_FEATURES = ("force_n", "pot", "d_pot", "dd_pot", "d_enc", "dd_enc", "d_compression_mm")
 ACTS = {
     "relu": torch.nn.ReLU,
     "leaky_relu": lambda: torch.nn.LeakyReLU(0.05),
@@ -33,11 +33,17 @@ def data_dir(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
-def train_df(data_dir):
-    """Derived training rows."""
-    from seagen.data.schema import load_split
+def derived_frames(data_dir):
+    """Derived train/test/validation frames of the default data set (shared, do not modify)."""
+    from seagen.fit.train import load_derived
 
-    return derive(load_split(data_dir, "train"))
+    return load_derived(data_dir)
+
+
+@pytest.fixture(scope="session")
+def train_df(derived_frames):
+    """Derived training rows."""
+    return derived_frames["train"]
 
 
 def quick_mlp(df, inputs, output, hidden=(16, 32), act="relu", steps=200, seed=0) -> dict:

@@ -1,4 +1,7 @@
-"""Shared fixtures of the fit tests: one simulated data set and the four default models per session."""
+"""Shared fixtures of the fit tests: the session's simulated data set and the four default models.
+
+The data set and its derived frames come from conftest.py (generated once per session); these fixtures
+only give them the names the fit tests import."""
 
 from __future__ import annotations
 
@@ -6,25 +9,19 @@ from pathlib import Path
 
 import pytest
 
-from seagen.data.protocol import generate
-from seagen.data.schema import save_csv
-from seagen.fit.train import load_derived, train_defaults
-from seagen.plant import PlantConfig
+from seagen.fit.train import train_defaults
 
 
 @pytest.fixture(scope="session")
-def fit_data(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The default simulated data set (paper protocol, seed 0) written as CSVs."""
-    out = tmp_path_factory.mktemp("fitdata")
-    for name, df in generate(PlantConfig(), seed=0).items():
-        save_csv(df, out / f"{name}.csv")
-    return out
+def fit_data(data_dir: Path) -> Path:
+    """The default simulated data set (paper protocol, seed 0) written as CSVs (conftest.data_dir)."""
+    return data_dir
 
 
 @pytest.fixture(scope="session")
-def fit_frames(fit_data: Path) -> dict:
-    """Derived train/test/validation frames of the default data set."""
-    return load_derived(fit_data)
+def fit_frames(derived_frames: dict) -> dict:
+    """Derived train/test/validation frames of the default data set (conftest.derived_frames)."""
+    return derived_frames
 
 
 @pytest.fixture(scope="session")

@@ -10,7 +10,7 @@ import pytest
 
 from seagen.cli import main
 from seagen.data.schema import save_csv
-from seagen.discrepancy.bench import make_case, measure
+from seagen.discrepancy.bench import case_frames, make_case, measure
 from seagen.discrepancy.replay import simulate
 from seagen.plant import Plant, PlantConfig, load_config
 
@@ -59,11 +59,7 @@ def test_plant_structure_law_accepts_per_element_parameters() -> None:
 
 def _write(case_runs_cfg: PlantConfig, path, seed: int = 3) -> None:
     """A measured CSV from the plant `cfg` (two trials at six angles)."""
-    from seagen.data.protocol import PUSH_MOVES, Move, run_trials
-
-    moves = [Move(a, *PUSH_MOVES[(i + k) % 5]) for i, a in enumerate((6, 10, 14, 18, 22, 26)) for k in (0, 1)]
-    dfs = run_trials(case_runs_cfg, moves, seed=seed)
-    save_csv(pd.concat([d.assign(trial=i) for i, d in enumerate(dfs)], ignore_index=True), path)
+    save_csv(pd.concat(case_frames(case_runs_cfg, seed), ignore_index=True), path)
 
 
 def test_cli_names_adds_and_reports(tmp_path, capsys) -> None:

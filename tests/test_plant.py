@@ -94,11 +94,9 @@ def test_effect_moves_output_in_documented_direction(effect):
 
 
 @pytest.fixture(scope="module")
-def test_split(data_dir):
+def test_split(derived_frames):
     """Derived test split of the default data set."""
-    from seagen.data.schema import load_split
-
-    return derive(load_split(data_dir, "test"))
+    return derived_frames["test"]
 
 
 def test_naive_kinematics_error_matches_paper(test_split):

@@ -14,7 +14,6 @@ from seagen.plant import geometry as g
 TRAIN_ANGLES_DEG = tuple(float(a) for a in np.linspace(6.0, 26.0, 12))  # the 12 contact angles
 ROWS = {"train": 10_400, "test": 2_416, "validation": 140}  # paper §VIII-A
 SAMPLE_EVERY = 10  # 1 kHz plant, 100 Hz samples
-FREE_DRIVE_V = 4.0  # approach speed until the linkage reaches the load cell
 # (push volts, peak force at the shaft N, retract volts): "several speeds" (chosen)
 PUSH_MOVES = ((2.5, 17.0, -5.0), (4.0, 12.0, -7.0), (3.0, 19.0, -6.0), (5.0, 9.0, -8.0), (2.0, 14.0, -4.0))
 # The calibration protocol: the third push climbs in 0.5 mm position-controlled stairs instead ("PID

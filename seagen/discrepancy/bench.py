@@ -57,12 +57,20 @@ def draw(effect: str, rng: np.random.Generator) -> dict[str, float]:
     return p
 
 
+def case_moves() -> list[Move]:
+    """The reduced protocol: two trials at each of the six CASE_ANGLES, cycling through PUSH_MOVES."""
+    n = len(PUSH_MOVES)
+    return [Move(a, *PUSH_MOVES[(i + k) % n]) for i, a in enumerate(CASE_ANGLES) for k in (0, 1)]
+
+
+def case_frames(cfg: PlantConfig, seed: int) -> list[pd.DataFrame]:
+    """The case_moves trials of the plant cfg, each frame with its trial number."""
+    return [df.assign(trial=i) for i, df in enumerate(run_trials(cfg, case_moves(), seed=seed))]
+
+
 def measure(cfg: PlantConfig, seed: int) -> Runs:
     """A reduced data set (two trials at each of six angles, paper protocol) from the plant cfg."""
-    n = len(PUSH_MOVES)
-    moves = [Move(a, *PUSH_MOVES[(i + k) % n]) for i, a in enumerate(CASE_ANGLES) for k in (0, 1)]
-    dfs = run_trials(cfg, moves, seed=seed)
-    return runs_from_frames([("sim", df.assign(trial=i)) for i, df in enumerate(dfs)])
+    return runs_from_frames([("sim", df) for df in case_frames(cfg, seed)])
 
 
 def make_case(effects: tuple[str, ...], seed: int, default: PlantConfig | None = None) -> Case:

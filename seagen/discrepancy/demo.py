@@ -6,20 +6,18 @@ from pathlib import Path
 
 import pandas as pd
 
-from seagen.data.protocol import PUSH_MOVES, Move, run_trials
 from seagen.data.schema import save_csv
+from seagen.discrepancy.bench import case_frames
 from seagen.plant import PlantConfig
 
 HIDDEN = ("backlash", {"half_width_mm": 0.08})  # what the "measured" actuator has and the model lacks
-ANGLES = (6.0, 10.0, 14.0, 18.0, 22.0, 26.0)
 
 
 def measured_csv(out: Path, seed: int) -> tuple[Path, PlantConfig]:
     """Two trials at each of six angles from the plant with HIDDEN switched on, as one data-schema CSV."""
     name, params = HIDDEN
     truth = PlantConfig().with_effect(name, True, **params)
-    moves = [Move(a, *PUSH_MOVES[(i + k) % len(PUSH_MOVES)]) for i, a in enumerate(ANGLES) for k in (0, 1)]
-    frames = [df.assign(trial=i) for i, df in enumerate(run_trials(truth, moves, seed=seed + 101))]
+    frames = case_frames(truth, seed=seed + 101)
     path = out / "measured.csv"
     save_csv(pd.concat(frames, ignore_index=True), path)
     return path, truth

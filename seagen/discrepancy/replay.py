@@ -136,11 +136,10 @@ def simulate(base: PlantConfig, sets: list[ParamSet], runs: Runs) -> dict[str, n
         out["force_n"][:, j] = out["load_cell_n"][:, j] / plant.ratio
         if j == t - 1:
             break
-        for k in range(SAMPLE_EVERY):
+        for _ in range(SAMPLE_EVERY):
             plant.step(volts[:, j])
             if pvd:
                 drop += (kappa * np.abs(plant.current) - drop) * alpha
-            if size > 2 or k == SAMPLE_EVERY - 1:  # without a delay only the sampled force is needed
-                ptr = (ptr + 1) % size
-                ring[ptr] = plant.structure_force(plant.shaft_mm)[0]
+            ptr = (ptr + 1) % size
+            ring[ptr] = plant.shaft_force
     return {c: v.reshape(len(sets), n, t) for c, v in out.items()}

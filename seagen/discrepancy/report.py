@@ -26,9 +26,14 @@ TEST_TEXT = (
 )
 
 
+def _labels(res: Result) -> dict[str, np.ndarray]:
+    """The held-out region labels (computed by identify; recomputed for a Result built without them)."""
+    return res.labels or region_labels(res.held)
+
+
 def region_gap(res: Result) -> pd.DataFrame:
     """Held-out residual RMS before and after, per region."""
-    labels = region_labels(res.held)
+    labels = _labels(res)
     rows = []
     for kind, lab in labels.items():
         for region in sorted(set(lab[res.held.mask])):
@@ -110,7 +115,7 @@ def write_report(res: Result, out: str | os.PathLike[str], source: str) -> None:
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}."))
     try:
-        labels = region_labels(res.held)
+        labels = _labels(res)
         before = region_table(res.held, res.z_before, labels)
         after = region_table(res.held, res.z_after, labels)
         gap = region_gap(res)

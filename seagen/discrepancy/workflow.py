@@ -63,6 +63,7 @@ class Result:
     noise_floor: float
     rounds: list[pd.DataFrame] = field(default_factory=list)
     seconds: float = 0.0
+    labels: dict[str, np.ndarray] = field(default_factory=dict)  # region_labels(held)
 
     @property
     def rms_before(self) -> float:
@@ -240,6 +241,6 @@ def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) 
         z1 = _residual(cfg, held, sig_h)
     else:
         verdict = "unexplained"
-    res = Result(named, verdict, cfg, held, z0, z1, floor, rounds)
+    res = Result(named, verdict, cfg, held, z0, z1, floor, rounds, labels=labels)
     res.seconds = time.perf_counter() - t0
     return res

@@ -37,10 +37,8 @@ def _lstsq(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return coef / scale
 
 
-def _weighted_normal(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Weighted least squares by the 10x10 normal equations of column-scaled terms (fast inside IRLS)."""
-    scale = _column_scale(x)
-    xs = x / scale
+def _weighted_normal(xs: np.ndarray, scale: np.ndarray, y: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Weighted least squares by the 10x10 normal equations of the column-scaled terms xs = x / scale."""
     xw = xs * w[:, None]
     return np.linalg.solve(xs.T @ xw, xw.T @ y) / scale
 
@@ -54,9 +52,11 @@ def fit_mae(x: np.ndarray, y: np.ndarray, iterations: int = IRLS_ITERATIONS) -> 
     """Least absolute deviations (Eq. 7) by iteratively re-weighted least squares, started from OLS."""
     coef = _lstsq(x, y)
     eps = IRLS_EPS * max(float(np.abs(y).max()), 1.0)
+    scale = _column_scale(x)
+    xs = x / scale
     for _ in range(iterations):
         r = np.abs(y - x @ coef)
-        new = _weighted_normal(x, y, 1.0 / np.maximum(r, eps))
+        new = _weighted_normal(xs, scale, y, 1.0 / np.maximum(r, eps))
         if np.allclose(new, coef, rtol=1e-9, atol=1e-12):
             return new
         coef = new

@@ -123,6 +123,11 @@ class Plant:
         self._history[0] = self.structure_force(self.shaft_mm)[0]
         self.t += dt
 
+    @property
+    def shaft_force(self) -> np.ndarray:
+        """The structure force on the shaft after the last step (before any transport delay), N."""
+        return self._history[0]
+
     def _move_nut(self) -> None:
         """Backlash: the nut follows the motor with a dead band of +-b."""
         bl = self.cfg.effects.backlash
