@@ -1,56 +1,101 @@
-"""A normal (non-editable) build ships templates/ and c_runtime/ in the package (importlib.resources)."""
+"""A normal (non-editable) wheel ships templates, the C runtime and the default models, and runs from them."""
 
 from __future__ import annotations
 
+import json
+import os
 import subprocess
 import sys
 import zipfile
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 
-PROBE = """
-import sys
-sys.path.insert(0, sys.argv[1])
-import seagen
-assert seagen.__file__.startswith(sys.argv[1]), seagen.__file__
-from seagen.build.runtime import FIXED, runtime_sources
-from seagen.codegen.render import environment
-assert "sea_rshift_rne_s64" in runtime_sources(*FIXED)["sea_fixed.c"]
-assert environment().get_template("model.c.j2")
-print("ok")
-"""
 
-
-def test_wheel_carries_templates_and_runtime(tmp_path):
-    """The wheel holds seagen/templates/*.j2 and seagen/c_runtime/*; both load from the wheel itself."""
+@pytest.fixture(scope="module")
+def wheel(tmp_path_factory) -> Path:
+    """The wheel built from this checkout (no dependencies, no isolation: fast)."""
+    out = tmp_path_factory.mktemp("wheel")
     subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "pip",
-            "wheel",
-            str(ROOT),
-            "--no-deps",
-            "--no-build-isolation",
-            "-q",
-            "-w",
-            str(tmp_path),
-        ],
+        [sys.executable, "-m", "pip", "wheel", str(ROOT), "--no-deps", "--no-build-isolation", "-q"]
+        + ["-w", str(out)],
         check=True,
         capture_output=True,
     )
-    wheel = next(tmp_path.glob("seagen-*.whl"))
+    return next(out.glob("seagen-*.whl"))
+
+
+@pytest.fixture(scope="module")
+def installed(wheel, tmp_path_factory) -> Path:
+    """The wheel installed with --no-deps into a folder that goes first on the import path."""
+    site = tmp_path_factory.mktemp("site")
+    subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(site), str(wheel)],
+        check=True,
+        capture_output=True,
+    )
+    return site
+
+
+def seagen_cmd(site: Path, cwd: Path, *args: str, python: str = sys.executable) -> str:
+    """Run `seagen ARGS` from the installed wheel in another working directory; returns stdout."""
+    env = {**os.environ, "PYTHONPATH": str(site)}
+    res = subprocess.run(
+        [python, "-m", "seagen.cli", *args], cwd=cwd, env=env, capture_output=True, text=True
+    )
+    assert res.returncode == 0, f"seagen {' '.join(args)}: {res.stderr[-2000:]}"
+    return res.stdout
+
+
+def test_wheel_carries_templates_runtime_and_defaults(wheel):
+    """The wheel holds templates, c_runtime and generated/ (exports and default models) as package data."""
     names = zipfile.ZipFile(wheel).namelist()
     for f in (
         "seagen/templates/model.c.j2",
-        "seagen/templates/model.h.j2",
         "seagen/c_runtime/sea_fixed.c",
         "seagen/c_runtime/sea_nn.h",
         "seagen/c_runtime/README.md",
+        "seagen/generated/ctl_sf.h",
+        "seagen/generated/cal_mlp.c",
+        "seagen/generated/models/mlp_calibration.pt",
     ):
         assert f in names, f
-    res = subprocess.run(
-        [sys.executable, "-c", PROBE, str(wheel)], capture_output=True, text=True, cwd=tmp_path
+
+
+def test_wheel_runs_simulate_export_and_generate(installed, tmp_path):
+    """From the installed wheel, in another folder: simulate --json, export a shipped model, data generate."""
+    probe = (
+        "import seagen; from seagen.defaults import default_model;"
+        "print(seagen.__file__, default_model('mlp_calibration'))"
     )
-    assert res.stdout.strip() == "ok", res.stderr
+    env = {**os.environ, "PYTHONPATH": str(installed)}
+    where = subprocess.run(
+        [sys.executable, "-c", probe], cwd=tmp_path, env=env, capture_output=True, text=True, check=True
+    ).stdout.split()
+    assert all(p.startswith(str(installed)) for p in where), where
+    table = json.loads(seagen_cmd(installed, tmp_path, "simulate", "--json", "--config", "sf_mcu"))
+    assert table["sf_mcu"]["10"]["settled"] > 0
+    seagen_cmd(installed, tmp_path, "export", where[1], "--prefix", "cal_mlp", "--out", "fw")
+    assert (tmp_path / "fw" / "cal_mlp.c").read_text() == (ROOT / "generated" / "cal_mlp.c").read_text()
+    seagen_cmd(installed, tmp_path, "data", "generate", "--out", "data")
+    assert {p.name for p in (tmp_path / "data").iterdir()} >= {"train.csv", "test.csv", "validation.csv"}
+
+
+@pytest.mark.slow
+def test_wheel_in_a_fresh_virtual_environment(wheel, tmp_path):
+    """The wheel with its dependencies in a fresh venv (torch from the local CPU wheel first) runs export."""
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+    pip = [str(venv / "bin" / "python"), "-m", "pip", "install", "-q"]
+    subprocess.run([*pip, "torch==2.13.0"], check=True)
+    subprocess.run([*pip, str(wheel)], check=True)
+    out = subprocess.run(
+        [str(venv / "bin" / "seagen"), "simulate", "--json", "--config", "sf_mcu"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert json.loads(out.stdout)["sf_mcu"]["5"]["settled"] > 0

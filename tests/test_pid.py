@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from seagen.build.host import build, build_exe
-from seagen.build.runtime import runtime_sources
+from seagen.codegen.runtime import runtime_sources
 from seagen.control.cbuild import PID_CDEF as CDEF
 from seagen.control.pid import DEFAULT_PID, PidParams, pid_reset, pid_step
 

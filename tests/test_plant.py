@@ -7,13 +7,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from seagen import geometry as g
 from seagen.data.features import derive
 from seagen.data.protocol import Move, run_trials
+from seagen.experiments import measure_friction
 from seagen.fit.kinematics import ERROR_THRESHOLD_N, kinematics_errors, shaft_force
 from seagen.plant import EFFECT_NAMES, PlantConfig, load_config, save_config
-from seagen.plant import geometry as g
 from seagen.plant.config import ConfigError
-from seagen.plant.experiments import measure_friction
 
 K = g.SPRING_N_PER_MM
 
@@ -39,7 +39,7 @@ def loading(df: pd.DataFrame, lo: float, hi: float) -> pd.DataFrame:
 
 
 def m_onset_friction(df):  # k x compression at which the load cell leaves zero
-    from seagen.plant.experiments import friction_from_trial
+    from seagen.experiments import friction_from_trial
 
     return friction_from_trial(df)
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from seagen.build.host import build
-from seagen.build.runtime import FIXED, runtime_sources
+from seagen.codegen.runtime import FIXED, runtime_sources
 from seagen.quant import primitives as P
 
 CDEF = """
@@ -89,7 +89,7 @@ def test_compression_matches_float_geometry():
     Bound: interpolation CB*h^2/8 (h = 16 counts = 0.00362 rad) = 5.9e-5, Q24 constant 0.28/2^24 per count
     over 3000 counts = 5.0e-5, two roundings to Q16 = 1.5e-5 mm: 1.24e-4 mm.
     """
-    from seagen.plant import geometry as g
+    from seagen import geometry as g
 
     pot = np.arange(380, 2400)
     enc = np.linspace(-200, 3000, pot.size).astype(np.int64)

@@ -19,7 +19,7 @@ import sys
 import numpy as np
 
 from seagen.build.cortexm import CPUS, CortexM, Machine, build_image, toolchain_missing
-from seagen.demo import DEFAULT_PREFIX, GENERATED
+from seagen.defaults import DEFAULT_PREFIX, GENERATED
 from seagen.ir import FloatMLP, FloatSF
 
 MODELS = GENERATED / "models"

@@ -9,9 +9,9 @@ import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from seagen.build.runtime import runtime_sources
 from seagen.codegen.cfmt import assert_valid_prefix
 from seagen.codegen.render import RUNTIME, render
+from seagen.codegen.runtime import runtime_sources
 from seagen.codegen.summary import summary_lines
 from seagen.errors import UserError
 from seagen.ir import FloatMLP, FloatModel, QModel

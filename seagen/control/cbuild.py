@@ -9,9 +9,9 @@ from types import ModuleType
 import numpy as np
 
 from seagen.build import host
-from seagen.build.runtime import runtime_sources
+from seagen.codegen.runtime import runtime_sources
 from seagen.control.controller import ControlConfig, KinParams
-from seagen.demo import GENERATED
+from seagen.defaults import GENERATED
 
 SOURCES = ("sea_fixed.h", "sea_fixed.c", "sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c")
 NN_SOURCES = ("sea_nn.h", "sea_nn.c")

@@ -9,7 +9,7 @@ import pandas as pd
 
 from seagen.control.controller import FORCE_FRAC
 from seagen.data.features import derive
-from seagen.demo import DEFAULT_PREFIX, GENERATED
+from seagen.defaults import DEFAULT_PREFIX, GENERATED
 from seagen.quant import kernels as K
 from seagen.quant import primitives as P
 from seagen.quant.features import EXTERNAL, model_inputs

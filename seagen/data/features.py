@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from seagen.plant import geometry as g
+from seagen import geometry as g
 
 # Order of the calibration MLP's nine inputs (paper §V-A).
 MLP_FEATURES = (

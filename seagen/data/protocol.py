@@ -8,8 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from seagen import geometry as g
 from seagen.plant import Plant, PlantConfig
-from seagen.plant import geometry as g
 
 TRAIN_ANGLES_DEG = tuple(float(a) for a in np.linspace(6.0, 26.0, 12))  # the 12 contact angles
 ROWS = {"train": 10_400, "test": 2_416, "validation": 140}  # paper §VIII-A

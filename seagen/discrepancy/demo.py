@@ -25,8 +25,7 @@ def measured_csv(out: Path, seed: int) -> tuple[Path, PlantConfig]:
 
 def run_demo(out: Path, seed: int = 0) -> dict:
     """Run the workflow on the measured CSV exactly as `seagen discrepancy --measured` does; print the gap."""
-    from seagen.discrepancy.commands import load_measured
-    from seagen.discrepancy.replay import runs_from_frames
+    from seagen.discrepancy.replay import load_measured, runs_from_frames
     from seagen.discrepancy.report import summary, write_report
     from seagen.discrepancy.workflow import identify
 

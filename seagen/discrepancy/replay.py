@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from seagen import geometry as g
 from seagen.data.protocol import SAMPLE_EVERY
 from seagen.plant import EFFECT_NAMES, Plant, PlantConfig
-from seagen.plant import geometry as g
 
 CHANNELS = ("enc", "pot", "load_cell_n", "force_n")
 # Sensor-side effects: they do not change the motion, so the replay loop applies them per element.
@@ -143,3 +144,19 @@ def simulate(base: PlantConfig, sets: list[ParamSet], runs: Runs) -> dict[str, n
             ptr = (ptr + 1) % size
             ring[ptr] = plant.shaft_force
     return {c: v.reshape(len(sets), n, t) for c, v in out.items()}
+
+
+def load_measured(path: str) -> list:
+    """(name, DataFrame) for a CSV or every CSV in a directory, validated by the data schema."""
+    from seagen.data.schema import DataError, load_csv
+
+    p = Path(path)
+    if p.is_dir():
+        files = sorted(p.glob("*.csv"))
+        if not files:
+            raise DataError(f"{p}: no CSV files in this directory")
+    elif p.exists():
+        files = [p]
+    else:
+        raise DataError(f"{p}: no such file or directory")
+    return [(f.name, load_csv(f)) for f in files]

@@ -6,8 +6,8 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from seagen import geometry as g
 from seagen.discrepancy.replay import CHANNELS, Runs
-from seagen.plant import geometry as g
 
 # force_n is load_cell_n / R_l(angle): in noise units the two residuals are identical, so the combined
 # metric counts the load cell once.

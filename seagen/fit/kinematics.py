@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from seagen.plant import geometry as g
+from seagen import geometry as g
 
 FRICTION_COMPENSATION_N = 2.7  # the paper's measured actuator friction (Fig. 7), at the shaft
 ERROR_THRESHOLD_N = 5.0  # relative errors are taken over rows whose reference force exceeds this

@@ -7,10 +7,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from seagen import geometry as g
 from seagen.errors import UserError
 from seagen.fit import kinematics
 from seagen.fit.modelfile import FeatureSpec
-from seagen.plant import geometry as g
 
 TASKS = ("calibration", "control")
 TARGET = {"calibration": "force_n", "control": "compression_mm"}

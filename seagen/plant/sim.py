@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from seagen.plant import geometry as g
+from seagen import geometry as g
 from seagen.plant.config import PlantConfig
 
 _STOP_N_PER_MM = 400.0  # hard stop when the nut pulls the shaft back (negative compression)

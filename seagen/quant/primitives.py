@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from seagen.plant import geometry as g
+from seagen import geometry as g
 
 COMP_FRAC_BITS = 16  # compression: Q16 mm
 LINK_TABLE_SHIFT = 4

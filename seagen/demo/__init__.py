@@ -9,13 +9,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from seagen.codegen.export import Export
 
-GENERATED = Path(__file__).resolve().parents[1] / "generated"  # the repository's exports of the defaults
-DEFAULT_PREFIX = {
-    "sf_calibration": "cal_sf",
-    "mlp_calibration": "cal_mlp",
-    "sf_control": "ctl_sf",
-    "mlp_control": "ctl_mlp",
-}
+from seagen.defaults import DEFAULT_PREFIX
 
 
 def export_defaults(models: dict[str, Path], out: Path, calib: str | None = None) -> dict[str, Export]:
@@ -72,7 +66,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if args.rebuild:
         build_defaults(Path(args.rebuild), args.seed)
         return 0
-    from seagen.demo_steps import run_demo
+    from seagen.demo.steps import run_demo
 
     run_demo(Path(args.out), args.seed)
     return 0

@@ -10,8 +10,8 @@ import numpy as np
 
 from seagen.data.features import derive
 from seagen.data.schema import SPLITS, DataError, load_split
+from seagen.experiments import friction_from_trial
 from seagen.fit.kinematics import ERROR_THRESHOLD_N, kinematics_errors
-from seagen.plant.experiments import friction_from_trial
 
 
 def summarize(data_dir: str | os.PathLike[str]) -> dict[str, Any]:

@@ -11,11 +11,11 @@ from seagen.errors import UserError
 
 # Each module defines register(subparsers); its handlers take the parsed args and return an exit code.
 COMMAND_MODULES = (
-    "seagen.data.commands",
-    "seagen.fit.commands",
-    "seagen.codegen.commands",
-    "seagen.control.commands",
-    "seagen.discrepancy.commands",
+    "seagen.cli.data",
+    "seagen.cli.fit",
+    "seagen.cli.export",
+    "seagen.cli.control",
+    "seagen.cli.discrepancy",
     "seagen.demo",
 )
 

@@ -61,7 +61,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
 def cmd_summary(args: argparse.Namespace) -> int:
     """Print the summary of a data directory."""
-    from seagen.data.summary import format_summary, summarize
+    from seagen.summary import format_summary, summarize
 
     s = summarize(args.dir)
     print(json.dumps(s, indent=2) if args.json else format_summary(s))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from seagen.plant import geometry as g
+from seagen import geometry as g
 from seagen.plant.config import PlantConfig
 
 FRICTION_ANGLES_DEG = (8.0, 16.0, 26.0)  # where the paper's Fig. 8 values are reproduced

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -25,22 +24,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_discrepancy)
 
 
-def load_measured(path: str) -> list:
-    """(name, DataFrame) for a CSV or every CSV in a directory, validated by the data schema."""
-    from seagen.data.schema import DataError, load_csv
-
-    p = Path(path)
-    if p.is_dir():
-        files = sorted(p.glob("*.csv"))
-        if not files:
-            raise DataError(f"{p}: no CSV files in this directory")
-    elif p.exists():
-        files = [p]
-    else:
-        raise DataError(f"{p}: no such file or directory")
-    return [(f.name, load_csv(f)) for f in files]
-
-
 def cmd_discrepancy(args: argparse.Namespace) -> int:
     """Run the workflow (or the bench) and print its result."""
     from seagen.errors import UserError
@@ -49,7 +32,7 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
         return cmd_bench(args)
     if not args.measured or not args.out:
         raise UserError("discrepancy: --measured and --out are required (or use `discrepancy bench`)")
-    from seagen.discrepancy.replay import runs_from_frames
+    from seagen.discrepancy.replay import load_measured, runs_from_frames
     from seagen.discrepancy.report import summary, write_report
     from seagen.discrepancy.workflow import identify
     from seagen.plant import PlantConfig, load_config

@@ -14,9 +14,9 @@ def step_data(out: Path, seed: int) -> Path:
     """Generate the three splits and print the paper-figure table."""
     from seagen.data.protocol import generate
     from seagen.data.schema import save_csv
-    from seagen.data.summary import format_summary, summarize
+    from seagen.experiments import measure_friction
     from seagen.plant import PlantConfig
-    from seagen.plant.experiments import measure_friction
+    from seagen.summary import format_summary, summarize
 
     _banner("1. data on the simulated SEA (paper §VIII-A protocol)")
     data = out / "data"

@@ -1,0 +1,1 @@
+"""The exports of the default models (package data: seagen.generated)."""

@@ -1,0 +1,112 @@
+"""seagen's packages import in one direction: the package import graph has no cycle."""
+
+from __future__ import annotations
+
+import ast
+from collections import defaultdict
+from pathlib import Path
+
+import seagen
+
+ROOT = Path(seagen.__file__).resolve().parent
+
+
+def node_of(module: str) -> str | None:
+    """The graph node of a dotted module name: seagen.X for anything under seagen.X (None outside)."""
+    parts = module.split(".")
+    return parts[1] if parts[0] == "seagen" and len(parts) > 1 else None
+
+
+def module_name(path: Path) -> str:
+    """Dotted name of a source file under seagen/."""
+    rel = path.relative_to(ROOT.parent).with_suffix("")
+    return ".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts)
+
+
+def imports_of(path: Path) -> set[str]:
+    """Every module a file imports, at any depth (function-local imports count too)."""
+    tree = ast.parse(path.read_text(), str(path))
+    out: set[str] = set()
+    for n in ast.walk(tree):
+        if isinstance(n, ast.Import):
+            out.update(a.name for a in n.names)
+        elif isinstance(n, ast.ImportFrom):
+            assert not n.level, f"{path}: relative import (seagen uses absolute imports)"
+            base = n.module or ""
+            out.add(base)
+            out.update(f"{base}.{a.name}" for a in n.names)
+    return out
+
+
+def package_graph() -> dict[str, dict[str, str]]:
+    """node -> {imported node: one file that imports it}."""
+    graph: dict[str, dict[str, str]] = defaultdict(dict)
+    for path in sorted(ROOT.rglob("*.py")):
+        src = node_of(module_name(path))
+        for mod in imports_of(path):
+            dst = node_of(mod)
+            if src and dst and dst != src:
+                graph[src].setdefault(dst, str(path.relative_to(ROOT.parent)))
+    return graph
+
+
+def find_cycle(graph: dict[str, dict[str, str]]) -> list[str]:
+    """One cycle of the graph as a node list (first node repeated at the end), or []."""
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def visit(n: str) -> list[str]:
+        state[n] = 1
+        stack.append(n)
+        for m in sorted(graph.get(n, {})):
+            if state.get(m) == 1:
+                return stack[stack.index(m) :] + [m]
+            if m not in state and (c := visit(m)):
+                return c
+        stack.pop()
+        state[n] = 2
+        return []
+
+    for n in sorted(graph):
+        if n not in state and (c := visit(n)):
+            return c
+    return []
+
+
+def test_package_imports_form_a_dag():
+    """No cycle between seagen's packages (each top-level module counts as its own node)."""
+    graph = package_graph()
+    cycle = find_cycle(graph)
+    where = [f"{a} -> {b} ({graph[a][b]})" for a, b in zip(cycle, cycle[1:], strict=False)]
+    assert not cycle, "package import cycle: " + "; ".join(where)
+
+
+def test_cycle_finder_finds_a_planted_cycle():
+    """The checker itself: a planted a -> b -> c -> a cycle is found, a DAG gives none."""
+    assert find_cycle({"a": {"b": ""}, "b": {"c": ""}, "c": {"a": ""}}) == ["a", "b", "c", "a"]
+    assert find_cycle({"a": {"b": ""}, "b": {"c": ""}, "c": {}}) == []
+
+
+def test_library_modules_do_not_import_the_demo():
+    """Only the CLI imports the demo."""
+    drivers = {"cli", "demo"}
+    bad = [
+        f"{src} ({dst_file})"
+        for src, dsts in package_graph().items()
+        for dst, dst_file in dsts.items()
+        if dst == "demo" and src not in drivers
+    ]
+    assert not bad, "library modules import the demo: " + ", ".join(bad)
+
+
+def test_integer_reference_loads_no_plant_or_torch():
+    """Importing the numpy integer reference and the primitives loads neither the plant nor torch."""
+    import subprocess
+    import sys
+
+    probe = (
+        "import sys, seagen.reference.numpy_ref, seagen.quant.primitives, seagen.quant.kernels;"
+        "print(sorted(m for m in sys.modules if m.startswith(('seagen.plant', 'seagen.data', 'torch'))))"
+    )
+    res = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    assert res.stdout.strip() == "[]", res.stdout
