@@ -16,6 +16,7 @@ COMMAND_MODULES = (
     "seagen.cli.export",
     "seagen.cli.control",
     "seagen.cli.discrepancy",
+    "seagen.cli.verify",
     "seagen.demo",
 )
 

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from seagen.codegen.cfmt import assert_valid_prefix
+from seagen.codegen.manifest import SUFFIX, manifest_text
 from seagen.codegen.render import RUNTIME, render
 from seagen.codegen.runtime import runtime_sources
 from seagen.codegen.summary import summary_lines
@@ -66,13 +67,16 @@ def prepare(
     calib: str | None = None,
     features: str | None = None,
     with_onnx: bool = False,
+    ranges: list[list[float]] | None = None,
 ) -> Export:
-    """Everything of an export, in memory (nothing is written)."""
+    """Everything of an export, in memory (nothing is written); `ranges` overrides the input ranges."""
     prefix = assert_valid_prefix(prefix or default_prefix(model_path))
     bits = {"int16": 16, "int8": 8}.get(weights)
     if bits is None:
         raise UserError(f"--weights must be int16 or int8, not {weights!r}")
-    fm = load_float_model(model_path, features, (lambda names: calib_ranges(calib, names)) if calib else None)
+    fm = load_float_model(
+        model_path, features, ranges or ((lambda names: calib_ranges(calib, names)) if calib else None)
+    )
     qm = quantize(fm, bits)
     files = {**render(qm, prefix), **runtime_sources(*RUNTIME)}
     onnx_bytes = None
@@ -80,7 +84,35 @@ def prepare(
         from seagen.reference.onnx_ref import build_onnx
 
         onnx_bytes = build_onnx(qm, prefix).SerializeToString()
+    options = {"weights": weights, "target": "portable", "calib": calib, "onnx": with_onnx}
+    files[f"{prefix}{SUFFIX}"] = export_manifest(qm, prefix, model_path, options, features, files, onnx_bytes)
     return Export(fm, qm, prefix, files, onnx_bytes, summary_lines(qm))
+
+
+def export_manifest(
+    qm: QModel,
+    prefix: str,
+    model_path: str,
+    options: dict,
+    features: str | None,
+    files: dict[str, str],
+    onnx_bytes: bytes | None,
+) -> str:
+    """NAME.seagen.json for the files of this export (the runtime files and NAME.onnx included)."""
+    from seagen.codegen.render import model_hash
+    from seagen.quant.load import read_features_file
+
+    emitted = {name: text.encode() for name, text in files.items()}
+    if onnx_bytes is not None:
+        emitted[f"{prefix}.onnx"] = onnx_bytes
+    resolved = {
+        "inputs": [[i.signal.name, i.signal.unit, i.signal.lo, i.signal.hi] for i in qm.inputs],
+        "output": [qm.output.name, qm.output.unit],
+        "qmodel_hash": model_hash(qm),
+        "error_bound": qm.error_bound,
+        "features": read_features_file(features) or None,
+    }
+    return manifest_text(prefix, model_path, options, resolved, emitted)
 
 
 def write(ex: Export, out_dir: str | os.PathLike[str]) -> list[Path]:

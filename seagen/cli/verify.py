@@ -1,0 +1,52 @@
+"""`seagen verify`: the equivalence gate for committed C (thin: parse, call, print)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from seagen.atomic import atomic_path
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the `verify` command."""
+    p = sub.add_parser(
+        "verify",
+        help="check committed C against its model bit for bit (for firmware CI)",
+        description="Build the C in DIR as it is on disk (never re-rendered) and check it against MODEL: "
+        "first drift (hand-edited files, another model, another seagen version, by file name), then bit for "
+        "bit against the integer references (numpy, torch, onnxruntime) rebuilt from DIR's NAME.seagen.json, "
+        "and within the proven bound against the model itself. Exit 0: everything agrees; 1: a "
+        "disagreement (the first failing input and both outputs are printed); 2: bad input.",
+    )
+    p.add_argument(
+        "dir", metavar="DIR", help="folder holding the export (NAME.c, NAME.h, NAME.seagen.json, ...)"
+    )
+    p.add_argument("--model", required=True, help="the model file the C was exported from")
+    p.add_argument("--prefix", metavar="NAME", help="which export of DIR (default: the one made from MODEL)")
+    p.add_argument(
+        "--data", metavar="DIR", help="data folder: also check its test/validation rows and trials"
+    )
+    p.add_argument("--vectors", type=int, default=10_000, metavar="N", help="random vectors (default 10000)")
+    p.add_argument(
+        "--core",
+        choices=("host", "cortex-m0plus", "cortex-m4"),
+        default="host",
+        help="where the C runs: host (cffi) or an emulated core (arm-none-eabi-gcc + unicorn)",
+    )
+    p.add_argument("--features", metavar="SPEC", help="feature specification, as given to seagen export")
+    p.add_argument("--junit", metavar="FILE", help="also write a JUnit XML report (one test case per check)")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    p.set_defaults(func=cmd_verify)
+
+
+def cmd_verify(args: argparse.Namespace) -> int:
+    """Run every check, print the report, write the JUnit file; 0 agrees, 1 disagrees."""
+    from seagen.verify.run import verify
+
+    verdict = verify(args.dir, args.model, args.prefix, args.data, args.vectors, args.core, args.features)
+    print(verdict.to_json() if args.json else verdict.text())
+    if args.junit:
+        with atomic_path(Path(args.junit)) as tmp:
+            Path(tmp).write_bytes(verdict.junit())
+    return 0 if verdict.ok else 1

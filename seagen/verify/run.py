@@ -1,0 +1,182 @@
+"""Build the C on disk as it is; compare it bit for bit with MODEL's references rebuilt from the manifest."""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from seagen.build.equivalence import compare, edge_inputs, first_mismatch, random_inputs
+from seagen.codegen.manifest import Manifest
+from seagen.errors import UserError
+from seagen.verify.drift import check_drift, select
+from seagen.verify.result import Verdict
+
+CORES = ("host", "cortex-m0plus", "cortex-m4")
+
+
+def rebuild(man: Manifest, model: Path, features: str | None):
+    """The export MODEL gives today with the manifest's resolved options (ranges, features, weights)."""
+    from seagen.codegen.export import prepare
+
+    opts, res = man.data["options"], man.data["resolved"]
+    ranges = [[float(lo), float(hi)] for _n, _u, lo, hi in res["inputs"]]
+    with tempfile.TemporaryDirectory() as tmp:
+        if features is None and res.get("features"):
+            features = str(Path(tmp) / "features.json")
+            spec = res["features"]
+            Path(features).write_text(json.dumps({**spec.pop("features", {}), **spec}))
+        return prepare(str(model), man.prefix, opts["weights"], None, features, True, ranges)
+
+
+def disk_target(folder: Path, man: Manifest, core: str, n_ext: int):
+    """The C files of the export as they are on disk, built for the host (cffi) or an emulated core."""
+    files = {n: (folder / n).read_text() for n in man.files if n.endswith((".c", ".h"))}
+    if core == "host":
+        from seagen.build.model import CModel
+
+        return files, CModel(files, man.prefix, n_ext)
+    from seagen.build.cortexm import CortexM, toolchain_missing
+
+    if msg := toolchain_missing():
+        raise UserError(f"--core {core}: {msg}")
+    cpu = {"cortex-m0plus": "cortex-m0", "cortex-m4": "cortex-m4"}[core]
+    return files, CortexM(files, man.prefix, cpu)
+
+
+def synthetic_trials(qm, n_trials: int = 4, n: int = 400, seed: int = 0):
+    """enc, pot, trial ids: bounded random walks inside the calibrated pot/enc ranges (or the sensors')."""
+    rng = np.random.default_rng(seed)
+    rng_of = {i.signal.name: (i.signal.lo, i.signal.hi) for i in qm.inputs}
+    plo, phi = rng_of.get("pot", (0.0, 4095.0))
+    elo, ehi = rng_of.get("enc", (-100.0, 2700.0))
+    enc, pot = [], []
+    for _ in range(n_trials):
+        e = np.clip(elo + np.cumsum(rng.integers(-3, 4, n)) + rng.uniform(0, ehi - elo), elo, ehi)
+        p = np.clip(plo + np.cumsum(rng.integers(-6, 7, n)) + rng.uniform(0, phi - plo), plo, phi)
+        enc.append(np.rint(e))
+        pot.append(np.rint(p))
+    trial = np.repeat(np.arange(n_trials), n)
+    return np.concatenate(enc).astype(np.int64), np.concatenate(pot).astype(np.int64), trial
+
+
+def step_problem(qm, target, enc, pot, trial, ext) -> str | None:
+    """NAME_step of the target over whole sequences vs the numpy feature pipeline + reference."""
+    from seagen.quant.features import step_features
+    from seagen.quant.primitives import linkage_table_q16
+    from seagen.reference import numpy_ref
+
+    ref = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), enc, pot, trial, ext))
+    got = target.step(enc, pot, trial, ext if ext.shape[1] else None)
+    return first_mismatch(got, ref, np.column_stack([trial, enc, pot]))
+
+
+def check_steps(v: Verdict, ex, target, data: str | None) -> None:
+    """NAME_step on the recorded trials of DATA (test, validation), or on synthetic sequences in the box."""
+    from seagen.quant.features import external_inputs
+    from seagen.reference.float_ref import quantize_features
+
+    qm, p = ex.qmodel, ex.prefix
+    ext_names = external_inputs(qm)
+    names = [i.signal.name for i in qm.inputs]
+    if data is None:
+        enc, pot, trial = synthetic_trials(qm)
+        rng = np.random.default_rng(1)
+        ext = np.column_stack(
+            [rng.integers(qi.lo_q, qi.hi_q + 1, len(enc)) for qi in qm.inputs if qi.signal.name in ext_names]
+            or [np.zeros((len(enc), 0), dtype=np.int64)]
+        )
+        v.add(
+            f"{p}_step on {len(set(trial))} synthetic sequences",
+            step_problem(qm, target, enc, pot, trial, ext),
+        )
+        return
+    from seagen.data.features import derive
+    from seagen.data.schema import load_split
+
+    for split in ("test", "validation"):
+        df = derive(load_split(data, split))
+        xq = quantize_features(qm, df[names].to_numpy())
+        ext = xq[:, [names.index(n) for n in ext_names]]
+        enc, pot, trial = df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy()
+        v.add(f"{p}_step on {split} trials ({len(df)} rows)", step_problem(qm, target, enc, pot, trial, ext))
+        chk = compare(f"{p}_infer on {split}", qm, target, xq, None)
+        v.add(f"{p}_infer on {split} rows ({len(df)}): C == numpy == torch == onnxruntime", _problem(chk))
+
+
+def _problem(chk) -> str | None:
+    """The first mismatch of a Check as one line, or None."""
+    return None if chk.ok else "; ".join(f"{k} differs at {m}" for k, m in chk.mismatches.items())
+
+
+def verify(
+    folder: str,
+    model: str,
+    prefix: str | None = None,
+    data: str | None = None,
+    vectors: int = 10_000,
+    core: str = "host",
+    features: str | None = None,
+) -> Verdict:
+    """Every check of `seagen verify`, in order: drift first, then numbers (see the README, "Use in CI")."""
+    from seagen.codegen.render import model_hash
+    from seagen.quant.features import external_inputs
+
+    if core not in CORES:
+        raise UserError(f"--core must be one of {', '.join(CORES)}, not {core!r}")
+    if vectors < 0:
+        raise UserError(f"--vectors must be >= 0, got {vectors}")
+    root, mpath = Path(folder), Path(model)
+    man, matches = select(root, mpath, prefix)
+    v = Verdict(man.prefix, str(root))
+    check_drift(v, root, man, mpath, matches)
+    if not matches:
+        return v  # numbers against another model say nothing more
+    ex = rebuild(man, mpath, features)
+    want, got = man.data["resolved"]["qmodel_hash"], model_hash(ex.qmodel)
+    v.add(
+        "quantization unchanged",
+        None
+        if got == want
+        else f"this seagen quantizes {mpath.name} to {got}; the export holds {want}: "
+        "re-export with seagen export",
+        kind="drift",
+    )
+    if got != want:
+        return v
+    qm = ex.qmodel
+    _files, target = disk_target(root, man, core, len(external_inputs(qm)))
+    edges = edge_inputs(len(qm.inputs))
+    x = np.vstack([random_inputs(qm, vectors, seed=0), edges])
+    chk = compare("infer", qm, target, x, None)
+    v.add(
+        f"{man.prefix}_infer on {vectors} random + {len(edges)} edge vectors ({core}): "
+        "C == numpy == torch == onnxruntime",
+        _problem(chk),
+    )
+    v.add(f"{man.prefix} within its proven bound of the original model", oracle_problem(ex, mpath, qm))
+    check_steps(v, ex, target, data)
+    return v
+
+
+def oracle_problem(ex, model: Path, qm) -> str | None:
+    """The integer reference vs the float model over the box (replaced by the original-model oracle)."""
+    from seagen.reference import numpy_ref
+    from seagen.reference.float_ref import predict
+
+    rng = np.random.default_rng(2)
+    lo = np.array([i.signal.lo for i in qm.inputs])
+    hi = np.array([i.signal.hi for i in qm.inputs])
+    xs = np.vstack([lo + (hi - lo) * rng.random((2000, len(lo))), lo, hi])
+    xq = np.column_stack(
+        [np.clip(np.rint(xs[:, k] * 2.0**i.frac), i.lo_q, i.hi_q) for k, i in enumerate(qm.inputs)]
+    )
+    fixed = numpy_ref.infer(qm, xq.astype(np.int64)) * 2.0**-qm.out_frac
+    err = np.abs(fixed - predict(ex.float_model, xs))
+    k = int(np.argmax(err))
+    if err[k] <= qm.error_bound:
+        return None
+    want = predict(ex.float_model, xs[k : k + 1])[0]
+    return f"input {xs[k].tolist()}: integer {fixed[k]:.6g} vs model {want:.6g} (bound {qm.error_bound:.4g})"

@@ -1,0 +1,133 @@
+"""`seagen verify` checks committed C against its model: drift by file, numbers bit for bit, exit codes."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+from seagen.cli import main
+from seagen.defaults import GENERATED, default_model
+from seagen.testing import assert_equivalent
+
+CAL = default_model("mlp_calibration")
+EXPORT_FILES = ("cal_mlp.c", "cal_mlp.h", "cal_mlp.onnx", "cal_mlp.seagen.json")
+RUNTIME = ("sea_fixed.c", "sea_fixed.h", "sea_nn.c", "sea_nn.h")
+
+
+def one_export(tmp_path: Path) -> Path:
+    """A folder holding only the cal_mlp export (copied from generated/)."""
+    out = tmp_path / "fw"
+    out.mkdir()
+    for name in EXPORT_FILES + RUNTIME:
+        shutil.copy(GENERATED / name, out / name)
+    return out
+
+
+def run(*args: str) -> tuple[int, str, str]:
+    """`seagen ARGS` in a subprocess: exit code, stdout, stderr."""
+    res = subprocess.run([sys.executable, "-m", "seagen.cli", *args], capture_output=True, text=True)
+    return res.returncode, res.stdout, res.stderr
+
+
+@pytest.mark.parametrize("name", ["mlp_calibration", "mlp_control", "sf_calibration", "sf_control"])
+def test_generated_passes(name, capsys):
+    """Every default export in generated/ verifies against its model: exit 0."""
+    assert main(["verify", str(GENERATED), "--model", str(default_model(name)), "--vectors", "2000"]) == 0
+    assert "agrees" in capsys.readouterr().out
+
+
+def test_one_number_edit_of_a_weight_fails_naming_the_file(tmp_path, capsys):
+    """Changing one weight in NAME.c: exit 1, the file is named as edited and the numbers disagree."""
+    out = one_export(tmp_path)
+    c = (out / "cal_mlp.c").read_text()
+    m = re.search(r"(cal_mlp_w0\[[^{]*\{\s*)(-?\d+)", c)
+    assert m
+    edited = c[: m.start(2)] + str(int(m.group(2)) + 1) + c[m.end(2) :]
+    (out / "cal_mlp.c").write_text(edited)
+    assert main(["verify", str(out), "--model", str(CAL), "--vectors", "500"]) == 1
+    text = capsys.readouterr().out
+    assert f"{out / 'cal_mlp.c'}: edited since export" in text
+    assert re.search(r"FAIL cal_mlp_infer .*C differs at row \d+, input \[", text), text
+
+
+def test_a_different_model_fails(tmp_path, capsys):
+    """Verifying the only export of a folder against another model: exit 1, both models named."""
+    out = one_export(tmp_path)
+    assert main(["verify", str(out), "--model", str(default_model("mlp_control"))]) == 1
+    text = capsys.readouterr().out
+    assert "mlp_control.pt" in text and "is not the model cal_mlp.seagen.json was exported from" in text
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["verify", "no/such/dir", "--model", str(CAL)], "no/such/dir: no such export folder"),
+        (["verify", str(GENERATED), "--model", "nope.pt"], "nope.pt: no such model file"),
+        (["verify", str(GENERATED), "--model", __file__], "no export of test_verify.py among"),
+        (["verify", str(GENERATED), "--model", str(CAL), "--prefix", "zz"], "no export 'zz'"),
+        (["verify", str(GENERATED), "--model", str(CAL), "--vectors", "-1"], "--vectors must be >= 0"),
+    ],
+    ids=["missing folder", "missing model", "no match among several", "unknown prefix", "negative vectors"],
+)
+def test_bad_input_exits_2(args, message):
+    """Bad input: exit 2, one message naming the problem, no traceback."""
+    code, _, err = run(*args)
+    assert code == 2 and message in err and "Traceback" not in err, err
+
+
+def test_junit_has_one_case_per_check(tmp_path):
+    """--junit writes XML that parses, one test case per check, failures marked."""
+    out = one_export(tmp_path)
+    (out / "cal_mlp.h").write_text((out / "cal_mlp.h").read_text() + "\n")
+    report = tmp_path / "verify.xml"
+    code, stdout, _ = run("verify", str(out), "--model", str(CAL), "--vectors", "200", "--junit", str(report))
+    assert code == 1
+    suite = ET.parse(report).getroot()
+    cases = suite.findall("testcase")
+    assert len(cases) == int(suite.get("tests", "0")) == len(re.findall(r"^  (ok  |FAIL) ", stdout, re.M))
+    failed = [c.get("name") for c in cases if c.find("failure") is not None]
+    assert failed == ["cal_mlp.h unchanged"]
+
+
+def test_other_seagen_version_warns_and_changed_quantization_fails(tmp_path, capsys):
+    """A manifest from another seagen version passes with a warning; a quantization change exits 1."""
+    out = one_export(tmp_path)
+    man = out / "cal_mlp.seagen.json"
+    doc = json.loads(man.read_text())
+    doc["seagen_version"] = "0.0.9"
+    man.write_text(json.dumps(doc))
+    assert main(["verify", str(out), "--model", str(CAL), "--vectors", "200", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["ok"] and "seagen 0.0.9" in result["warnings"][0]
+    doc["resolved"]["qmodel_hash"] = "0" * 16
+    man.write_text(json.dumps(doc))
+    assert main(["verify", str(out), "--model", str(CAL), "--vectors", "200"]) == 1
+    assert "re-export" in capsys.readouterr().out
+
+
+def test_assert_equivalent_raises_with_the_report(tmp_path):
+    """seagen.testing.assert_equivalent passes on a good export and raises with the report on an edit."""
+    out = one_export(tmp_path)
+    assert_equivalent(str(out), str(CAL), vectors=200)
+    (out / "sea_nn.c").write_text((out / "sea_nn.c").read_text().replace("\n", "\n\n", 1))
+    with pytest.raises(AssertionError, match="sea_nn.c: edited since export"):
+        assert_equivalent(str(out), str(CAL), vectors=200)
+
+
+def test_cortex_m4_core(tmp_path, capsys):
+    """--core cortex-m4 builds the C on disk with arm-none-eabi-gcc and runs it in unicorn: exit 0."""
+    pytest.importorskip("unicorn")
+    from seagen.build.cortexm import toolchain_missing
+
+    if msg := toolchain_missing():
+        pytest.skip(msg)
+    out = one_export(tmp_path)
+    assert main(["verify", str(out), "--model", str(CAL), "--vectors", "300", "--core", "cortex-m4"]) == 0
+    assert "(cortex-m4)" in capsys.readouterr().out
