@@ -6,13 +6,15 @@
  *   in[0] force_n [N] Q10, calibrated -0.348585..19.3138, clamped to -2874..22294
  *   in[1] angle_deg [deg] Q10, calibrated 0.20066..26.5671, clamped to -3169..30580
  *   surface fit: 13 Horner steps on 4 int32 registers, int64 products
- *   flash (const data) 1076 B, RAM 48 B
+ *   flash (const data) 1084 B, RAM 48 B
  *   proven |fixed - float| <= 0.000618386 mm over the calibrated box (widened 12.5 % each side)
  */
 #ifndef CTL_SF_H
 #define CTL_SF_H
 
 #include <stdint.h>
+
+#include "sea_features.h"
 
 #define CTL_SF_N_IN 2
 #define CTL_SF_N_OUT 1
@@ -23,15 +25,11 @@
 /* Output: compression_mm [mm] = out[0] / 2^CTL_SF_OUT_Q. */
 #define CTL_SF_OUT_Q 11
 
-/* State of the feature pipeline: previous pot, enc and compression (Q16 mm) for the differences. */
-typedef struct {
-    int32_t p1[3];
-    int32_t p2[3];
-    uint8_t primed;
-} ctl_sf_state_t;
+/* State of the feature pipeline (sea_features.h): previous pot, enc and compression for the differences. */
+typedef sea_features_state ctl_sf_state_t;
 
-/* Eq. 2 linkage term of the feature pipeline: Q16 mm every 16 pot counts (SEA_LINK_TABLE_LEN = 257). */
-extern const int32_t ctl_sf_link_q16[257];
+/* Eq. 2 linkage term of the feature pipeline: Q16 mm every 16 pot counts. */
+extern const int32_t ctl_sf_link_q16[SEA_LINK_TABLE_LEN];
 
 /* The stateless model on already-quantized features. */
 void ctl_sf_infer(const int16_t in[CTL_SF_N_IN], int16_t out[CTL_SF_N_OUT]);
