@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from seagen.build.host import CACHE, STRICT_CFLAGS, _key, compile_objects
-from seagen.build.target import Target, driver_sources
+from seagen.build.target import Target, driver_sources, entry_points
 from seagen.errors import UserError
 from seagen.ir import QModel
 
@@ -271,7 +271,7 @@ class CortexM(Target):
         self.cpu = cpu
         self.model_files = sorted(files)
         sources = {**files, **driver_sources(prefix, qm)}
-        roots = (f"{prefix}_infer", f"{prefix}_infer_batch", f"{prefix}_step_batch")
+        roots = (f"{prefix}_infer", *entry_points(prefix, qm))
         self.image = build_image(sources, cpu, roots, name=prefix)
         self.machine = Machine(self.image, cpu)
 

@@ -126,14 +126,6 @@ def _features(qm: QModel) -> list[dict[str, Any]]:
     ]
 
 
-def _predictor(qm: QModel) -> dict[str, str] | None:
-    """Glue for sea_control when the model maps desired force -> compression (Q16 in, Q16 out)."""
-    names = [i.signal.name for i in qm.inputs]
-    if qm.output.name != "compression_mm" or names.count("force_n") != 1 or qm.out_frac > 16:
-        return None
-    return {"force_input": "force_n"}
-
-
 def _kind_context(qm: QModel, prefix: str) -> dict[str, Any]:
     """The per-kind part of the context: MLP layers and buffers, or the SF Horner program."""
     if isinstance(qm, QMLP):
@@ -169,7 +161,7 @@ def context(qm: QModel, prefix: str) -> dict[str, Any]:
         "features": _features(qm),
         "externals": F.external_inputs(qm),
         "link": linkage_table_q16(),
-        "predictor": _predictor(qm),
+        "predictor": {"force_input": "force_n"} if F.is_predictor(qm) else None,
         **_kind_context(qm, prefix),
     }
 

@@ -37,9 +37,10 @@ def summary_lines(qm: QModel) -> list[str]:
         )
     if isinstance(qm, QMLP):
         for k, q in enumerate(qm.layers):
+            shape = f"{q.w_q.shape[1]}->{q.w_q.shape[0]} {q.activation}"
             lines.append(
-                f"layer {k}: {q.w_q.shape[1]}->{q.w_q.shape[0]} {q.activation}, weights int{qm.weight_bits} "
-                f"Q{q.w_frac}, acc int{q.acc_bits} Q{q.w_frac + q.in_frac}, out Q{q.out_frac} (shift {q.shift})"
+                f"layer {k}: {shape}, weights int{qm.weight_bits} Q{q.w_frac}, acc int{q.acc_bits} "
+                f"Q{q.w_frac + q.in_frac}, out Q{q.out_frac} (shift {q.shift})"
             )
     else:
         lines.append(

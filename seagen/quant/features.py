@@ -159,6 +159,17 @@ def inputs(
     return np.stack(cols, axis=1)
 
 
+def is_predictor(qm: QModel) -> bool:
+    """Whether the model maps the desired force (one external input) to a compression in at most Q16: then
+    it is a sea_control predictor (NAME_predict_q16)."""
+    ext = [q for q in qm.inputs if q.source.kind == EXTERNAL]
+    return (
+        qm.output.name == "compression_mm"
+        and [q.signal.name for q in ext] == ["force_n"]
+        and qm.out_frac <= P.COMP_FRAC_BITS
+    )
+
+
 def external_inputs(qm: QModel) -> list[str]:
     """Names of the inputs NAME_step takes as arguments (already quantized), in argument order."""
     ext = sorted((q.source.index, q.signal.name) for q in qm.inputs if q.source.kind == EXTERNAL)
