@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 from seagen.ir import QMLP, QModel
+from seagen.quant.features import N_BASE
 from seagen.quant.primitives import LINK_TABLE_LEN
 
-STATE_BYTES = 4 * 6 + 4  # NAME_state_t: p1[3], p2[3] int32 + the primed flag (padded)
+STATE_BYTES = 4 * 2 * N_BASE + 4  # sea_features_state: p1, p2 (int32 per base signal), primed (padded)
 
 
 def buffer_width(qm: QMLP) -> int:
