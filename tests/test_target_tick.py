@@ -8,8 +8,8 @@ import pytest
 
 from seagen.build.cortexm import CPUS, CortexM, toolchain_missing
 from seagen.build.model import CModel
-from seagen.control.cbuild import tick_config
 from seagen.control.controller import ControlConfig, control_reset, control_step, q16
+from seagen.control.firmware import tick_config
 from seagen.control.gentwin import StepTwin, export
 
 PREFIXES = ("ctl_sf", "ctl_mlp")

@@ -25,15 +25,6 @@ def build_control(extra_cdef: str = "", extra_sources: dict[str, str] | None = N
     )
 
 
-def tick_config(c: ControlConfig) -> dict[str, int]:
-    """The sea_control_config fields of `c` by name (seagen.build.target.TICK_FIELDS) for Target.tick."""
-    pid = dict(
-        zip(("kp", "ki", "kd", "d_alpha", "margin", "out_min", "out_max"), c.pid.as_tuple(), strict=True)
-    )
-    rest = ("predict_every", "pred_avg", "force_min", "force_max", "enc_jump_max", "pot_stuck_ticks")
-    return {**{f"pid.{k}": v for k, v in pid.items()}, **{k: int(getattr(c, k)) for k in rest}}
-
-
 def generated_cdef(prefix: str, root: Path = GENERATED) -> str:
     """cffi declarations of a generated control predictor (its header, after sea_features.h's)."""
     return cdef_of(*runtime_sources("sea_features.h").values(), (root / f"{prefix}.h").read_text())

@@ -34,6 +34,9 @@ FAULT_NAMES = {
     FAULT_ENC_JUMP: "enc_jump",
     FAULT_FORCE_RANGE: "force_range",
 }
+MLP_PRED_AVG = (
+    9  # MLP predictors: desired = mean of the last 9 predictions (smooths the pot noise in its inputs)
+)
 FORCE_RANGE_N = (0.0, 20.0)  # calibrated range of the desired force at the shaft (training peaks <= 19 N)
 
 # (enc, pot, force_q16) int64 arrays -> desired compression, Q16 mm (int64 array)
