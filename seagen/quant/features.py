@@ -23,11 +23,10 @@ from seagen.quant import primitives as P
 
 _H = defines("sea_features.h")
 N_BASE = _H["SEA_FEAT_N_BASE"]
-POT, ENC, COMP = _H["SEA_FEAT_POT"], _H["SEA_FEAT_ENC"], _H["SEA_FEAT_COMP"]
-BASE, D, DD, ANGLE, EXTERNAL = (_H[f"SEA_FEAT_{k}"] for k in ("BASE", "D", "DD", "ANGLE", "EXTERNAL"))
-KIND_C = {BASE: "SEA_FEAT_BASE", D: "SEA_FEAT_D", DD: "SEA_FEAT_DD", ANGLE: "SEA_FEAT_ANGLE"}
-KIND_C[EXTERNAL] = "SEA_FEAT_EXTERNAL"
-BASE_C = {POT: "SEA_FEAT_POT", ENC: "SEA_FEAT_ENC", COMP: "SEA_FEAT_COMP"}
+BASE_C = {_H[f"SEA_FEAT_{k}"]: f"SEA_FEAT_{k}" for k in ("POT", "ENC", "COMP")}  # base signal -> C name
+KIND_C = {_H[f"SEA_FEAT_{k}"]: f"SEA_FEAT_{k}" for k in ("BASE", "D", "DD", "ANGLE", "EXTERNAL")}
+POT, ENC, COMP = BASE_C
+BASE, D, DD, ANGLE, EXTERNAL = KIND_C
 BASE_C_KINDS = (BASE, D, DD)  # kinds whose index names a base signal
 BASE_FRAC = {POT: 0, ENC: 0, COMP: P.COMP_FRAC_BITS}
 
