@@ -143,19 +143,6 @@ void cal_mlp_infer(const int16_t in[CAL_MLP_N_IN], int16_t out[CAL_MLP_N_OUT])
     out[0] = buf1[0];
 }
 
-/* The feature plan: where cal_mlp_step takes each input from (kind, index, from Q, to Q; sea_features.h). */
-static const sea_feature_src cal_mlp_features[CAL_MLP_N_IN] = {
-    { SEA_FEAT_BASE, SEA_FEAT_POT, 0, 3 }, /* in[0]: pot */
-    { SEA_FEAT_BASE, SEA_FEAT_ENC, 0, 3 }, /* in[1]: enc */
-    { SEA_FEAT_BASE, SEA_FEAT_COMP, 16, 11 }, /* in[2]: compression_mm */
-    { SEA_FEAT_D, SEA_FEAT_POT, 0, 6 }, /* in[3]: d_pot */
-    { SEA_FEAT_D, SEA_FEAT_ENC, 0, 9 }, /* in[4]: d_enc */
-    { SEA_FEAT_D, SEA_FEAT_COMP, 16, 16 }, /* in[5]: d_compression_mm */
-    { SEA_FEAT_DD, SEA_FEAT_POT, 0, 6 }, /* in[6]: dd_pot */
-    { SEA_FEAT_DD, SEA_FEAT_ENC, 0, 10 }, /* in[7]: dd_enc */
-    { SEA_FEAT_DD, SEA_FEAT_COMP, 16, 16 }, /* in[8]: dd_compression_mm */
-};
-
 void cal_mlp_reset(cal_mlp_state_t *s)
 {
     sea_features_reset(s);
@@ -167,7 +154,15 @@ int16_t cal_mlp_step(cal_mlp_state_t *s, int32_t enc, int32_t pot)
     int16_t in[CAL_MLP_N_IN];
     int16_t out[CAL_MLP_N_OUT];
     sea_features_step(s, cal_mlp_link_q16, enc, pot, &f);
-    sea_features_inputs(&f, cal_mlp_features, CAL_MLP_N_IN, NULL, in);
+    in[0] = sea_to_s16(sea_features_value(&f, SEA_FEAT_BASE, SEA_FEAT_POT), 0, 3); /* pot */
+    in[1] = sea_to_s16(sea_features_value(&f, SEA_FEAT_BASE, SEA_FEAT_ENC), 0, 3); /* enc */
+    in[2] = sea_to_s16(sea_features_value(&f, SEA_FEAT_BASE, SEA_FEAT_COMP), 16, 11); /* compression_mm */
+    in[3] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_POT), 0, 6); /* d_pot */
+    in[4] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_ENC), 0, 9); /* d_enc */
+    in[5] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_COMP), 16, 16); /* d_compression_mm */
+    in[6] = sea_to_s16(sea_features_value(&f, SEA_FEAT_DD, SEA_FEAT_POT), 0, 6); /* dd_pot */
+    in[7] = sea_to_s16(sea_features_value(&f, SEA_FEAT_DD, SEA_FEAT_ENC), 0, 10); /* dd_enc */
+    in[8] = sea_to_s16(sea_features_value(&f, SEA_FEAT_DD, SEA_FEAT_COMP), 16, 16); /* dd_compression_mm */
     cal_mlp_infer(in, out);
     return out[0];
 }

@@ -65,12 +65,6 @@ void cal_sf_infer(const int16_t in[CAL_SF_N_IN], int16_t out[CAL_SF_N_OUT])
     out[0] = sea_to_s16(r[3], 15, 0);
 }
 
-/* The feature plan: where cal_sf_step takes each input from (kind, index, from Q, to Q; sea_features.h). */
-static const sea_feature_src cal_sf_features[CAL_SF_N_IN] = {
-    { SEA_FEAT_ANGLE, 0, 24, 10 }, /* in[0]: angle_deg */
-    { SEA_FEAT_BASE, SEA_FEAT_COMP, 16, 11 }, /* in[1]: compression_mm */
-};
-
 void cal_sf_reset(cal_sf_state_t *s)
 {
     sea_features_reset(s);
@@ -82,7 +76,8 @@ int16_t cal_sf_step(cal_sf_state_t *s, int32_t enc, int32_t pot)
     int16_t in[CAL_SF_N_IN];
     int16_t out[CAL_SF_N_OUT];
     sea_features_step(s, cal_sf_link_q16, enc, pot, &f);
-    sea_features_inputs(&f, cal_sf_features, CAL_SF_N_IN, NULL, in);
+    in[0] = sea_to_s16(sea_features_value(&f, SEA_FEAT_ANGLE, 0), 24, 10); /* angle_deg */
+    in[1] = sea_to_s16(sea_features_value(&f, SEA_FEAT_BASE, SEA_FEAT_COMP), 16, 11); /* compression_mm */
     cal_sf_infer(in, out);
     return out[0];
 }

@@ -99,17 +99,6 @@ void ctl_mlp_infer(const int16_t in[CTL_MLP_N_IN], int16_t out[CTL_MLP_N_OUT])
     out[0] = buf1[0];
 }
 
-/* The feature plan: where ctl_mlp_step takes each input from (kind, index, from Q, to Q; sea_features.h). */
-static const sea_feature_src ctl_mlp_features[CTL_MLP_N_IN] = {
-    { SEA_FEAT_EXTERNAL, 0, 10, 10 }, /* in[0]: force_n */
-    { SEA_FEAT_BASE, SEA_FEAT_POT, 0, 3 }, /* in[1]: pot */
-    { SEA_FEAT_D, SEA_FEAT_POT, 0, 6 }, /* in[2]: d_pot */
-    { SEA_FEAT_DD, SEA_FEAT_POT, 0, 6 }, /* in[3]: dd_pot */
-    { SEA_FEAT_D, SEA_FEAT_ENC, 0, 9 }, /* in[4]: d_enc */
-    { SEA_FEAT_DD, SEA_FEAT_ENC, 0, 10 }, /* in[5]: dd_enc */
-    { SEA_FEAT_D, SEA_FEAT_COMP, 16, 16 }, /* in[6]: d_compression_mm */
-};
-
 void ctl_mlp_reset(ctl_mlp_state_t *s)
 {
     sea_features_reset(s);
@@ -117,12 +106,17 @@ void ctl_mlp_reset(ctl_mlp_state_t *s)
 
 int16_t ctl_mlp_step(ctl_mlp_state_t *s, int32_t enc, int32_t pot, int16_t force_n_q)
 {
-    const int16_t ext[1] = { force_n_q };
     sea_features_out f;
     int16_t in[CTL_MLP_N_IN];
     int16_t out[CTL_MLP_N_OUT];
     sea_features_step(s, ctl_mlp_link_q16, enc, pot, &f);
-    sea_features_inputs(&f, ctl_mlp_features, CTL_MLP_N_IN, ext, in);
+    in[0] = force_n_q; /* force_n */
+    in[1] = sea_to_s16(sea_features_value(&f, SEA_FEAT_BASE, SEA_FEAT_POT), 0, 3); /* pot */
+    in[2] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_POT), 0, 6); /* d_pot */
+    in[3] = sea_to_s16(sea_features_value(&f, SEA_FEAT_DD, SEA_FEAT_POT), 0, 6); /* dd_pot */
+    in[4] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_ENC), 0, 9); /* d_enc */
+    in[5] = sea_to_s16(sea_features_value(&f, SEA_FEAT_DD, SEA_FEAT_ENC), 0, 10); /* dd_enc */
+    in[6] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_COMP), 16, 16); /* d_compression_mm */
     ctl_mlp_infer(in, out);
     return out[0];
 }

@@ -9,7 +9,6 @@ from seagen.build.host import build
 from seagen.build.runtime import cdef_of, runtime_sources
 from seagen.data.features import derive
 from seagen.data.schema import load_split
-from seagen.ir import FeatureSource, QInput, Signal
 from seagen.quant import features as F
 from seagen.quant import primitives as P
 
@@ -36,9 +35,10 @@ def _run_c(c, table, enc, pot, reset) -> dict[str, np.ndarray]:
         if r:
             lib.sea_features_reset(s)
         lib.sea_features_step(s, ct, int(e), int(p), f)
-        for name in ("b", "d", "dd"):
-            out[name][:, k] = list(getattr(f, name))
-        out["angle"][k] = f.angle_q24
+        out["b"][:, k] = list(f.b)
+        out["d"][:, k] = [lib.sea_features_value(f, F.D, i) for i in range(F.N_BASE)]
+        out["dd"][:, k] = [lib.sea_features_value(f, F.DD, i) for i in range(F.N_BASE)]
+        out["angle"][k] = lib.sea_features_value(f, F.ANGLE, 0)
     return out
 
 
@@ -103,37 +103,19 @@ def test_derive_uses_the_same_warm_up(data_dir):
         assert np.array_equal(d[second], x1 - x0) and np.array_equal(dd[second], x1 - 2 * x0 + x0)
 
 
-PLAN_CASES = [  # (kind, index, from_frac, to_frac)
-    (F.BASE, F.POT, 0, 3),
-    (F.BASE, F.ENC, 0, -2),
-    (F.BASE, F.COMP, 16, 11),
-    (F.D, F.ENC, 0, 9),
-    (F.D, F.COMP, 16, 16),
-    (F.DD, F.POT, 0, 14),
-    (F.DD, F.COMP, 16, 20),
-    (F.ANGLE, 0, 24, 10),
-    (F.EXTERNAL, 1, 7, 7),
-    (F.EXTERNAL, 0, 10, 10),
-]
-
-
-def test_plan_inputs(c):
-    """sea_features_inputs == inputs for every kind, rounding down, scaling up and saturating formats."""
+def test_value_of_every_kind(c):
+    """sea_features_value == value for every kind and base signal, over int32 samples and histories."""
     ffi, lib = c.ffi, c.lib
     rng = np.random.default_rng(5)
-    sig = Signal("x", "", 0.0, 0.0)
-    qins = [QInput(sig, to, 0, 0, FeatureSource(k, i, fr)) for k, i, fr, to in PLAN_CASES]
-    plan = ffi.new("sea_feature_src[]", [(k, i, fr, to) for k, i, fr, to in PLAN_CASES])
+    cases = [(k, i) for k in (F.BASE, F.D, F.DD) for i in range(F.N_BASE)] + [(F.ANGLE, 0)]
     for _ in range(300):
-        b = rng.integers(-(2**20), 2**20, F.N_BASE)
-        d, dd = rng.integers(-(2**40), 2**40, (2, F.N_BASE))
-        b[F.POT] = rng.integers(-100, 4200)
-        ext = rng.integers(-(2**15), 2**15, 2)
+        b, p1, p2 = rng.integers(-(2**31), 2**31, (3, F.N_BASE)) >> rng.integers(0, 31, (3, F.N_BASE))
         f = ffi.new(
-            "sea_features_out *", {k: [int(v) for v in a] for k, a in (("b", b), ("d", d), ("dd", dd))}
+            "sea_features_out *", {k: [int(v) for v in a] for k, a in (("b", b), ("p1", p1), ("p2", p2))}
         )
-        f.angle_q24 = int(F.angle_q24(b[F.POT]))
-        got = ffi.new("int16_t[]", len(qins))
-        lib.sea_features_inputs(f, plan, len(qins), ffi.new("int16_t[]", [int(v) for v in ext]), got)
-        want = F.inputs(qins, b[:, None], d[:, None], dd[:, None], ext[None, :])[0]
-        assert np.array_equal(list(got), want), (b, d, dd, ext)
+        diff = F.Differences()
+        diff.p1, diff.p2 = p1, p2
+        d, dd = diff(b)
+        for kind, i in cases:
+            got, want = lib.sea_features_value(f, kind, i), int(F.value(kind, i, b, d, dd))
+            assert got == want, (kind, i, b.tolist(), p1.tolist(), p2.tolist())

@@ -14,13 +14,30 @@ def runtime_sources(*names: str) -> dict[str, str]:
     return {n: (root / n).read_text() for n in names}
 
 
+def _prototypes(text: str) -> str:
+    """`static inline` function definitions replaced by their prototypes (cffi calls them via its glue)."""
+    out, at = [], 0
+    while (i := text.find("static inline", at)) >= 0:
+        brace = text.index("{", i)
+        depth, j = 0, brace
+        while True:
+            depth += {"{": 1, "}": -1}.get(text[j], 0)
+            j += 1
+            if depth == 0:
+                break
+        out.append(text[at:i] + text[i + len("static inline ") : brace].rstrip() + ";")
+        at = j
+    return "".join(out) + text[at:]
+
+
 def cdef_of(*headers: str) -> str:
     """cffi declarations of C header texts, in order: their integer #defines, typedefs, structs and
-    prototypes; include guards, #includes and compile-time checks (typedefs with `?:`) are dropped."""
+    prototypes (of inline functions too); include guards, #includes and compile-time checks (typedefs with
+    `?:`) are dropped."""
     out = []
     for text in headers:
         lines = []
-        for line in COMMENT.sub("", text).splitlines():
+        for line in _prototypes(COMMENT.sub("", text)).splitlines():
             if line.startswith("#"):
                 if d := define_of(line):
                     lines.append(f"#define {d[0]} {d[1]}")

@@ -113,10 +113,12 @@ def _horner(qm: QSF) -> list[dict[str, Any]]:
 
 
 def _features(qm: QModel) -> list[dict[str, Any]]:
-    """The feature plan as sea_feature_src rows (constant names from sea_features.h)."""
+    """Per input: the NAME_step argument it is (externals), or the sea_features_value it converts (kind and
+    base signal as sea_features.h constant names, the formats)."""
     return [
         {
             "name": q.signal.name,
+            "arg": f"{q.signal.name}_q" if q.source.kind == F.EXTERNAL else None,
             "kind": F.KIND_C[q.source.kind],
             "index": F.BASE_C[q.source.index] if q.source.kind in F.BASE_C_KINDS else q.source.index,
             "from_frac": q.source.from_frac,

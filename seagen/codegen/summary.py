@@ -16,7 +16,7 @@ def buffer_width(qm: QMLP) -> int:
 
 def memory(qm: QModel) -> dict[str, int]:
     """Bytes of const data (flash) and of working buffers + state (RAM) of the generated model."""
-    flash = 2 * 2 * len(qm.inputs) + 4 * len(qm.inputs)  # clamp box and the feature plan
+    flash = 2 * 2 * len(qm.inputs)  # clamp box
     flash += 4 * LINK_TABLE_LEN  # linkage table of the feature pipeline
     if isinstance(qm, QMLP):
         for q in qm.layers:

@@ -141,20 +141,24 @@ class Pipeline:
         return (b, *self.diff(b))
 
 
+def value(kind: int, index: int, b: np.ndarray, d: np.ndarray, dd: np.ndarray) -> np.ndarray:
+    """sea_features_value: the base signal, difference or angle of one step (b, d, dd: (N_BASE, ...))."""
+    return angle_q24(b[POT]) if kind == ANGLE else {BASE: b, D: d, DD: dd}[kind][index]
+
+
 def inputs(
     qins: Sequence[QInput], b: np.ndarray, d: np.ndarray, dd: np.ndarray, ext: np.ndarray | None
 ) -> np.ndarray:
-    """sea_features_inputs: the int16 inputs (N, n_in) of model inputs `qins` from one step's values
-    (each (N_BASE, N)) and the already-quantized external inputs (N, n_ext)."""
+    """The int16 inputs (N, n_in) NAME_step gives NAME_infer: each input's sea_features_value converted
+    by sea_to_s16 to its format, or its already-quantized external argument (ext: (N, n_ext))."""
     cols = []
     for q in qins:
         src = q.source
         if src.kind == EXTERNAL:
             assert ext is not None, "this model needs external inputs (desired force)"
             cols.append(np.asarray(ext, dtype=np.int64).reshape(b.shape[1], -1)[:, src.index])
-            continue
-        v = angle_q24(b[POT]) if src.kind == ANGLE else {BASE: b, D: d, DD: dd}[src.kind][src.index]
-        cols.append(K.to_s16(v, src.from_frac, q.frac))
+        else:
+            cols.append(K.to_s16(value(src.kind, src.index, b, d, dd), src.from_frac, q.frac))
     return np.stack(cols, axis=1)
 
 

@@ -81,14 +81,6 @@ void tiny_mlp_infer(const int16_t in[TINY_MLP_N_IN], int16_t out[TINY_MLP_N_OUT]
     out[0] = buf1[0];
 }
 
-/* The feature plan: where tiny_mlp_step takes each input from (kind, index, from Q, to Q; sea_features.h). */
-static const sea_feature_src tiny_mlp_features[TINY_MLP_N_IN] = {
-    { SEA_FEAT_BASE, SEA_FEAT_POT, 0, 3 }, /* in[0]: pot */
-    { SEA_FEAT_D, SEA_FEAT_ENC, 0, 9 }, /* in[1]: d_enc */
-    { SEA_FEAT_DD, SEA_FEAT_COMP, 16, 16 }, /* in[2]: dd_compression_mm */
-    { SEA_FEAT_ANGLE, 0, 24, 9 }, /* in[3]: angle_deg */
-};
-
 void tiny_mlp_reset(tiny_mlp_state_t *s)
 {
     sea_features_reset(s);
@@ -100,7 +92,10 @@ int16_t tiny_mlp_step(tiny_mlp_state_t *s, int32_t enc, int32_t pot)
     int16_t in[TINY_MLP_N_IN];
     int16_t out[TINY_MLP_N_OUT];
     sea_features_step(s, tiny_mlp_link_q16, enc, pot, &f);
-    sea_features_inputs(&f, tiny_mlp_features, TINY_MLP_N_IN, NULL, in);
+    in[0] = sea_to_s16(sea_features_value(&f, SEA_FEAT_BASE, SEA_FEAT_POT), 0, 3); /* pot */
+    in[1] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_ENC), 0, 9); /* d_enc */
+    in[2] = sea_to_s16(sea_features_value(&f, SEA_FEAT_DD, SEA_FEAT_COMP), 16, 16); /* dd_compression_mm */
+    in[3] = sea_to_s16(sea_features_value(&f, SEA_FEAT_ANGLE, 0), 24, 9); /* angle_deg */
     tiny_mlp_infer(in, out);
     return out[0];
 }

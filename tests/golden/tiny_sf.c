@@ -60,12 +60,6 @@ void tiny_sf_infer(const int16_t in[TINY_SF_N_IN], int16_t out[TINY_SF_N_OUT])
     out[0] = sea_to_s16(r[2], 15, 0);
 }
 
-/* The feature plan: where tiny_sf_step takes each input from (kind, index, from Q, to Q; sea_features.h). */
-static const sea_feature_src tiny_sf_features[TINY_SF_N_IN] = {
-    { SEA_FEAT_EXTERNAL, 0, 10, 10 }, /* in[0]: force_n */
-    { SEA_FEAT_ANGLE, 0, 24, 10 }, /* in[1]: angle_deg */
-};
-
 void tiny_sf_reset(tiny_sf_state_t *s)
 {
     sea_features_reset(s);
@@ -73,12 +67,12 @@ void tiny_sf_reset(tiny_sf_state_t *s)
 
 int16_t tiny_sf_step(tiny_sf_state_t *s, int32_t enc, int32_t pot, int16_t force_n_q)
 {
-    const int16_t ext[1] = { force_n_q };
     sea_features_out f;
     int16_t in[TINY_SF_N_IN];
     int16_t out[TINY_SF_N_OUT];
     sea_features_step(s, tiny_sf_link_q16, enc, pot, &f);
-    sea_features_inputs(&f, tiny_sf_features, TINY_SF_N_IN, ext, in);
+    in[0] = force_n_q; /* force_n */
+    in[1] = sea_to_s16(sea_features_value(&f, SEA_FEAT_ANGLE, 0), 24, 10); /* angle_deg */
     tiny_sf_infer(in, out);
     return out[0];
 }
