@@ -18,7 +18,6 @@
 #include "sea_fixed.h"
 #include "sea_pid.h"
 
-#define SEA_FORCE_FRAC_BITS 16      /* desired force: Q16 newtons at the SEA output shaft, int32 */
 #define SEA_CTRL_POT_AVG_TICKS 10   /* pot averaged over the last 10 ticks, refreshed every 10 (10 Hz) */
 #define SEA_CTRL_POT_STUCK_TICKS 10 /* default: 10 consecutive rail readings (100 ms) = stuck */
 #define SEA_CTRL_PRED_AVG_MAX 10    /* the desired compression is the mean of the last pred_avg predictions */

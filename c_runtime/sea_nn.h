@@ -39,4 +39,7 @@ int32_t sea_horner_s32(int16_t x, int32_t t, int32_t add, int align, int shift);
  * then saturation. Scaling up needs |v| * 2^(to_frac - from_frac) < 2^63. */
 int16_t sea_to_s16(int64_t v, int from_frac, int to_frac);
 
+/* The same to an int32 (e.g. a model output scaled to the controller's Q16): saturated to int32. */
+int32_t sea_to_s32(int64_t v, int from_frac, int to_frac);
+
 #endif

@@ -23,6 +23,8 @@
 
 #include <stdint.h>
 
+#include "sea_features.h"
+
 #define CAL_MLP_N_IN 9
 #define CAL_MLP_N_OUT 1
 
@@ -39,15 +41,11 @@
 /* Output: force_n [N] = out[0] / 2^CAL_MLP_OUT_Q. */
 #define CAL_MLP_OUT_Q 7
 
-/* State of the feature pipeline: previous pot, enc and compression (Q16 mm) for the differences. */
-typedef struct {
-    int32_t p1[3];
-    int32_t p2[3];
-    uint8_t primed;
-} cal_mlp_state_t;
+/* State of the feature pipeline (sea_features.h): previous pot, enc and compression for the differences. */
+typedef sea_features_state cal_mlp_state_t;
 
-/* Eq. 2 linkage term of the feature pipeline: Q16 mm every 16 pot counts (SEA_LINK_TABLE_LEN = 257). */
-extern const int32_t cal_mlp_link_q16[257];
+/* Eq. 2 linkage term of the feature pipeline: Q16 mm every 16 pot counts. */
+extern const int32_t cal_mlp_link_q16[SEA_LINK_TABLE_LEN];
 
 /* The stateless model on already-quantized features. */
 void cal_mlp_infer(const int16_t in[CAL_MLP_N_IN], int16_t out[CAL_MLP_N_OUT]);

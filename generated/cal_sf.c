@@ -67,36 +67,17 @@ void cal_sf_infer(const int16_t in[CAL_SF_N_IN], int16_t out[CAL_SF_N_OUT])
 
 void cal_sf_reset(cal_sf_state_t *s)
 {
-    int k;
-    for (k = 0; k < 3; ++k) {
-        s->p1[k] = 0;
-        s->p2[k] = 0;
-    }
-    s->primed = 0;
+    sea_features_reset(s);
 }
 
 int16_t cal_sf_step(cal_sf_state_t *s, int32_t enc, int32_t pot)
 {
-    int32_t b[3];
+    sea_features_out f;
     int16_t in[CAL_SF_N_IN];
     int16_t out[CAL_SF_N_OUT];
-    int k;
-    b[0] = pot;
-    b[1] = enc;
-    b[2] = sea_compression_q16(cal_sf_link_q16, enc, pot);
-    if (!s->primed) {
-        for (k = 0; k < 3; ++k) {
-            s->p1[k] = b[k];
-            s->p2[k] = b[k];
-        }
-        s->primed = 1;
-    }
-    for (k = 0; k < 3; ++k) {
-        s->p2[k] = s->p1[k];
-        s->p1[k] = b[k];
-    }
-    in[0] = sea_to_s16((int64_t)pot * SEA_POT_DEG_Q24 + SEA_POT_OFFSET_Q24, 24, 10);
-    in[1] = sea_to_s16(b[2], 16, 11);
+    sea_features_step(s, cal_sf_link_q16, enc, pot, &f);
+    in[0] = sea_to_s16(sea_features_value(&f, SEA_FEAT_ANGLE, 0), 24, 10); /* angle_deg */
+    in[1] = sea_to_s16(sea_features_value(&f, SEA_FEAT_BASE, SEA_FEAT_COMP), 16, 11); /* compression_mm */
     cal_sf_infer(in, out);
     return out[0];
 }

@@ -14,6 +14,8 @@
 
 #include <stdint.h>
 
+#include "sea_features.h"
+
 #define CAL_SF_N_IN 2
 #define CAL_SF_N_OUT 1
 
@@ -23,15 +25,11 @@
 /* Output: force_n [N] = out[0] / 2^CAL_SF_OUT_Q. */
 #define CAL_SF_OUT_Q 9
 
-/* State of the feature pipeline: previous pot, enc and compression (Q16 mm) for the differences. */
-typedef struct {
-    int32_t p1[3];
-    int32_t p2[3];
-    uint8_t primed;
-} cal_sf_state_t;
+/* State of the feature pipeline (sea_features.h): previous pot, enc and compression for the differences. */
+typedef sea_features_state cal_sf_state_t;
 
-/* Eq. 2 linkage term of the feature pipeline: Q16 mm every 16 pot counts (SEA_LINK_TABLE_LEN = 257). */
-extern const int32_t cal_sf_link_q16[257];
+/* Eq. 2 linkage term of the feature pipeline: Q16 mm every 16 pot counts. */
+extern const int32_t cal_sf_link_q16[SEA_LINK_TABLE_LEN];
 
 /* The stateless model on already-quantized features. */
 void cal_sf_infer(const int16_t in[CAL_SF_N_IN], int16_t out[CAL_SF_N_OUT]);

@@ -101,52 +101,28 @@ void ctl_mlp_infer(const int16_t in[CTL_MLP_N_IN], int16_t out[CTL_MLP_N_OUT])
 
 void ctl_mlp_reset(ctl_mlp_state_t *s)
 {
-    int k;
-    for (k = 0; k < 3; ++k) {
-        s->p1[k] = 0;
-        s->p2[k] = 0;
-    }
-    s->primed = 0;
+    sea_features_reset(s);
 }
 
 int16_t ctl_mlp_step(ctl_mlp_state_t *s, int32_t enc, int32_t pot, int16_t force_n_q)
 {
-    int32_t b[3];
-    int64_t d[3];
-    int64_t dd[3];
-    const int16_t ext[1] = { force_n_q };
+    sea_features_out f;
     int16_t in[CTL_MLP_N_IN];
     int16_t out[CTL_MLP_N_OUT];
-    int k;
-    b[0] = pot;
-    b[1] = enc;
-    b[2] = sea_compression_q16(ctl_mlp_link_q16, enc, pot);
-    if (!s->primed) {
-        for (k = 0; k < 3; ++k) {
-            s->p1[k] = b[k];
-            s->p2[k] = b[k];
-        }
-        s->primed = 1;
-    }
-    for (k = 0; k < 3; ++k) {
-        d[k] = (int64_t)b[k] - s->p1[k];
-        dd[k] = (int64_t)b[k] - 2 * (int64_t)s->p1[k] + s->p2[k];
-        s->p2[k] = s->p1[k];
-        s->p1[k] = b[k];
-    }
-    in[0] = ext[0];
-    in[1] = sea_to_s16(b[0], 0, 3);
-    in[2] = sea_to_s16(d[0], 0, 6);
-    in[3] = sea_to_s16(dd[0], 0, 6);
-    in[4] = sea_to_s16(d[1], 0, 9);
-    in[5] = sea_to_s16(dd[1], 0, 10);
-    in[6] = sea_to_s16(d[2], 16, 16);
+    sea_features_step(s, ctl_mlp_link_q16, enc, pot, &f);
+    in[0] = force_n_q; /* force_n */
+    in[1] = sea_to_s16(sea_features_value(&f, SEA_FEAT_BASE, SEA_FEAT_POT), 0, 3); /* pot */
+    in[2] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_POT), 0, 6); /* d_pot */
+    in[3] = sea_to_s16(sea_features_value(&f, SEA_FEAT_DD, SEA_FEAT_POT), 0, 6); /* dd_pot */
+    in[4] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_ENC), 0, 9); /* d_enc */
+    in[5] = sea_to_s16(sea_features_value(&f, SEA_FEAT_DD, SEA_FEAT_ENC), 0, 10); /* dd_enc */
+    in[6] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_COMP), 16, 16); /* d_compression_mm */
     ctl_mlp_infer(in, out);
     return out[0];
 }
 
 int32_t ctl_mlp_predict_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q16)
 {
-    int16_t y = ctl_mlp_step((ctl_mlp_state_t *)ctx, enc, pot, sea_to_s16(force_q16, 16, 10));
-    return sea_sat32((int64_t)y * ((int64_t)1 << 6));
+    int16_t y = ctl_mlp_step((ctl_mlp_state_t *)ctx, enc, pot, sea_to_s16(force_q16, SEA_FORCE_FRAC_BITS, CTL_MLP_IN_Q_FORCE_N));
+    return sea_to_s32(y, CTL_MLP_OUT_Q, SEA_COMP_FRAC_BITS);
 }

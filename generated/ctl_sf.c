@@ -67,43 +67,23 @@ void ctl_sf_infer(const int16_t in[CTL_SF_N_IN], int16_t out[CTL_SF_N_OUT])
 
 void ctl_sf_reset(ctl_sf_state_t *s)
 {
-    int k;
-    for (k = 0; k < 3; ++k) {
-        s->p1[k] = 0;
-        s->p2[k] = 0;
-    }
-    s->primed = 0;
+    sea_features_reset(s);
 }
 
 int16_t ctl_sf_step(ctl_sf_state_t *s, int32_t enc, int32_t pot, int16_t force_n_q)
 {
-    int32_t b[3];
-    const int16_t ext[1] = { force_n_q };
+    sea_features_out f;
     int16_t in[CTL_SF_N_IN];
     int16_t out[CTL_SF_N_OUT];
-    int k;
-    b[0] = pot;
-    b[1] = enc;
-    b[2] = sea_compression_q16(ctl_sf_link_q16, enc, pot);
-    if (!s->primed) {
-        for (k = 0; k < 3; ++k) {
-            s->p1[k] = b[k];
-            s->p2[k] = b[k];
-        }
-        s->primed = 1;
-    }
-    for (k = 0; k < 3; ++k) {
-        s->p2[k] = s->p1[k];
-        s->p1[k] = b[k];
-    }
-    in[0] = ext[0];
-    in[1] = sea_to_s16((int64_t)pot * SEA_POT_DEG_Q24 + SEA_POT_OFFSET_Q24, 24, 10);
+    sea_features_step(s, ctl_sf_link_q16, enc, pot, &f);
+    in[0] = force_n_q; /* force_n */
+    in[1] = sea_to_s16(sea_features_value(&f, SEA_FEAT_ANGLE, 0), 24, 10); /* angle_deg */
     ctl_sf_infer(in, out);
     return out[0];
 }
 
 int32_t ctl_sf_predict_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q16)
 {
-    int16_t y = ctl_sf_step((ctl_sf_state_t *)ctx, enc, pot, sea_to_s16(force_q16, 16, 10));
-    return sea_sat32((int64_t)y * ((int64_t)1 << 5));
+    int16_t y = ctl_sf_step((ctl_sf_state_t *)ctx, enc, pot, sea_to_s16(force_q16, SEA_FORCE_FRAC_BITS, CTL_SF_IN_Q_FORCE_N));
+    return sea_to_s32(y, CTL_SF_OUT_Q, SEA_COMP_FRAC_BITS);
 }

@@ -33,6 +33,7 @@ int32_t sea_sat32(int64_t v);
  * emits the table (it depends on the actuator's geometry); the same integers feed every reference. */
 
 #define SEA_COMP_FRAC_BITS 16   /* compression is Q16 millimetres in int32 */
+#define SEA_FORCE_FRAC_BITS 16  /* desired force: Q16 newtons at the SEA output shaft, int32 */
 #define SEA_LINK_TABLE_SHIFT 4  /* one table entry every 16 pot counts */
 #define SEA_LINK_TABLE_LEN 257  /* pot 0..4096 */
 #define SEA_MM_PER_COUNT_Q24 73584 /* Eq. 3: 0.00438596 mm per encoder count, Q24 */

@@ -97,3 +97,11 @@ int16_t sea_to_s16(int64_t v, int from_frac, int to_frac)
     }
     return sea_sat16(sea_rshift_rne_s64(v, from_frac - to_frac));
 }
+
+int32_t sea_to_s32(int64_t v, int from_frac, int to_frac)
+{
+    if (to_frac >= from_frac) {
+        return sea_sat32(v * ((int64_t)1 << (to_frac - from_frac)));
+    }
+    return sea_sat32(sea_rshift_rne_s64(v, from_frac - to_frac));
+}

@@ -57,6 +57,19 @@ class FloatSF:
 FloatModel = FloatMLP | FloatSF
 
 
+@dataclass(frozen=True)
+class FeatureSource:
+    """Where the feature pipeline (c_runtime/sea_features.h) takes a model input from.
+
+    kind: SEA_FEAT_BASE / _D / _DD / _ANGLE / _EXTERNAL; index: the base signal (or external argument);
+    from_frac: the format the pipeline computes it in (the value is converted to the input's format).
+    """
+
+    kind: int
+    index: int
+    from_frac: int
+
+
 @dataclass(frozen=True, eq=False)
 class QInput:
     """A quantized input feature: int16 value = round(x * 2^frac), clamped to [lo_q, hi_q]."""
@@ -65,6 +78,7 @@ class QInput:
     frac: int
     lo_q: int
     hi_q: int
+    source: FeatureSource  # how NAME_step computes it from raw counts
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,19 +131,35 @@ class QHorner:
 
 
 @dataclass(frozen=True, eq=False)
-class QModel:
-    """A quantized model: inputs, the integer program (MLP layers or SF Horner steps), the output."""
+class QMLP:
+    """A quantized MLP: inputs, dense layers (with their activation tables), the output."""
 
-    kind: str  # "mlp" | "sf"
     inputs: tuple[QInput, ...]
     output: Signal
     out_frac: int
-    layers: tuple[QLayer, ...] = ()
+    layers: tuple[QLayer, ...]
     tables: tuple[QTable, ...] = ()
-    horner: tuple[QHorner, ...] = ()
-    out_shift: int = 0  # SF: final register -> int16 output shift
-    n_regs: int = 0  # SF: registers used by the Horner program
     weight_bits: int = 16
     task: str = "calibration"
     error_bound: float = float("nan")  # proven worst case |fixed - float| over the box, output units
     meta: dict = field(default_factory=dict)
+    kind = "mlp"  # class constant, for summaries
+
+
+@dataclass(frozen=True, eq=False)
+class QSF:
+    """A quantized surface fit: inputs, the straight-line Horner program on int32 registers, the output."""
+
+    inputs: tuple[QInput, ...]
+    output: Signal
+    out_frac: int
+    horner: tuple[QHorner, ...]
+    out_shift: int  # final register -> int16 output shift
+    n_regs: int  # registers used by the Horner program
+    task: str = "calibration"
+    error_bound: float = float("nan")
+    meta: dict = field(default_factory=dict)
+    kind = "sf"
+
+
+QModel = QMLP | QSF

@@ -32,7 +32,7 @@ def built():
     for name, prefix in PREFIX.items():
         ex = prepare(str(MODELS / f"{name}.pt"), prefix=prefix)
         for cpu in CPUS:
-            out[(name, cpu)] = (ex, CortexM(ex.files, prefix, cpu))
+            out[(name, cpu)] = (ex, CortexM(ex.files, prefix, ex.qmodel, cpu))
     return out
 
 
@@ -87,4 +87,4 @@ def test_m0plus_core_is_armv6m(built):
     _, m4 = built[("mlp_calibration", "cortex-m4")]
     m0 = Machine(m4.image, "cortex-m0plus")
     with pytest.raises(UcError):
-        m0.call("cal_mlp_run", np.zeros((1, m4.n_in), np.int16), 1, np.zeros(1, np.int16))
+        m0.call("cal_mlp_infer_batch", np.zeros((1, m4.n_in), np.int16), 1, np.zeros(1, np.int16))

@@ -32,8 +32,7 @@ def built(model_files):
     """Every test model exported and built with cffi (strict flags), keyed by (case, weights)."""
     out = {}
     for name, w, ex in _exports(model_files):
-        n_ext = len(external_inputs(ex.qmodel))
-        out[(name, w)] = (ex, CModel(ex.files, ex.prefix, n_ext))
+        out[(name, w)] = (ex, CModel(ex.files, ex.prefix, ex.qmodel))
     return out
 
 
@@ -102,7 +101,7 @@ def test_sanitized_build_agrees(built, key):
     """A UBSan+ASan build of the generated C runs random and edge inputs without a report, same integers."""
     ex, c = built[key]
     x = np.vstack([random_inputs(ex.qmodel, 20_000, 2), edge_inputs(len(ex.qmodel.inputs))])
-    got = sanitized_infer(ex.files, ex.prefix, x, len(external_inputs(ex.qmodel)))
+    got = sanitized_infer(ex.files, ex.prefix, ex.qmodel, x)
     assert np.array_equal(got, c.infer(x))
 
 

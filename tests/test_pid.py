@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 
 from seagen.build.host import build, build_exe
-from seagen.codegen.runtime import runtime_sources
-from seagen.control.cbuild import PID_CDEF as CDEF
+from seagen.codegen.runtime import cdef_of, runtime_sources
 from seagen.control.pid import DEFAULT_PID, PidParams, pid_reset, pid_step
 
 # Harness: run n ticks; where reset[k] != 0 the PID is reset (meas[k], rout[k]) before ticking.
@@ -61,6 +60,7 @@ void pid_run(const sea_pid_params *p, int32_t n, const int32_t *sp, const int32_
              const int16_t *rout, int16_t *out, int32_t *integ, int32_t *dfilt);
 """
 SOURCES = ("sea_fixed.h", "sea_fixed.c", "sea_pid.h", "sea_pid.c")
+CDEF = cdef_of(*runtime_sources("sea_fixed.h", "sea_pid.h").values()) + "\n"
 I32 = (-(2**31), 2**31 - 1)
 
 

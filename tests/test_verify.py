@@ -17,15 +17,14 @@ from seagen.defaults import GENERATED, default_model
 from seagen.testing import assert_equivalent
 
 CAL = default_model("mlp_calibration")
-EXPORT_FILES = ("cal_mlp.c", "cal_mlp.h", "cal_mlp.onnx", "cal_mlp.seagen.json")
-RUNTIME = ("sea_fixed.c", "sea_fixed.h", "sea_nn.c", "sea_nn.h")
 
 
 def one_export(tmp_path: Path) -> Path:
     """A folder holding only the cal_mlp export (copied from generated/)."""
     out = tmp_path / "fw"
     out.mkdir()
-    for name in EXPORT_FILES + RUNTIME:
+    manifest = GENERATED / "cal_mlp.seagen.json"
+    for name in [*json.loads(manifest.read_text())["files"], manifest.name]:
         shutil.copy(GENERATED / name, out / name)
     return out
 
@@ -110,6 +109,14 @@ def test_other_seagen_version_warns_and_changed_quantization_fails(tmp_path, cap
     man.write_text(json.dumps(doc))
     assert main(["verify", str(out), "--model", str(CAL), "--vectors", "200"]) == 1
     assert "re-export" in capsys.readouterr().out
+
+
+def test_missing_file_is_named(tmp_path, capsys):
+    """A file of the export deleted: exit 1, the file named as missing, no attempt to build."""
+    out = one_export(tmp_path)
+    (out / "sea_fixed.h").unlink()
+    assert main(["verify", str(out), "--model", str(CAL)]) == 1
+    assert f"{out / 'sea_fixed.h'}: missing" in capsys.readouterr().out
 
 
 def test_assert_equivalent_raises_with_the_report(tmp_path):

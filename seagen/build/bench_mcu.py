@@ -130,7 +130,7 @@ def bench_model(name: str, n: int = 50) -> list[dict]:
     want = float_ref.predict(fm, xf)
     rows = []
     for cpu in CPUS:
-        mcu = CortexM(ex.files, ex.prefix, cpu)
+        mcu = CortexM(ex.files, ex.prefix, qm, cpu)
         counts = mcu.instructions(xq)
         yf, fcounts, fimage = float_run(fm, cpu, xf)
         err = float(np.max(np.abs(yf - want)) / max(float(np.max(np.abs(want))), 1e-12))

@@ -1,10 +1,10 @@
 """Cross-compile generated C for a Cortex-M core (arm-none-eabi-gcc) and run it, bit for bit, in unicorn.
 
-The firmware image is the model's own files plus a small driver (`templates/cortexm_driver.c.j2`) with batch
-entry points; it is linked at flash 0x0 with no start-up code (the generated C has only const tables and
-stack data) and called directly: arguments in r0-r3 and on the stack, inputs and outputs in RAM at
-0x20000000, the return address a halt loop after the image. Instructions are counted per executed
-instruction (UC_HOOK_CODE) of one NAME_infer call, its return included.
+The firmware image is the model's own files plus the batch driver every target uses (templates/driver.c.j2);
+it is linked at flash 0x0 with no start-up code (the generated C has only const tables and stack data) and
+called directly: arguments in r0-r3 and on the stack, inputs and outputs in RAM at 0x20000000, the return
+address a halt loop after the image. Instructions are counted per executed instruction (UC_HOOK_CODE) of one
+NAME_infer call, its return included.
 """
 
 from __future__ import annotations
@@ -19,9 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from seagen import __version__
 from seagen.build.host import CACHE, STRICT_CFLAGS, _key, compile_objects
+from seagen.build.target import Target, driver_sources, entry_points
 from seagen.errors import UserError
+from seagen.ir import QModel
 
 GCC = "arm-none-eabi-gcc"
 TOOLS = (GCC, "arm-none-eabi-objcopy", "arm-none-eabi-size", "arm-none-eabi-nm")
@@ -262,26 +263,15 @@ class Machine:
         return back, counter[0]
 
 
-def driver_source(prefix: str, n_ext: int) -> str:
-    """The Cortex-M batch driver rendered for `prefix`."""
-    from seagen.codegen.render import environment
-
-    return (
-        environment()
-        .get_template("cortexm_driver.c.j2")
-        .render(P=prefix, PU=prefix.upper(), n_ext=n_ext, version=__version__)
-    )
-
-
-class CortexM:
+class CortexM(Target):
     """A generated model cross-compiled for a Cortex-M core and run on the emulator."""
 
-    def __init__(self, files: dict[str, str], prefix: str, cpu: str = "cortex-m4") -> None:
-        n_in, n_ext = _model_dims(files, prefix)
-        self.prefix, self.cpu, self.n_in, self.n_ext = prefix, cpu, n_in, n_ext
+    def __init__(self, files: dict[str, str], prefix: str, qm: QModel, cpu: str = "cortex-m4") -> None:
+        super().__init__(prefix, qm)
+        self.cpu = cpu
         self.model_files = sorted(files)
-        sources = {**files, f"{prefix}_mcu.c": driver_source(prefix, n_ext)}
-        roots = (f"{prefix}_infer", f"{prefix}_run", f"{prefix}_run_step")
+        sources = {**files, **driver_sources(prefix, qm)}
+        roots = (f"{prefix}_infer", *entry_points(prefix, qm))
         self.image = build_image(sources, cpu, roots, name=prefix)
         self.machine = Machine(self.image, cpu)
 
@@ -290,45 +280,12 @@ class CortexM:
         """.text + .rodata of the model's objects (NAME.c and the runtime it uses; not the driver)."""
         return self.image.flash_bytes([f for f in self.model_files if f.endswith(".c")])
 
-    def infer(self, x: np.ndarray) -> np.ndarray:
-        """NAME_infer on each row of int16 features (N, n_in), on the emulated core."""
-        x = np.ascontiguousarray(np.atleast_2d(x), dtype=np.int16)
-        (_, y), _ = self.machine.call(f"{self.prefix}_run", x, len(x), np.zeros(len(x), np.int16))
-        return y.astype(np.int64)
+    def _call(self, fn: str, *args: int | np.ndarray) -> list[np.ndarray]:
+        """NAME_{fn} on the emulated core; arrays are copied into RAM and read back."""
+        return self.machine.call(f"{self.prefix}_{fn}", *args)[0]
 
     def instructions(self, x: np.ndarray) -> np.ndarray:
         """Executed instructions of each NAME_infer(row, out) call over the rows of x (return included)."""
         x = np.ascontiguousarray(np.atleast_2d(x), dtype=np.int16)
         infer, out = f"{self.prefix}_infer", np.zeros(1, np.int16)
         return np.array([self.machine.call(infer, row, out, count=True)[1] for row in x])
-
-    def step(
-        self, enc: np.ndarray, pot: np.ndarray, trial: np.ndarray, ext: np.ndarray | None = None
-    ) -> np.ndarray:
-        """NAME_step over recorded samples, NAME_reset at every trial start, on the emulated core."""
-        n = len(enc)
-        trial = np.asarray(trial)
-        reset = np.r_[True, trial[1:] != trial[:-1]].astype(np.uint8)
-        e = np.zeros((n, max(self.n_ext, 1))) if ext is None else ext
-        args = (
-            np.asarray(enc, dtype=np.int32),
-            np.asarray(pot, dtype=np.int32),
-            np.asarray(e, dtype=np.int16),
-            reset,
-            n,
-            np.zeros(n, np.int16),
-        )
-        back, _ = self.machine.call(f"{self.prefix}_run_step", *args)
-        return back[-1].astype(np.int64)
-
-
-def _model_dims(files: dict[str, str], prefix: str) -> tuple[int, int]:
-    """NAME_N_IN from the header, and the number of extra NAME_step arguments after enc and pot."""
-    import re
-
-    header = files[f"{prefix}.h"]
-    m = re.search(rf"#define {prefix.upper()}_N_IN (\d+)", header)
-    s = re.search(rf"int16_t {prefix}_step\(([^)]*)\)", header)
-    if m is None or s is None:
-        raise UserError(f"{prefix}.h has no {prefix.upper()}_N_IN or {prefix}_step declaration")
-    return int(m.group(1)), len(s.group(1).split(",")) - 3

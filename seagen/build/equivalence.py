@@ -117,7 +117,7 @@ def check_data_dir(ex, data_dir: str) -> DataReport:
     qm = ex.qmodel
     names = [i.signal.name for i in qm.inputs]
     ext_names = external_inputs(qm)
-    c = CModel(ex.files, ex.prefix, len(ext_names))
+    c = CModel(ex.files, ex.prefix, qm)
     onnx_model = (
         onnx.load_model_from_string(ex.onnx_bytes) if ex.onnx_bytes is not None else onnx_ref.build_onnx(qm)
     )

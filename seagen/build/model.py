@@ -1,4 +1,5 @@
-"""Build a generated model (NAME.c/.h + runtime + test harness) with cffi, or as a sanitized executable."""
+"""The host target: a generated model (NAME.c/.h + runtime + batch driver) built with cffi, or as a
+sanitized executable."""
 
 from __future__ import annotations
 
@@ -7,80 +8,35 @@ from types import ModuleType
 
 import numpy as np
 
-from seagen import __version__
 from seagen.build.host import build, build_exe
-from seagen.codegen.render import environment
+from seagen.codegen.runtime import cdef_of
+from seagen.build.target import Target, driver_sources
+from seagen.ir import QModel
+
+_CTYPES = {np.dtype(np.int16): "int16_t[]", np.dtype(np.int32): "int32_t[]", np.dtype(np.uint8): "uint8_t[]"}
 
 
-def harness_source(prefix: str, n_ext: int) -> str:
-    """The batch/streaming harness rendered for `prefix`."""
-    return (
-        environment()
-        .get_template("harness.c.j2")
-        .render(P=prefix, PU=prefix.upper(), n_ext=n_ext, version=__version__)
-    )
+class CModel(Target):
+    """The generated C of one model on the host, loaded through cffi."""
+
+    def __init__(self, files: dict[str, str], prefix: str, qm: QModel) -> None:
+        super().__init__(prefix, qm)
+        driver = driver_sources(prefix, qm)
+        self.mod: ModuleType = build(cdef_of(driver[f"{prefix}_driver.h"]), {**files, **driver}, name=prefix)
+
+    def _call(self, fn: str, *args: int | np.ndarray) -> list[np.ndarray]:
+        """NAME_{fn} through cffi; arrays are passed by pointer and written in place."""
+        ffi = self.mod.ffi
+        c_args = [ffi.from_buffer(_CTYPES[a.dtype], a) if isinstance(a, np.ndarray) else a for a in args]
+        getattr(self.mod.lib, f"{self.prefix}_{fn}")(*c_args)
+        return [a for a in args if isinstance(a, np.ndarray)]
 
 
-def cdef(prefix: str) -> str:
-    """cffi declarations of the harness entry points."""
-    return (
-        f"void {prefix}_infer_batch(const int16_t *x, int n, int16_t *y);\n"
-        f"void {prefix}_step_batch(const int32_t *enc, const int32_t *pot, const int16_t *ext, "
-        f"const uint8_t *reset, int n, int16_t *y);\n"
-    )
-
-
-class CModel:
-    """The generated C of one model, loaded through cffi."""
-
-    def __init__(self, files: dict[str, str], prefix: str, n_ext: int) -> None:
-        sources = dict(files)
-        sources[f"{prefix}_harness.c"] = harness_source(prefix, n_ext)
-        sources[f"{prefix}_harness.h"] = "#include <stdint.h>\n" + cdef(prefix)
-        self.prefix, self.n_ext = prefix, n_ext
-        self.mod: ModuleType = build(cdef(prefix), sources, name=prefix)
-
-    def infer(self, x: np.ndarray) -> np.ndarray:
-        """NAME_infer on each row of int16 features (N, n_in)."""
-        x = np.ascontiguousarray(np.atleast_2d(x), dtype=np.int16)
-        y = np.zeros(len(x), dtype=np.int16)
-        ffi, lib = self.mod.ffi, self.mod.lib
-        getattr(lib, f"{self.prefix}_infer_batch")(
-            ffi.from_buffer("int16_t[]", x), len(x), ffi.from_buffer("int16_t[]", y)
-        )
-        return y.astype(np.int64)
-
-    def step(
-        self, enc: np.ndarray, pot: np.ndarray, trial: np.ndarray, ext: np.ndarray | None = None
-    ) -> np.ndarray:
-        """NAME_step over recorded samples, NAME_reset at every trial start."""
-        n = len(enc)
-        enc32 = np.ascontiguousarray(enc, dtype=np.int32)
-        pot32 = np.ascontiguousarray(pot, dtype=np.int32)
-        reset = np.ascontiguousarray(
-            np.r_[True, np.asarray(trial)[1:] != np.asarray(trial)[:-1]], dtype=np.uint8
-        )
-        e = np.ascontiguousarray(np.zeros((n, max(self.n_ext, 1))) if ext is None else ext, dtype=np.int16)
-        y = np.zeros(n, dtype=np.int16)
-        ffi, lib = self.mod.ffi, self.mod.lib
-        getattr(lib, f"{self.prefix}_step_batch")(
-            ffi.from_buffer("int32_t[]", enc32),
-            ffi.from_buffer("int32_t[]", pot32),
-            ffi.from_buffer("int16_t[]", e),
-            ffi.from_buffer("uint8_t[]", reset),
-            n,
-            ffi.from_buffer("int16_t[]", y),
-        )
-        return y.astype(np.int64)
-
-
-def sanitized_infer(files: dict[str, str], prefix: str, x: np.ndarray, n_ext: int = 0) -> np.ndarray:
+def sanitized_infer(files: dict[str, str], prefix: str, qm: QModel, x: np.ndarray) -> np.ndarray:
     """Run NAME_infer on rows of x in a UBSan+ASan build (any report aborts: a non-zero exit)."""
-    sources = dict(files)
-    sources[f"{prefix}_harness.c"] = f"#define {prefix.upper()}_HARNESS_MAIN\n" + harness_source(
-        prefix, n_ext
-    )
-    exe = build_exe(sources, sanitize=True, name=f"{prefix}_asan")
+    driver = driver_sources(prefix, qm)
+    driver[f"{prefix}_driver.c"] = f"#define {prefix.upper()}_DRIVER_MAIN\n" + driver[f"{prefix}_driver.c"]
+    exe = build_exe({**files, **driver}, sanitize=True, name=f"{prefix}_asan")
     data = np.ascontiguousarray(np.atleast_2d(x), dtype=np.int16).tobytes()
     res = subprocess.run([str(exe)], input=data, capture_output=True, check=False)
     if res.returncode != 0:

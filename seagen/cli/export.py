@@ -27,6 +27,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--onnx", action="store_true", help="also write the quantized integer graph NAME.onnx")
     p.add_argument(
+        "--controller",
+        action="store_true",
+        help="control models: also write NAME_controller.h/.c (tuned PID, limits, margin, the model wired "
+        "in as the predictor) and the controller runtime (sea_pid, sea_control)",
+    )
+    p.add_argument(
         "--check",
         metavar="DIR",
         help="after writing, check C == numpy == torch == onnxruntime on "
@@ -40,6 +46,10 @@ def cmd_export(args: argparse.Namespace) -> int:
     from seagen.codegen.export import prepare, write
 
     ex = prepare(args.model, args.prefix, args.weights, args.calib, args.features, args.onnx)
+    if args.controller:
+        from seagen.control.firmware import controller_files
+
+        ex.files.update(controller_files(ex.prefix, ex.qmodel))
     written = write(ex, args.out)
     print(f"seagen export: {args.model} -> {args.out}/ ({', '.join(p.name for p in written)})")
     for line in ex.lines:

@@ -12,11 +12,11 @@ import numpy as np
 from seagen import __version__
 from seagen.codegen.cfmt import assert_valid_prefix, c_array, c_int
 from seagen.codegen.summary import buffer_width, summary_lines
-from seagen.ir import QModel
-from seagen.quant.features import external_inputs, feature_plan
+from seagen.ir import QMLP, QSF, QLayer, QModel
+from seagen.quant import features as F
 from seagen.quant.primitives import linkage_table_q16
 
-RUNTIME = ("sea_fixed.h", "sea_fixed.c", "sea_nn.h", "sea_nn.c")
+RUNTIME = ("sea_fixed.h", "sea_fixed.c", "sea_nn.h", "sea_nn.c", "sea_features.h", "sea_features.c")
 
 
 def environment() -> jinja2.Environment:
@@ -38,19 +38,42 @@ def model_hash(qm: QModel) -> str:
     """sha256 of the quantized program (every integer and format), stable across runs."""
     h = hashlib.sha256()
     h.update(repr([(i.signal.name, i.frac, i.lo_q, i.hi_q) for i in qm.inputs]).encode())
-    for q in qm.layers:
+    layers, horner = (qm.layers, ()) if isinstance(qm, QMLP) else ((), qm.horner)
+    for q in layers:
         h.update(q.w_q.astype(np.int64).tobytes() + q.b_q.astype(np.int64).tobytes())
         h.update(repr((q.shift, q.acc_bits, q.activation, q.act_params)).encode())
-    h.update(repr([(o.dst, o.var, o.src, o.add_reg, o.coef_q, o.align, o.shift) for o in qm.horner]).encode())
-    h.update(repr((qm.out_frac, qm.out_shift, qm.output.name)).encode())
+    h.update(repr([(o.dst, o.var, o.src, o.add_reg, o.coef_q, o.align, o.shift) for o in horner]).encode())
+    out_shift = qm.out_shift if isinstance(qm, QSF) else 0
+    h.update(repr((qm.out_frac, out_shift, qm.output.name)).encode())
     return h.hexdigest()[:16]
 
 
-def _layers(qm: QModel, prefix: str) -> list[dict[str, Any]]:
+def _activation(q: QLayer, table: dict[str, Any] | None) -> dict[str, Any] | None:
+    """The sea_nn activation call of a layer: function and the arguments after (y, n); None if linear."""
+    if q.activation == "relu":
+        return {"fn": "sea_relu_s16", "args": []}
+    if q.activation == "leaky_relu":
+        return {"fn": "sea_leaky_s16", "args": [q.act_params[0]]}
+    if q.activation == "hardtanh":
+        return {"fn": "sea_hardtanh_s16", "args": [q.act_params[0], q.act_params[1]]}
+    if table is not None:
+        return {
+            "fn": "sea_table_s16",
+            "args": [table["name"], table["len"], table["in_shift"], table["offset"]],
+        }
+    return None
+
+
+def _layers(qm: QMLP, prefix: str) -> list[dict[str, Any]]:
+    """Per layer: its tables, the dense kernel, buffers and the activation call."""
     tables = {t.name: t for t in qm.tables}
     out = []
     for k, q in enumerate(qm.layers):
         t = tables.get(f"l{k}_{q.activation}")
+        table = None
+        if t is not None:
+            table = {"name": f"{prefix}_{t.name}", "data": t.values, "len": len(t.values)}
+            table |= {"in_shift": t.in_shift, "offset": t.offset}
         out.append(
             {
                 "k": k,
@@ -60,72 +83,88 @@ def _layers(qm: QModel, prefix: str) -> list[dict[str, Any]]:
                 "b": q.b_q,
                 "wbits": qm.weight_bits,
                 "abits": q.acc_bits,
+                "dense": f"sea_dense_w{qm.weight_bits}_a{q.acc_bits}",
                 "shift": q.shift,
-                "act": q.activation,
-                "params": q.act_params,
+                "act_name": q.activation,
+                "act": _activation(q, table),
                 "src": f"buf{k % 2}",
                 "dst": f"buf{(k + 1) % 2}",
-                "table": None
-                if t is None
-                else {
-                    "name": f"{prefix}_{t.name}",
-                    "values": t.values,
-                    "in_shift": t.in_shift,
-                    "offset": t.offset,
-                },
+                "table": table,
             }
         )
     return out
 
 
-def _features(qm: QModel) -> list[dict[str, Any]]:
-    expr = {
-        "base": "b[{i}]",
-        "d": "d[{i}]",
-        "dd": "dd[{i}]",
-        "external": "ext[{i}]",
-        "angle": "(int64_t)pot * SEA_POT_DEG_Q24 + SEA_POT_OFFSET_Q24",
-    }
+def _horner(qm: QSF) -> list[dict[str, Any]]:
+    """Per Horner step: a coefficient load, or sea_horner_s32 with a register or a constant addend."""
     return [
-        {"expr": expr[s.kind].format(i=s.index), "from": s.from_frac, "to": s.to_frac, "kind": s.kind}
-        for s in feature_plan(qm)
+        {
+            "load": op.var < 0,
+            "dst": op.dst,
+            "var": op.var,
+            "src": op.src,
+            "add_reg": op.add_reg if op.add_reg >= 0 else None,
+            "coef": op.coef_q,
+            "align": op.align,
+            "shift": op.shift,
+        }
+        for op in qm.horner
     ]
 
 
-def _predictor(qm: QModel) -> dict[str, int] | None:
-    """Glue for sea_control when the model maps desired force -> compression (Q16 in, Q16 out)."""
-    names = [i.signal.name for i in qm.inputs]
-    if qm.output.name != "compression_mm" or names.count("force_n") != 1 or qm.out_frac > 16:
-        return None
-    return {"force_frac": qm.inputs[names.index("force_n")].frac, "up": 16 - qm.out_frac}
+def _features(qm: QModel) -> list[dict[str, Any]]:
+    """Per input: the NAME_step argument it is (externals), or the sea_features_value it converts (kind and
+    base signal as sea_features.h constant names, the formats)."""
+    return [
+        {
+            "name": q.signal.name,
+            "arg": f"{q.signal.name}_q" if q.source.kind == F.EXTERNAL else None,
+            "kind": F.KIND_C[q.source.kind],
+            "index": F.BASE_C[q.source.index] if q.source.kind in F.BASE_C_KINDS else q.source.index,
+            "from_frac": q.source.from_frac,
+            "to_frac": q.frac,
+        }
+        for q in qm.inputs
+    ]
+
+
+def _kind_context(qm: QModel, prefix: str) -> dict[str, Any]:
+    """The per-kind part of the context: MLP layers and buffers, or the SF Horner program."""
+    if isinstance(qm, QMLP):
+        layers = _layers(qm, prefix)
+        return {
+            "kind_template": "model_mlp.c.j2",
+            "layers": layers,
+            "width": buffer_width(qm),
+            "out_buf": layers[-1]["dst"],
+        }
+    return {
+        "kind_template": "model_sf.c.j2",
+        "horner": _horner(qm),
+        "n_regs": qm.n_regs,
+        "out_reg": qm.horner[-1].dst,
+        "out_shift": qm.out_shift,
+    }
 
 
 def context(qm: QModel, prefix: str) -> dict[str, Any]:
     """Everything the templates print, decided here."""
     prefix = assert_valid_prefix(prefix)
-    width = buffer_width(qm)
-    features = _features(qm)
     return {
         "P": prefix,
         "PU": prefix.upper(),
         "version": __version__,
         "hash": model_hash(qm),
-        "kind": qm.kind,
         "n_in": len(qm.inputs),
         "inputs": qm.inputs,
         "output": qm.output,
         "out_frac": qm.out_frac,
         "summary": summary_lines(qm),
-        "layers": _layers(qm, prefix),
-        "width": width,
-        "horner": qm.horner,
-        "n_regs": qm.n_regs,
-        "out_shift": qm.out_shift,
-        "features": features,
-        "needs_diff": any(f["kind"] in ("d", "dd") for f in features),
-        "externals": external_inputs(qm),
+        "features": _features(qm),
+        "externals": F.external_inputs(qm),
         "link": linkage_table_q16(),
-        "predictor": _predictor(qm),
+        "predictor": {"force_input": "force_n"} if F.is_predictor(qm) else None,
+        **_kind_context(qm, prefix),
     }
 
 

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from seagen.ir import QModel
+from seagen.ir import QMLP, QModel
+from seagen.quant.features import N_BASE
 from seagen.quant.primitives import LINK_TABLE_LEN
 
-STATE_BYTES = 4 * 6 + 4  # NAME_state_t: p1[3], p2[3] int32 + the primed flag (padded)
+STATE_BYTES = 4 * 2 * N_BASE + 4  # sea_features_state: p1, p2 (int32 per base signal), primed (padded)
 
 
-def buffer_width(qm: QModel) -> int:
+def buffer_width(qm: QMLP) -> int:
     """Elements of each int16 working buffer of an MLP: the widest of the inputs and every layer's output."""
     return max([len(qm.inputs)] + [q.w_q.shape[0] for q in qm.layers])
 
@@ -16,13 +17,14 @@ def buffer_width(qm: QModel) -> int:
 def memory(qm: QModel) -> dict[str, int]:
     """Bytes of const data (flash) and of working buffers + state (RAM) of the generated model."""
     flash = 2 * 2 * len(qm.inputs)  # clamp box
-    for q in qm.layers:
-        flash += q.w_q.size * (qm.weight_bits // 8) + q.b_q.size * (q.acc_bits // 8)
-    flash += sum(2 * len(t.values) for t in qm.tables)
     flash += 4 * LINK_TABLE_LEN  # linkage table of the feature pipeline
+    if isinstance(qm, QMLP):
+        for q in qm.layers:
+            flash += q.w_q.size * (qm.weight_bits // 8) + q.b_q.size * (q.acc_bits // 8)
+        flash += sum(2 * len(t.values) for t in qm.tables)
+        return {"flash_data_bytes": flash, "ram_bytes": 2 * 2 * buffer_width(qm) + STATE_BYTES}
     flash += 4 * sum(1 for op in qm.horner if op.var < 0 or op.add_reg < 0)
-    ram = (2 * 2 * buffer_width(qm) if qm.kind == "mlp" else 2 * len(qm.inputs) + 4 * qm.n_regs) + STATE_BYTES
-    return {"flash_data_bytes": flash, "ram_bytes": ram}
+    return {"flash_data_bytes": flash, "ram_bytes": 2 * len(qm.inputs) + 4 * qm.n_regs + STATE_BYTES}
 
 
 def summary_lines(qm: QModel) -> list[str]:
@@ -34,12 +36,14 @@ def summary_lines(qm: QModel) -> list[str]:
             f"in[{i}] {s.name} [{s.unit}] Q{qi.frac}, calibrated {s.lo:.6g}..{s.hi:.6g}, "
             f"clamped to {qi.lo_q}..{qi.hi_q}"
         )
-    for k, q in enumerate(qm.layers):
-        lines.append(
-            f"layer {k}: {q.w_q.shape[1]}->{q.w_q.shape[0]} {q.activation}, weights int{qm.weight_bits} "
-            f"Q{q.w_frac}, acc int{q.acc_bits} Q{q.w_frac + q.in_frac}, out Q{q.out_frac} (shift {q.shift})"
-        )
-    if qm.kind == "sf":
+    if isinstance(qm, QMLP):
+        for k, q in enumerate(qm.layers):
+            shape = f"{q.w_q.shape[1]}->{q.w_q.shape[0]} {q.activation}"
+            lines.append(
+                f"layer {k}: {shape}, weights int{qm.weight_bits} Q{q.w_frac}, acc int{q.acc_bits} "
+                f"Q{q.w_frac + q.in_frac}, out Q{q.out_frac} (shift {q.shift})"
+            )
+    else:
         lines.append(
             f"surface fit: {len(qm.horner)} Horner steps on {qm.n_regs} int32 registers, int64 products"
         )

@@ -9,45 +9,13 @@ from types import ModuleType
 import numpy as np
 
 from seagen.build import host
-from seagen.codegen.runtime import runtime_sources
+from seagen.codegen.runtime import cdef_of, runtime_sources
 from seagen.control.controller import ControlConfig, KinParams
 from seagen.defaults import GENERATED
 
 SOURCES = ("sea_fixed.h", "sea_fixed.c", "sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c")
-NN_SOURCES = ("sea_nn.h", "sea_nn.c")
-
-PID_CDEF = """
-typedef struct { int32_t kp; int32_t ki; int32_t kd; int32_t d_alpha; int32_t margin;
-                 int16_t out_min; int16_t out_max; } sea_pid_params;
-typedef struct { int32_t integ; int32_t d_filt; int32_t meas_prev; int16_t out; } sea_pid_state;
-void sea_pid_reset(const sea_pid_params *p, sea_pid_state *s, int32_t meas, int16_t out);
-int16_t sea_pid_step(const sea_pid_params *p, sea_pid_state *s, int32_t setpoint, int32_t meas);
-int64_t sea_clamp_s64(int64_t v, int64_t lo, int64_t hi);
-int32_t sea_div_rne_s32(int32_t num, int32_t den);
-"""
-CDEF = (
-    PID_CDEF
-    + """
-typedef int32_t (*sea_predictor_fn)(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);
-typedef struct {
-    sea_pid_params pid; const int32_t *link_table; sea_predictor_fn predictor; void *predictor_ctx;
-    int32_t predict_every; int32_t pred_avg; int32_t force_min; int32_t force_max; int32_t enc_jump_max;
-    int32_t pot_stuck_ticks;
-} sea_control_config;
-typedef struct {
-    sea_pid_state pid; int32_t pot_buf[10]; int32_t pot_idx; int32_t pot_avg; int32_t pred_count;
-    int32_t pred_buf[10]; int32_t pred_idx;
-    int32_t enc_prev; int32_t stuck_lo; int32_t stuck_hi; int32_t desired; int32_t comp; int32_t fault;
-    int16_t out;
-} sea_control_state;
-void sea_control_reset(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot);
-int16_t sea_control_step(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot,
-                         int32_t force_q16);
-void sea_control_set_desired(sea_control_state *s, int32_t desired_q16);
-typedef struct { int32_t friction_q16; int32_t inv_k_q16; } sea_kin_params;
-int32_t sea_predict_kinematic(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);
-"""
-)
+NN_SOURCES = ("sea_nn.h", "sea_nn.c", "sea_features.h", "sea_features.c")
+CDEF = cdef_of(*runtime_sources("sea_fixed.h", "sea_pid.h", "sea_control.h").values()) + "\n"
 
 
 def build_control(extra_cdef: str = "", extra_sources: dict[str, str] | None = None) -> ModuleType:
@@ -57,13 +25,9 @@ def build_control(extra_cdef: str = "", extra_sources: dict[str, str] | None = N
     )
 
 
-def generated_cdef(prefix: str) -> str:
-    """cffi declarations of a generated control predictor's state, reset and sea_predictor_fn."""
-    return (
-        f"typedef struct {{ int32_t p1[3]; int32_t p2[3]; uint8_t primed; }} {prefix}_state_t;\n"
-        f"void {prefix}_reset({prefix}_state_t *s);\n"
-        f"int32_t {prefix}_predict_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);\n"
-    )
+def generated_cdef(prefix: str, root: Path = GENERATED) -> str:
+    """cffi declarations of a generated control predictor (its header, after sea_features.h's)."""
+    return cdef_of(*runtime_sources("sea_features.h").values(), (root / f"{prefix}.h").read_text())
 
 
 def generated_sources(prefix: str, root: Path = GENERATED) -> dict[str, str]:

@@ -8,8 +8,10 @@ from typing import Any
 
 import numpy as np
 
+from seagen.c_runtime import defines
 from seagen.control.pid import DEFAULT_PID, PidParams, PidState, merge, pid_reset, pid_step
 from seagen.quant.primitives import (
+    FORCE_FRAC_BITS,
     POT_MAX,
     compression_q16,
     div_rne,
@@ -18,13 +20,23 @@ from seagen.quant.primitives import (
     sat32,
 )
 
-FORCE_FRAC = 16  # SEA_FORCE_FRAC_BITS: desired force in Q16 N
-POT_AVG_TICKS = 10
-POT_STUCK_TICKS = 10
-PRED_AVG_MAX = 10  # SEA_CTRL_PRED_AVG_MAX
-ENC_JUMP_MAX = 130  # ceil(2 x 32,300 rpm x 12 CPR / 60 / 100 Hz)
-FAULT_POT_STUCK_LOW, FAULT_POT_STUCK_HIGH, FAULT_ENC_JUMP, FAULT_FORCE_RANGE = 1, 2, 4, 8
-FAULT_NAMES = {1: "pot_stuck_low", 2: "pot_stuck_high", 4: "enc_jump", 8: "force_range"}
+_C = defines("sea_control.h")  # the header is the one definition of the controller's constants
+FORCE_FRAC = FORCE_FRAC_BITS  # SEA_FORCE_FRAC_BITS: desired force in Q16 N
+POT_AVG_TICKS = _C["SEA_CTRL_POT_AVG_TICKS"]
+POT_STUCK_TICKS = _C["SEA_CTRL_POT_STUCK_TICKS"]
+PRED_AVG_MAX = _C["SEA_CTRL_PRED_AVG_MAX"]
+ENC_JUMP_MAX = _C["SEA_CTRL_ENC_JUMP_MAX"]  # ceil(2 x 32,300 rpm x 12 CPR / 60 / 100 Hz)
+FAULT_POT_STUCK_LOW, FAULT_POT_STUCK_HIGH = _C["SEA_FAULT_POT_STUCK_LOW"], _C["SEA_FAULT_POT_STUCK_HIGH"]
+FAULT_ENC_JUMP, FAULT_FORCE_RANGE = _C["SEA_FAULT_ENC_JUMP"], _C["SEA_FAULT_FORCE_RANGE"]
+FAULT_NAMES = {
+    FAULT_POT_STUCK_LOW: "pot_stuck_low",
+    FAULT_POT_STUCK_HIGH: "pot_stuck_high",
+    FAULT_ENC_JUMP: "enc_jump",
+    FAULT_FORCE_RANGE: "force_range",
+}
+MLP_PRED_AVG = (
+    9  # MLP predictors: desired = mean of the last 9 predictions (smooths the pot noise in its inputs)
+)
 FORCE_RANGE_N = (0.0, 20.0)  # calibrated range of the desired force at the shaft (training peaks <= 19 N)
 
 # (enc, pot, force_q16) int64 arrays -> desired compression, Q16 mm (int64 array)

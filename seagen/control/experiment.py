@@ -6,7 +6,7 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
-from seagen.control.controller import ControlConfig
+from seagen.control.controller import MLP_PRED_AVG, ControlConfig
 from seagen.control.loop import CloudPredictor, McuPredictor, run_closed_loop
 from seagen.control.predictors import generated_cloud, generated_mcu, kinematic_mcu
 
@@ -17,7 +17,6 @@ SMOOTH_TICKS = 5  # the reference force is judged on its 50 ms trailing mean (lo
 ERROR_WINDOW_S = 2.0  # the average error is taken over the last 2 s of the run
 DURATION_S = 6.0
 
-MLP_PRED_AVG = 9  # mlp_mcu: desired = mean of the last 9 predictions (smooths the pot noise in its inputs)
 Setup = tuple[McuPredictor | CloudPredictor, ControlConfig]
 # Configuration name -> factory(latency_s) of its predictor and controller configuration (Table II rows).
 CONFIGS: dict[str, Callable[[float], Setup]] = {

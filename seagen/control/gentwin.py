@@ -10,9 +10,9 @@ import pandas as pd
 from seagen.control.controller import FORCE_FRAC
 from seagen.data.features import derive
 from seagen.defaults import DEFAULT_PREFIX, GENERATED
+from seagen.quant import features as F
 from seagen.quant import kernels as K
 from seagen.quant import primitives as P
-from seagen.quant.features import EXTERNAL, model_inputs
 from seagen.reference import float_ref, numpy_ref
 
 MODEL_FILES = {prefix: f"{name}.pt" for name, prefix in DEFAULT_PREFIX.items()}  # prefix -> model file
@@ -29,29 +29,23 @@ def export(prefix: str):
 class StepTwin:
     """Twin of NAME_predict_q16 (NAME_step + scaling to Q16 mm) for a batch, one call per tick.
 
-    State: the previous two values of (pot, enc, compression Q16) per actuator; the first call sees
-    x[-1] = x[-2] = x[0] (seagen.data.features.differences), like NAME_reset + the `primed` flag.
+    The feature pipeline is sea_features' twin (seagen.quant.features.Pipeline): its state starts reset,
+    like NAME_reset.
     """
 
     def __init__(self, prefix: str) -> None:
         self.qm = export(prefix).qmodel
-        self.table = P.linkage_table_q16()
-        self.p1: np.ndarray | None = None
-        self.p2: np.ndarray | None = None
+        self.pipeline = F.Pipeline(P.linkage_table_q16())
 
     def __call__(self, enc: np.ndarray, pot: np.ndarray, force_q16: np.ndarray) -> np.ndarray:
         """Desired compression (Q16 mm, int64) for raw counts and the desired force (Q16 N)."""
-        enc, pot = np.asarray(enc, np.int64), np.asarray(pot, np.int64)
-        b = np.stack([pot, enc, P.compression_q16(self.table, enc, pot)])
-        if self.p1 is None or self.p2 is None:
-            self.p1, self.p2 = b.copy(), b.copy()
-        d, dd = b - self.p1, b - 2 * self.p1 + self.p2
-        self.p2, self.p1 = self.p1, b
-        force = np.broadcast_to(np.asarray(force_q16, np.int64), enc.shape)
-        ext = [K.to_s16(force, FORCE_FRAC, q.frac) for q in self.qm.inputs if q.signal.name in EXTERNAL]
-        x = model_inputs(self.qm, b, d, dd, np.stack(ext, axis=1) if ext else None)
-        y = numpy_ref.infer(self.qm, x)
-        return P.sat32(np.asarray(y, np.int64) * (1 << (16 - self.qm.out_frac)))
+        b, d, dd = self.pipeline.step(enc, pot)
+        force = np.broadcast_to(np.asarray(force_q16, np.int64), np.shape(enc))
+        names = F.external_inputs(self.qm)
+        fr = {q.signal.name: q.frac for q in self.qm.inputs}
+        ext = np.stack([K.to_s16(force, FORCE_FRAC, fr[n]) for n in names], axis=1) if names else None
+        y = numpy_ref.infer(self.qm, F.inputs(self.qm.inputs, b, d, dd, ext))
+        return K.to_s32(y, self.qm.out_frac, P.COMP_FRAC_BITS)
 
 
 def float_features(names: list[str], enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:

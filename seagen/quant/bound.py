@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from seagen.ir import FloatMLP, QModel
+from seagen.ir import QMLP, FloatMLP
 from seagen.quant.activations import table_error
 from seagen.quant.qformat import widened
 
 
-def mlp_error_bound(model: FloatMLP, qm: QModel) -> float:
+def mlp_error_bound(model: FloatMLP, qm: QMLP) -> float:
     """Bound on |infer(quantize(x)) * 2^-out_frac - float(x)| for every x in the widened box (output units).
 
     Per layer: e_z = sum|W - W_hat| |x|max + sum|W_hat| e_x + |b - b_hat| + half an output LSB; ReLU and

@@ -1,62 +1,182 @@
-"""The integer feature pipeline: which raw-count computation feeds each model input, and its formats.
+"""The feature pipeline's Python twin (c_runtime/sea_features.c): one owner for features in and out of C.
 
-Base signals, all exact integers: pot (counts, Q0), enc (counts, Q0), compression (Q16 mm, from
-sea_compression_q16), angle (Q24 deg, pot * POT_DEG_Q24 + POT_OFFSET_Q24). First and second backward
-differences (seagen.data.features.differences, warm-up included) are taken on pot, enc and compression.
-External inputs (the desired force of a control predictor) arrive already quantized.
+sea_features_step keeps the previous two samples of three base signals — pot (counts, Q0), enc (counts,
+Q0) and the compression (Q16 mm, sea_compression_q16) — and gives their first and second backward
+differences with a warm-up (`Differences`); the angle is pot * POT_DEG_Q24 + POT_OFFSET_Q24 (Q24 deg).
+`FEATURES` names every model input the pipeline can compute; the float feature function
+(seagen.data.features.derive) builds its columns from the same table and the same `Differences`.
+Constants (signal indices, kinds) are read from sea_features.h, their one definition.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from seagen.data.features import differences
+from seagen.c_runtime import defines
 from seagen.errors import UserError
-from seagen.ir import QModel
+from seagen.ir import FeatureSource, QInput, QModel
 from seagen.quant import kernels as K
 from seagen.quant import primitives as P
 
-BASES = ("pot", "enc", "compression_mm")  # state-carrying signals, in state-struct order
-BASE_FRAC = {"pot": 0, "enc": 0, "compression_mm": P.COMP_FRAC_BITS}
-EXTERNAL = ("force_n",)
+_H = defines("sea_features.h")
+N_BASE = _H["SEA_FEAT_N_BASE"]
+BASE_C = {_H[f"SEA_FEAT_{k}"]: f"SEA_FEAT_{k}" for k in ("POT", "ENC", "COMP")}  # base signal -> C name
+KIND_C = {_H[f"SEA_FEAT_{k}"]: f"SEA_FEAT_{k}" for k in ("BASE", "D", "DD", "ANGLE", "EXTERNAL")}
+POT, ENC, COMP = BASE_C
+BASE, D, DD, ANGLE, EXTERNAL = KIND_C
+BASE_C_KINDS = (BASE, D, DD)  # kinds whose index names a base signal
+BASE_FRAC = {POT: 0, ENC: 0, COMP: P.COMP_FRAC_BITS}
 
 
 @dataclass(frozen=True)
-class FeatureSource:
-    """Model input i comes from `kind` ('base', 'd', 'dd', 'angle', 'external') of base `index`."""
+class Feature:
+    """A named feature: its source in the pipeline and the float column derive() fills."""
 
-    kind: str
+    name: str
+    kind: int
     index: int
-    from_frac: int
-    to_frac: int
 
 
-def feature_plan(qm: QModel) -> list[FeatureSource]:
-    """One source per model input; an input the pipeline cannot compute is an error."""
-    plan = []
-    for qi in qm.inputs:
-        name = qi.signal.name
-        base = name.removeprefix("dd_").removeprefix("d_")
-        kind = "dd" if name.startswith("dd_") else "d" if name.startswith("d_") else "base"
-        if name == "angle_deg":
-            plan.append(FeatureSource("angle", -1, 24, qi.frac))
-        elif name in EXTERNAL:
-            plan.append(FeatureSource("external", EXTERNAL.index(name), qi.frac, qi.frac))
-        elif base in BASES:
-            plan.append(FeatureSource(kind, BASES.index(base), BASE_FRAC[base], qi.frac))
+# Every feature the firmware computes, by name: base signals, their d_/dd_ differences, the angle, and the
+# external desired force. The float names of the base signals are derive()'s columns.
+BASE_NAMES = {POT: "pot", ENC: "enc", COMP: "compression_mm"}
+FEATURES: dict[str, Feature] = {
+    f.name: f
+    for f in [
+        *(Feature(n, BASE, i) for i, n in BASE_NAMES.items()),
+        *(Feature(f"d_{n}", D, i) for i, n in BASE_NAMES.items()),
+        *(Feature(f"dd_{n}", DD, i) for i, n in BASE_NAMES.items()),
+        Feature("angle_deg", ANGLE, 0),
+        Feature("force_n", EXTERNAL, 0),
+    ]
+}
+
+
+def name_of(kind: int, index: int) -> str:
+    """The name of the feature of `kind` on base signal `index` (e.g. D, ENC -> 'd_enc')."""
+    return next(f.name for f in FEATURES.values() if (f.kind, f.index) == (kind, index))
+
+
+def source_of(name: str, frac: int) -> FeatureSource:
+    """Where NAME_step takes the input `name` from; an input the pipeline cannot compute is an error."""
+    f = FEATURES.get(name)
+    if f is None:
+        raise UserError(
+            f"input '{name}' is not a feature the firmware pipeline computes (known: {', '.join(FEATURES)})"
+        )
+    from_frac = {ANGLE: _H["SEA_FEAT_ANGLE_FRAC_BITS"], EXTERNAL: frac}.get(f.kind, BASE_FRAC.get(f.index, 0))
+    return FeatureSource(f.kind, f.index, from_frac)
+
+
+def frac_cap(name: str) -> int | None:
+    """The finest input format worth choosing: the compression and its differences are computed in Q16."""
+    f = FEATURES.get(name)
+    return P.COMP_FRAC_BITS if f is not None and f.kind in (BASE, D, DD) and f.index == COMP else None
+
+
+class Differences:
+    """Twin of the difference part of sea_features_step, for any arrays of values (int64 or float).
+
+    The first call after construction (sea_features_reset) takes x[-1] = x[-2] = x, so d = dd = 0; the
+    second takes x[-2] = x[-1]. d = x - x[-1], dd = x - 2 x[-1] + x[-2], in that order of operations.
+    """
+
+    def __init__(self) -> None:
+        self.p1: np.ndarray | None = None
+        self.p2: np.ndarray | None = None
+
+    def __call__(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(d, dd) of this sample; the state moves on by one sample."""
+        if self.p1 is None or self.p2 is None:
+            self.p1, self.p2 = x, x
+        d, dd = x - self.p1, x - 2 * self.p1 + self.p2
+        self.p2, self.p1 = self.p1, x
+        return d, dd
+
+
+def over_trials(x: np.ndarray, trial: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`Differences` run over recorded samples x (k, N), restarting at every trial start (as NAME_reset).
+
+    The trials run side by side: sample j of every trial is one call, so the loop is as long as the
+    longest trial.
+    """
+    x, trial = np.asarray(x), np.asarray(trial)
+    n = x.shape[-1]
+    start = np.r_[True, trial[1:] != trial[:-1]] if n else np.zeros(0, bool)
+    seg = np.cumsum(start) - 1
+    pos = np.arange(n) - np.flatnonzero(start)[seg] if n else np.zeros(0, int)
+    grid = np.zeros((int(pos.max(initial=-1)) + 1, *x.shape[:-1], int(seg.max(initial=-1)) + 1), x.dtype)
+    grid[pos, ..., seg] = np.moveaxis(x, -1, 0)
+    diff, d, dd = Differences(), np.zeros_like(grid), np.zeros_like(grid)
+    for j in range(len(grid)):
+        d[j], dd[j] = diff(grid[j])
+    return np.moveaxis(d[pos, ..., seg], 0, -1), np.moveaxis(dd[pos, ..., seg], 0, -1)
+
+
+def bases_q(table: np.ndarray, enc: np.ndarray, pot: np.ndarray) -> np.ndarray:
+    """The integer base signals (N_BASE, ...) of sea_features_step: pot, enc, compression Q16 mm."""
+    enc, pot = np.asarray(enc, dtype=np.int64), np.asarray(pot, dtype=np.int64)
+    b = np.zeros((N_BASE, *np.shape(enc)), dtype=np.int64)
+    b[POT], b[ENC], b[COMP] = pot, enc, P.compression_q16(table, enc, pot)
+    return b
+
+
+def angle_q24(pot: np.ndarray) -> np.ndarray:
+    """Eq. 5 in Q24 deg from raw pot counts, exact in int64 (sea_features_out.angle_q24)."""
+    return np.asarray(pot, dtype=np.int64) * P.POT_DEG_Q24 + P.POT_OFFSET_Q24
+
+
+class Pipeline:
+    """Twin of sea_features_state with sea_features_step, for a batch of actuators (one call per tick)."""
+
+    def __init__(self, table: np.ndarray) -> None:
+        self.table, self.diff = table, Differences()
+
+    def step(self, enc: np.ndarray, pot: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(b, d, dd), each (N_BASE, batch), of one sample of raw counts."""
+        b = bases_q(self.table, enc, pot)
+        return (b, *self.diff(b))
+
+
+def value(kind: int, index: int, b: np.ndarray, d: np.ndarray, dd: np.ndarray) -> np.ndarray:
+    """sea_features_value: the base signal, difference or angle of one step (b, d, dd: (N_BASE, ...))."""
+    return angle_q24(b[POT]) if kind == ANGLE else {BASE: b, D: d, DD: dd}[kind][index]
+
+
+def inputs(
+    qins: Sequence[QInput], b: np.ndarray, d: np.ndarray, dd: np.ndarray, ext: np.ndarray | None
+) -> np.ndarray:
+    """The int16 inputs (N, n_in) NAME_step gives NAME_infer: each input's sea_features_value converted
+    by sea_to_s16 to its format, or its already-quantized external argument (ext: (N, n_ext))."""
+    cols = []
+    for q in qins:
+        src = q.source
+        if src.kind == EXTERNAL:
+            assert ext is not None, "this model needs external inputs (desired force)"
+            cols.append(np.asarray(ext, dtype=np.int64).reshape(b.shape[1], -1)[:, src.index])
         else:
-            raise UserError(
-                f"input '{name}' is not a feature the firmware pipeline computes "
-                f"(known: {', '.join(BASES)}, their d_/dd_ differences, angle_deg, force_n)"
-            )
-    return plan
+            cols.append(K.to_s16(value(src.kind, src.index, b, d, dd), src.from_frac, q.frac))
+    return np.stack(cols, axis=1)
+
+
+def is_predictor(qm: QModel) -> bool:
+    """Whether the model maps the desired force (one external input) to a compression in at most Q16: then
+    it is a sea_control predictor (NAME_predict_q16)."""
+    ext = [q for q in qm.inputs if q.source.kind == EXTERNAL]
+    return (
+        qm.output.name == "compression_mm"
+        and [q.signal.name for q in ext] == ["force_n"]
+        and qm.out_frac <= P.COMP_FRAC_BITS
+    )
 
 
 def external_inputs(qm: QModel) -> list[str]:
-    """Names of the inputs NAME_step takes as arguments (already quantized)."""
-    return [qi.signal.name for qi in qm.inputs if qi.signal.name in EXTERNAL]
+    """Names of the inputs NAME_step takes as arguments (already quantized), in argument order."""
+    ext = sorted((q.source.index, q.signal.name) for q in qm.inputs if q.source.kind == EXTERNAL)
+    return [name for _, name in ext]
 
 
 def step_features(
@@ -68,26 +188,6 @@ def step_features(
     external: np.ndarray | None = None,
 ) -> np.ndarray:
     """The int16 model inputs NAME_step computes, for whole recorded trials (N samples) at once."""
-    enc = np.asarray(enc, dtype=np.int64)
-    pot = np.asarray(pot, dtype=np.int64)
-    bases = np.stack([pot, enc, P.compression_q16(table, enc, pot)])
-    d, dd = zip(*(differences(b, np.asarray(trial)) for b in bases), strict=True)
-    return model_inputs(qm, bases, np.stack(d), np.stack(dd), external)
-
-
-def model_inputs(
-    qm: QModel, bases: np.ndarray, d: np.ndarray, dd: np.ndarray, external: np.ndarray | None
-) -> np.ndarray:
-    """int16 model inputs (N, n_in) from the base signals (pot, enc, compression Q16; shape (3, N)), their
-    differences and the already-quantized external inputs (N, n_ext): what NAME_step does after the state."""
-    cols = []
-    for src in feature_plan(qm):
-        if src.kind == "angle":
-            v = bases[0] * P.POT_DEG_Q24 + P.POT_OFFSET_Q24
-        elif src.kind == "external":
-            assert external is not None, "this model needs external inputs (desired force)"
-            v = np.asarray(external, dtype=np.int64).reshape(bases.shape[1], -1)[:, src.index]
-        else:
-            v = {"base": bases, "d": d, "dd": dd}[src.kind][src.index]
-        cols.append(K.to_s16(v, src.from_frac, src.to_frac))
-    return np.stack(cols, axis=1)
+    b = bases_q(table, enc, pot)
+    d, dd = over_trials(b, trial)
+    return inputs(qm.inputs, b, d, dd, external)

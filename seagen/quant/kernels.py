@@ -50,3 +50,11 @@ def to_s16(v: np.ndarray, from_frac: int, to_frac: int) -> np.ndarray:
     if to_frac >= from_frac:
         return sat16(v * (np.int64(1) << np.int64(to_frac - from_frac)))
     return sat16(rshift_rne(v, from_frac - to_frac))
+
+
+def to_s32(v: np.ndarray, from_frac: int, to_frac: int) -> np.ndarray:
+    """sea_to_s32: Q(from_frac) -> int32 Q(to_frac), exact up-scaling or rounding shift, saturated."""
+    v = np.asarray(v, dtype=np.int64)
+    if to_frac >= from_frac:
+        return sat32(v * (np.int64(1) << np.int64(to_frac - from_frac)))
+    return sat32(rshift_rne(v, from_frac - to_frac))

@@ -7,9 +7,10 @@ import dataclasses
 import numpy as np
 
 from seagen.errors import UserError
-from seagen.ir import FloatLayer, FloatMLP, QInput, QLayer, QModel, QTable
+from seagen.ir import QMLP, FloatLayer, FloatMLP, QInput, QLayer, QTable
 from seagen.quant.activations import TABLE_OUT_FRAC, make_table
 from seagen.quant.bound import mlp_error_bound
+from seagen.quant.features import frac_cap, source_of
 from seagen.quant.primitives import rshift_rne
 from seagen.quant.qformat import frac_for, quantize, widened
 
@@ -23,12 +24,12 @@ def quantize_inputs(model: FloatMLP) -> tuple[QInput, ...]:
     for s in model.inputs:
         lo, hi = widened(s.lo, s.hi)
         f = frac_for(max(abs(lo), abs(hi)), INT16_MAX)
-        if s.name in ("compression_mm", "d_compression_mm", "dd_compression_mm"):
-            f = min(f, 16)  # the pipeline computes compression in Q16
+        if (cap := frac_cap(s.name)) is not None:
+            f = min(f, cap)  # no finer than the pipeline computes it
         lo_q, hi_q = int(quantize(lo, f)), int(quantize(hi, f))
         if not (-(2**15) <= lo_q <= hi_q <= INT16_MAX):
             raise UserError(f"input '{s.name}': range [{s.lo}, {s.hi}] cannot be represented in int16")
-        out.append(QInput(s, f, lo_q, hi_q))
+        out.append(QInput(s, f, lo_q, hi_q, source_of(s.name, f)))
     return tuple(out)
 
 
@@ -114,7 +115,7 @@ def _act_bounds(act: str, params: tuple[int, ...], table: QTable | None, lo: np.
     return lo, hi
 
 
-def quantize_mlp(model: FloatMLP, weight_bits: int = 16) -> QModel:
+def quantize_mlp(model: FloatMLP, weight_bits: int = 16) -> QMLP:
     """The whole network; raises UserError when a range cannot be represented."""
     wmax = 2 ** (weight_bits - 1) - 1
     inputs = quantize_inputs(model)
@@ -131,8 +132,7 @@ def quantize_mlp(model: FloatMLP, weight_bits: int = 16) -> QModel:
             tables.append(table)
         lo, hi = q.y_lo, q.y_hi
         in_frac = q.out_frac
-    qm = QModel(
-        "mlp",
+    qm = QMLP(
         inputs,
         model.output,
         layers[-1].out_frac,

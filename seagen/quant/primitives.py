@@ -9,14 +9,17 @@ from __future__ import annotations
 import numpy as np
 
 from seagen import geometry as g
+from seagen.c_runtime import defines
 
-COMP_FRAC_BITS = 16  # compression: Q16 mm
-LINK_TABLE_SHIFT = 4
-LINK_TABLE_LEN = 257
-MM_PER_COUNT_Q24 = 73584  # round(0.00438596 * 2^24); must equal SEA_MM_PER_COUNT_Q24
-POT_MAX = 4095
-POT_DEG_Q24 = 217588  # round(53.12195 / 4096 * 2^24); must equal SEA_POT_DEG_Q24
-POT_OFFSET_Q24 = -5 * 2**24  # SEA_POT_OFFSET_Q24
+_H = defines("sea_fixed.h")  # the header is the one definition of the geometry constants
+COMP_FRAC_BITS = _H["SEA_COMP_FRAC_BITS"]  # compression: Q16 mm
+FORCE_FRAC_BITS = _H["SEA_FORCE_FRAC_BITS"]  # desired force: Q16 N
+LINK_TABLE_SHIFT = _H["SEA_LINK_TABLE_SHIFT"]
+LINK_TABLE_LEN = _H["SEA_LINK_TABLE_LEN"]
+MM_PER_COUNT_Q24 = _H["SEA_MM_PER_COUNT_Q24"]  # Eq. 3, round(0.00438596 * 2^24)
+POT_MAX = _H["SEA_POT_MAX"]
+POT_DEG_Q24 = _H["SEA_POT_DEG_Q24"]  # Eq. 5, round(53.12195 / 4096 * 2^24)
+POT_OFFSET_Q24 = _H["SEA_POT_OFFSET_Q24"]  # Eq. 5, -5 deg
 INT16_MIN, INT16_MAX = -(2**15), 2**15 - 1
 INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
 

@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 
 from seagen.errors import UserError
-from seagen.ir import FloatSF, QHorner, QModel
+from seagen.ir import QSF, FloatSF, QHorner
 from seagen.quant.mlp import INT16_MAX, quantize_inputs
 from seagen.quant.primitives import rshift_rne
 from seagen.quant.qformat import frac_for, widened
@@ -75,7 +75,7 @@ class _Planner:
         self.regs[dst] = _Reg(lo - err, hi + err, f, err)
 
 
-def quantize_sf(model: FloatSF) -> QModel:
+def quantize_sf(model: FloatSF) -> QSF:
     """Plan f(a, b) = sum_i a^i P_i(b), each P_i by Horner in b, then Horner in a."""
     inputs = quantize_inputs(model)  # type: ignore[arg-type]
     boxes = [widened(s.lo, s.hi) for s in model.inputs]
@@ -97,8 +97,7 @@ def quantize_sf(model: FloatSF) -> QModel:
         out_frac -= 1
         shift += 1
     bound = final.err + 2.0 ** -(out_frac + 1)
-    return QModel(
-        "sf",
+    return QSF(
         inputs,
         model.output,
         out_frac,

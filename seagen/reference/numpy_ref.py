@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from seagen.ir import QLayer, QModel, QTable
+from seagen.ir import QSF, QLayer, QModel, QTable
 from seagen.quant import kernels as K
 
 
@@ -31,7 +31,7 @@ def activate(q: QLayer, table: QTable | None, y: np.ndarray) -> np.ndarray:
 def infer(qm: QModel, x: np.ndarray) -> np.ndarray:
     """NAME_infer on a batch: int16 features (N, n_in) -> int16 outputs (N,), as int64 arrays."""
     x = clamp_inputs(qm, x)
-    if qm.kind == "sf":
+    if isinstance(qm, QSF):
         return _sf(qm, x)
     tables = {t.name: t for t in qm.tables}
     for k, q in enumerate(qm.layers):
@@ -39,7 +39,7 @@ def infer(qm: QModel, x: np.ndarray) -> np.ndarray:
     return x[:, 0]
 
 
-def _sf(qm: QModel, x: np.ndarray) -> np.ndarray:
+def _sf(qm: QSF, x: np.ndarray) -> np.ndarray:
     """The straight-line Horner program on int32 registers."""
     regs: dict[int, np.ndarray] = {}
     for op in qm.horner:

@@ -14,7 +14,7 @@ import onnx
 from onnx import TensorProto, helper, numpy_helper
 
 from seagen import __version__
-from seagen.ir import QModel
+from seagen.ir import QMLP, QSF, QModel
 
 OPSET = 17
 
@@ -58,7 +58,7 @@ class _Graph:
         return self.op("Clip", v, self.const(lo, "lo"), self.const(hi, "hi"))
 
 
-def _layers(g: _Graph, qm: QModel, x: str) -> str:
+def _layers(g: _Graph, qm: QMLP, x: str) -> str:
     tables = {t.name: t for t in qm.tables}
     for k, q in enumerate(qm.layers):
         acc = g.op("Add", g.op("MatMul", x, g.const(q.w_q.T, f"w{k}")), g.const(q.b_q, f"b{k}"))
@@ -78,7 +78,7 @@ def _layers(g: _Graph, qm: QModel, x: str) -> str:
     return g.op("Gather", x, g.const(0, "col"), axis=1)
 
 
-def _sf(g: _Graph, qm: QModel, x: str) -> str:
+def _sf(g: _Graph, qm: QSF, x: str) -> str:
     cols = [g.op("Gather", x, g.const(i, "col"), axis=1) for i in range(len(qm.inputs))]
     regs: dict[int, str] = {}
     for op in qm.horner:
@@ -101,7 +101,7 @@ def build_onnx(qm: QModel, name: str = "seagen_model") -> onnx.ModelProto:
     lo = np.array([i.lo_q for i in qm.inputs])
     hi = np.array([i.hi_q for i in qm.inputs])
     x = g.op("Min", g.op("Max", x, g.const(lo, "in_lo")), g.const(hi, "in_hi"))
-    y = _sf(g, qm, x) if qm.kind == "sf" else _layers(g, qm, x)
+    y = _sf(g, qm, x) if isinstance(qm, QSF) else _layers(g, qm, x)
     g.nodes.append(helper.make_node("Cast", [y], ["y"], to=TensorProto.INT16))
     n_in = len(qm.inputs)
     graph = helper.make_graph(

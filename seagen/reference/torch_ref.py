@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from seagen.ir import QModel
+from seagen.ir import QSF, QModel
 
 I16_MIN, I16_MAX = -(2**15), 2**15 - 1
 I32_MIN, I32_MAX = -(2**31), 2**31 - 1
@@ -42,7 +42,7 @@ def infer(qm: QModel, x: np.ndarray) -> np.ndarray:
     lo = torch.tensor([i.lo_q for i in qm.inputs], dtype=torch.int64)
     hi = torch.tensor([i.hi_q for i in qm.inputs], dtype=torch.int64)
     t = torch.maximum(torch.minimum(t, hi), lo)
-    if qm.kind == "sf":
+    if isinstance(qm, QSF):
         return _sf(qm, t).numpy()
     tables = {tb.name: tb for tb in qm.tables}
     for k, q in enumerate(qm.layers):
@@ -55,7 +55,7 @@ def infer(qm: QModel, x: np.ndarray) -> np.ndarray:
     return t[:, 0].numpy()
 
 
-def _sf(qm: QModel, x: torch.Tensor) -> torch.Tensor:
+def _sf(qm: QSF, x: torch.Tensor) -> torch.Tensor:
     regs: dict[int, torch.Tensor] = {}
     for op in qm.horner:
         if op.var < 0:

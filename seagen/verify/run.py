@@ -31,19 +31,19 @@ def rebuild(man: Manifest, model: Path, features: str | None):
         return prepare(str(model), man.prefix, opts["weights"], None, features, True, ranges)
 
 
-def disk_target(folder: Path, man: Manifest, core: str, n_ext: int):
+def disk_target(folder: Path, man: Manifest, core: str, qm):
     """The C files of the export as they are on disk, built for the host (cffi) or an emulated core."""
     files = {n: (folder / n).read_text() for n in man.files if n.endswith((".c", ".h"))}
     if core == "host":
         from seagen.build.model import CModel
 
-        return files, CModel(files, man.prefix, n_ext)
+        return files, CModel(files, man.prefix, qm)
     from seagen.build.cortexm import CortexM, toolchain_missing
 
     if msg := toolchain_missing():
         raise UserError(f"--core {core}: {msg}")
     cpu = {"cortex-m0plus": "cortex-m0", "cortex-m4": "cortex-m4"}[core]
-    return files, CortexM(files, man.prefix, cpu)
+    return files, CortexM(files, man.prefix, qm, cpu)
 
 
 def synthetic_trials(qm, n_trials: int = 4, n: int = 400, seed: int = 0):
@@ -122,7 +122,6 @@ def verify(
 ) -> Verdict:
     """Every check of `seagen verify`, in order: drift first, then numbers (see the README, "Use in CI")."""
     from seagen.codegen.render import model_hash
-    from seagen.quant.features import external_inputs
 
     if core not in CORES:
         raise UserError(f"--core must be one of {', '.join(CORES)}, not {core!r}")
@@ -132,8 +131,8 @@ def verify(
     man, matches = select(root, mpath, prefix)
     v = Verdict(man.prefix, str(root))
     check_drift(v, root, man, mpath, matches)
-    if not matches:
-        return v  # numbers against another model say nothing more
+    if not matches or any(not (root / n).is_file() for n in man.files):
+        return v  # numbers against another model, or without every file, say nothing more
     ex = rebuild(man, mpath, features)
     want, got = man.data["resolved"]["qmodel_hash"], model_hash(ex.qmodel)
     v.add(
@@ -147,7 +146,7 @@ def verify(
     if got != want:
         return v
     qm = ex.qmodel
-    _files, target = disk_target(root, man, core, len(external_inputs(qm)))
+    _files, target = disk_target(root, man, core, qm)
     edges = edge_inputs(len(qm.inputs))
     x = np.vstack([random_inputs(qm, vectors, seed=0), edges])
     chk = compare("infer", qm, target, x, None)

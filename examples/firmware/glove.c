@@ -1,0 +1,21 @@
+/* glove.c -- example firmware: seven SEAs in one 100 Hz tick (see glove.h). */
+#include "glove.h"
+
+void glove_init(glove_t *g, const int32_t *enc, const int32_t *pot)
+{
+    int i;
+    for (i = 0; i < GLOVE_N_SEA; ++i) {
+        cal_mlp_reset(&g->cal[i]);
+        ctl_mlp_controller_init(&g->ctl[i], enc[i], pot[i]);
+    }
+}
+
+void glove_tick(glove_t *g, const int32_t *enc, const int32_t *pot, const int32_t *force_q16, int16_t *motor_mv,
+                int16_t *force_est)
+{
+    int i;
+    for (i = 0; i < GLOVE_N_SEA; ++i) {
+        force_est[i] = cal_mlp_step(&g->cal[i], enc[i], pot[i]);
+        motor_mv[i] = ctl_mlp_controller_tick(&g->ctl[i], enc[i], pot[i], force_q16[i]);
+    }
+}

@@ -1,0 +1,113 @@
+"""examples/firmware (seven SEAs, one 100 Hz tick) builds for Cortex-M4 and M0+ from one export folder and
+runs on the emulated cores equal to the Python twins bit for bit."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from seagen.build.cortexm import CPUS, Machine, build_image, toolchain_missing
+from seagen.codegen.export import prepare
+from seagen.control.controller import ControlConfig, control_reset, control_step, q16
+from seagen.control.firmware import controller_files, shipped_config
+from seagen.control.gentwin import StepTwin, export
+from seagen.defaults import GENERATED
+from seagen.quant import features as F
+from seagen.quant import primitives as P
+from seagen.reference import numpy_ref
+
+pytest.importorskip("unicorn", reason="unicorn (the Cortex-M emulator) is not installed: pip install unicorn")
+
+EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "firmware"
+N_SEA, TICKS = 7, 120
+
+
+@pytest.fixture(scope="module")
+def folder():
+    """What the README's two exports write into one folder, plus glove.c/.h; the calibration IR."""
+    cal = prepare(str(GENERATED / "models" / "mlp_calibration.pt"), prefix="cal_mlp")
+    ctl = export("ctl_mlp")
+    files = {**cal.files, **ctl.files, **controller_files("ctl_mlp", ctl.qmodel)}
+    files.update({f.name: f.read_text() for f in EXAMPLE.glob("glove.[ch]")})
+    return files, cal.qmodel
+
+
+def _sensors(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(enc, pot, desired force Q16) per tick and actuator: random walks, forces stepping within range."""
+    rng = np.random.default_rng(seed)
+    enc = 300 + np.cumsum(rng.integers(-40, 41, (TICKS, N_SEA)), axis=0)
+    pot = np.clip(1200 + np.cumsum(rng.integers(-20, 21, (TICKS, N_SEA)), axis=0), 1, 4094)
+    force = np.repeat(rng.uniform(1.0, 15.0, (TICKS // 40 + 1, N_SEA)), 40, axis=0)[:TICKS]
+    return enc, pot, np.vectorize(q16)(force)
+
+
+def _twins(cal_qm, enc, pot, force) -> tuple[np.ndarray, np.ndarray]:
+    """Motor commands (controller twin + StepTwin, the shipped configuration) and force estimates
+    (the feature pipeline's twin + numpy_ref) per tick, for the batch of actuators."""
+    cfg = shipped_config(export("ctl_mlp").qmodel)
+    c = ControlConfig(**{**cfg.__dict__, "predictor": StepTwin("ctl_mlp")})
+    s, pipe = control_reset(c, enc[0], pot[0]), F.Pipeline(P.linkage_table_q16())
+    motor, est = [], []
+    for k in range(TICKS):
+        b, d, dd = pipe.step(enc[k], pot[k])
+        est.append(numpy_ref.infer(cal_qm, F.inputs(cal_qm.inputs, b, d, dd, None)))
+        s = control_step(c, s, enc[k], pot[k], force[k])
+        motor.append(s.out)
+    return np.array(motor), np.array(est)
+
+
+@pytest.mark.parametrize("cpu", CPUS)
+def test_glove_tick_on_core(folder, cpu):
+    """glove_init + TICKS glove_tick calls on the emulated core == the Python twins; prints the
+    instructions of one tick of seven actuators."""
+    if msg := toolchain_missing():
+        pytest.skip(msg)
+    files, cal_qm = folder
+    m = Machine(build_image(files, cpu, ("glove_init", "glove_tick"), name="glove"), cpu)
+    enc, pot, force = _sensors(7)
+    i32 = np.int32
+    g = m.call("glove_init", np.zeros(16384, np.uint8), enc[0].astype(i32), pot[0].astype(i32))[0][0]
+    motor, est, counts = [], [], []
+    for k in range(TICKS):
+        out, fe = np.zeros(N_SEA, np.int16), np.zeros(N_SEA, np.int16)
+        args = (g, enc[k].astype(i32), pot[k].astype(i32), force[k].astype(i32), out, fe)
+        back, n = m.call("glove_tick", *args, count=k in (60, 61))
+        g = back[0]
+        motor.append(back[4])
+        est.append(back[5])
+        counts += [n] if n else []
+    want_motor, want_est = _twins(cal_qm, enc, pot, force)
+    assert np.array_equal(np.array(est), want_est), "force estimates differ"
+    assert np.array_equal(np.array(motor), want_motor), "motor commands differ"
+    assert np.abs(want_motor).max() > 0
+    print(f"{cpu}: one glove tick (7 x cal_mlp_step + ctl_mlp controller tick) = {max(counts)} instructions")
+
+
+def test_cli_export_controller(tmp_path, capsys):
+    """`seagen export --controller` writes NAME_controller.h/.c and sea_pid/sea_control beside the model;
+    on a calibration model it is one clear error line and exit 2, nothing written."""
+    from seagen.cli import main
+
+    models = GENERATED / "models"
+    assert (
+        main(
+            [
+                "export",
+                str(models / "sf_control.pt"),
+                "--prefix",
+                "c_sf",
+                "--controller",
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
+    names = {p.name for p in tmp_path.iterdir()}
+    assert {"c_sf_controller.h", "c_sf_controller.c", "sea_pid.c", "sea_control.h", "c_sf.c"} <= names
+    out = tmp_path / "cal"
+    assert main(["export", str(models / "sf_calibration.pt"), "--controller", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--controller needs a control model" in err[0] and not out.exists()

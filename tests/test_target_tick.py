@@ -1,0 +1,59 @@
+"""The controller tick through the one Target interface: host (cffi) and emulated Cortex-M4/M0+ run
+sea_control with the generated predictor, equal to the Python twins (controller + StepTwin) exactly."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from seagen.build.cortexm import CPUS, CortexM, toolchain_missing
+from seagen.build.model import CModel
+from seagen.control.controller import ControlConfig, control_reset, control_step, q16
+from seagen.control.firmware import tick_config
+from seagen.control.gentwin import StepTwin, export
+
+PREFIXES = ("ctl_sf", "ctl_mlp")
+TARGETS = ("host", *CPUS)
+
+
+def _sequence(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Raw (enc, pot) random walks within the fault limits and a desired force stepping through the
+    calibrated range; the last 50 ticks ask for 25 N (a force-range fault latches)."""
+    rng = np.random.default_rng(seed)
+    enc = 400 + np.cumsum(rng.integers(-60, 61, n))
+    pot = np.clip(1500 + np.cumsum(rng.integers(-30, 31, n)), 1, 4094)
+    force = np.repeat(rng.uniform(2.0, 18.0, n // 100 + 1), 100)[:n]
+    force[-50:] = 25.0
+    return enc, pot, np.array([q16(f) for f in force])
+
+
+def _twin(prefix: str, cfg: ControlConfig, enc, pot, force) -> np.ndarray:
+    """control_reset on the first sample, then control_step per sample, with the StepTwin predictor."""
+    c = ControlConfig(**{**cfg.__dict__, "predictor": StepTwin(prefix)})
+    s = control_reset(c, enc[:1], pot[:1])
+    out = []
+    for k in range(len(enc)):
+        s = control_step(c, s, enc[k : k + 1], pot[k : k + 1], force[k : k + 1])
+        out.append(int(s.out[0]))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("target", TARGETS)
+@pytest.mark.parametrize("prefix", PREFIXES)
+def test_tick_equals_twin(prefix, target):
+    """Target.tick (NAME_tick_batch) == the Python controller twin with the per-tick predictor twin."""
+    ex = export(prefix)
+    if target == "host":
+        t = CModel(ex.files, prefix, ex.qmodel)
+    else:
+        if msg := toolchain_missing():
+            pytest.skip(msg)
+        pytest.importorskip("unicorn")
+        t = CortexM(ex.files, prefix, ex.qmodel, target)
+    cfg = ControlConfig(pred_avg=3)
+    enc, pot, force = _sequence(600, len(prefix))
+    got = t.tick(tick_config(cfg), enc, pot, force)
+    want = _twin(prefix, cfg, enc, pot, force)
+    bad = np.flatnonzero(got != want)
+    assert bad.size == 0, f"first mismatch at tick {bad[0]}: {got[bad[0]]} vs {want[bad[0]]}"
+    assert (got[-40:] == 0).all() and np.abs(got[:500]).max() > 0
