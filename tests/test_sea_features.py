@@ -119,3 +119,62 @@ def test_value_of_every_kind(c):
         for kind, i in cases:
             got, want = lib.sea_features_value(f, kind, i), int(F.value(kind, i, b, d, dd))
             assert got == want, (kind, i, b.tolist(), p1.tolist(), p2.tolist())
+
+
+SANITIZED_MAIN = r"""
+#include <stdio.h>
+#include "sea_features.h"
+/* stdin: the table, then (enc, pot, reset) rows; stdout: b, d, dd per base signal and the angle. */
+int main(void)
+{
+    int32_t table[SEA_LINK_TABLE_LEN];
+    sea_features_state s;
+    sea_features_out f;
+    long e, p, r;
+    int k;
+    for (k = 0; k < SEA_LINK_TABLE_LEN; ++k) {
+        if (scanf("%ld", &e) != 1) return 2;
+        table[k] = (int32_t)e;
+    }
+    sea_features_reset(&s);
+    while (scanf("%ld %ld %ld", &e, &p, &r) == 3) {
+        if (r) sea_features_reset(&s);
+        sea_features_step(&s, table, (int32_t)e, (int32_t)p, &f);
+        for (k = 0; k < SEA_FEAT_N_BASE; ++k)
+            printf("%ld %lld %lld ", (long)f.b[k], (long long)sea_features_value(&f, SEA_FEAT_D, k),
+                   (long long)sea_features_value(&f, SEA_FEAT_DD, k));
+        printf("%lld\n", (long long)sea_features_value(&f, SEA_FEAT_ANGLE, 0));
+    }
+    return 0;
+}
+"""
+
+
+def test_sanitized_edges():
+    """Under UBSan+ASan the pipeline runs the int32 edge sequence without a report, with the twin's values."""
+    import subprocess
+
+    from seagen.build.host import build_exe
+
+    exe = build_exe({**runtime_sources(*SOURCES), "main.c": SANITIZED_MAIN}, name="features_san")
+    rng = np.random.default_rng(3)
+    edges = np.array([I32[0], I32[1], 0, -1, 4095, 4096, -4096])
+    enc = np.concatenate([np.tile(edges, 7), rng.integers(*I32, 100, endpoint=True)])
+    pot = np.concatenate([np.repeat(edges, 7), rng.integers(*I32, 100, endpoint=True)])
+    reset = np.r_[1, np.zeros(len(enc) - 1, int)]
+    reset[[20, 21, 60]] = 1
+    table = P.linkage_table_q16()
+    text = (
+        " ".join(map(str, table))
+        + "\n"
+        + "\n".join(f"{e} {p} {r}" for e, p, r in zip(enc, pot, reset, strict=True))
+    )
+    res = subprocess.run([str(exe)], input=text, capture_output=True, text=True, check=False)
+    assert res.returncode == 0, res.stderr
+    got = np.array([line.split() for line in res.stdout.splitlines()], dtype=np.int64)
+    b = F.bases_q(table, enc, pot)
+    d, dd = F.over_trials(b, np.cumsum(reset))
+    want = np.column_stack(
+        [*(np.stack([b[k], d[k], dd[k]], axis=1) for k in range(F.N_BASE)), F.angle_q24(pot)]
+    )
+    assert np.array_equal(got, want)

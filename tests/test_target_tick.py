@@ -6,14 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from seagen.build.cortexm import CPUS, CortexM, toolchain_missing
-from seagen.build.model import CModel
+from seagen.build.cortexm import toolchain_missing
+from seagen.build.targets import NAMES, build_target
 from seagen.control.controller import ControlConfig, control_reset, control_step, q16
 from seagen.control.firmware import tick_config
 from seagen.control.gentwin import StepTwin, export
 
 PREFIXES = ("ctl_sf", "ctl_mlp")
-TARGETS = ("host", *CPUS)
 
 
 def _sequence(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -38,18 +37,16 @@ def _twin(prefix: str, cfg: ControlConfig, enc, pot, force) -> np.ndarray:
     return np.array(out)
 
 
-@pytest.mark.parametrize("target", TARGETS)
+@pytest.mark.parametrize("target", NAMES)
 @pytest.mark.parametrize("prefix", PREFIXES)
 def test_tick_equals_twin(prefix, target):
     """Target.tick (NAME_tick_batch) == the Python controller twin with the per-tick predictor twin."""
     ex = export(prefix)
-    if target == "host":
-        t = CModel(ex.files, prefix, ex.qmodel)
-    else:
+    if target != "host":
         if msg := toolchain_missing():
             pytest.skip(msg)
         pytest.importorskip("unicorn")
-        t = CortexM(ex.files, prefix, ex.qmodel, target)
+    t = build_target(target, ex.files, prefix, ex.qmodel)
     cfg = ControlConfig(pred_avg=3)
     enc, pot, force = _sequence(600, len(prefix))
     got = t.tick(tick_config(cfg), enc, pot, force)
