@@ -71,8 +71,8 @@ def test_rendered_c_equals_golden(name):
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_golden_c_builds_and_equals_reference(name):
     """The golden C compiles under the strict flags and its NAME_infer equals numpy_ref exactly."""
-    from seagen.codegen.runtime import runtime_sources
     from seagen.codegen.render import RUNTIME
+    from seagen.codegen.runtime import runtime_sources
 
     qm = CASES[name]()
     files = {f.name: f.read_text() for f in GOLDEN.glob(f"{name}.*")}

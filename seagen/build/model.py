@@ -9,8 +9,8 @@ from types import ModuleType
 import numpy as np
 
 from seagen.build.host import build, build_exe
-from seagen.codegen.runtime import cdef_of
 from seagen.build.target import Target, driver_sources
+from seagen.codegen.runtime import cdef_of
 from seagen.ir import QModel
 
 _CTYPES = {np.dtype(np.int16): "int16_t[]", np.dtype(np.int32): "int32_t[]", np.dtype(np.uint8): "uint8_t[]"}

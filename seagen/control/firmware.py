@@ -6,10 +6,10 @@ from __future__ import annotations
 from dataclasses import fields
 
 from seagen import __version__
-from seagen.codegen.runtime import runtime_sources
 from seagen.build.target import CONTROL_RUNTIME
 from seagen.codegen.cfmt import assert_valid_prefix
 from seagen.codegen.render import environment, model_hash
+from seagen.codegen.runtime import runtime_sources
 from seagen.control.controller import MLP_PRED_AVG, ControlConfig
 from seagen.errors import UserError
 from seagen.ir import QMLP, QModel
