@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from seagen.codegen.export import Export
+    from seagen.export import Export
 
 GENERATED = Path(__file__).resolve().parents[1] / "generated"  # the repository's exports of the defaults
 DEFAULT_PREFIX = {
@@ -20,7 +20,7 @@ DEFAULT_PREFIX = {
 
 def export_defaults(models: dict[str, Path], out: Path, calib: str | None = None) -> dict[str, Export]:
     """Export every default model (with its ONNX graph) into `out`; returns prefix -> Export."""
-    from seagen.codegen.export import prepare, write
+    from seagen.export import prepare, write
 
     done = {}
     for name, path in models.items():

@@ -7,7 +7,7 @@ import pytest
 
 from seagen.build.cortexm import CPUS, CortexM, build_image, toolchain_missing
 from seagen.build.equivalence import edge_inputs, first_mismatch, random_inputs
-from seagen.codegen.export import prepare
+from seagen.export import prepare
 from seagen.data.schema import load_split
 from seagen.demo import DEFAULT_PREFIX, GENERATED
 from seagen.errors import UserError

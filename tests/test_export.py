@@ -9,7 +9,7 @@ import pytest
 
 from seagen.build.equivalence import compare, edge_inputs, first_mismatch, random_inputs
 from seagen.build.model import CModel, sanitized_infer
-from seagen.codegen.export import prepare
+from seagen.export import prepare
 from seagen.data.features import derive
 from seagen.data.schema import load_split
 from seagen.quant.features import external_inputs, step_features
