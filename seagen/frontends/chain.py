@@ -142,6 +142,11 @@ def to_layers(items: list[Item], n_in: int, where: str) -> list[FloatLayer]:
     width = n_in
     for it in fold_affines(drop_reshapes(items, n_in, where), n_in, where):
         if isinstance(it, Dense):
+            if not layers and it.weight.ndim == 2 and it.weight.shape[1] != width:
+                raise UserError(
+                    f"{where}: {it.path} ({it.op}) takes {it.weight.shape[1]} inputs but the model input has "
+                    f"{width} (the feature specification or the graph input)"
+                )
             if it.weight.ndim != 2 or it.weight.shape[1] != width or it.bias.shape != (it.weight.shape[0],):
                 raise refuse(
                     where, it, f"weight {it.weight.shape} / bias {it.bias.shape} do not fit width {width}"
