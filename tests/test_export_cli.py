@@ -14,8 +14,8 @@ import torch
 from onnx import TensorProto, helper, numpy_helper
 
 from seagen.cli import main
-from seagen.export import prepare
 from seagen.demo import DEFAULT_PREFIX, GENERATED, regenerate
+from seagen.export import prepare
 from seagen.fit.modelfile import load_model
 
 

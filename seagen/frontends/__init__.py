@@ -34,15 +34,20 @@ def read_onnx(p: Path) -> Network:
 
     model = load_onnx(p)
     items, n_in = onnx_items(p, model)
-    return Network(to_layers(items, n_in, str(p)), n_in, _ort_runner(model), "onnxruntime (float32)")
+    return Network(to_layers(items, n_in, str(p)), n_in, _ort_runner(model, str(p)), "onnxruntime (float32)")
 
 
-def _ort_runner(model: Any) -> Callable[[np.ndarray], np.ndarray]:
+def _ort_runner(model: Any, where: str) -> Callable[[np.ndarray], np.ndarray]:
     """onnxruntime on the original graph, inputs cast to the graph input's type."""
     import onnxruntime as ort
     from onnx import helper
 
-    sess = ort.InferenceSession(model.SerializeToString(), providers=["CPUExecutionProvider"])
+    try:
+        sess = ort.InferenceSession(model.SerializeToString(), providers=["CPUExecutionProvider"])
+    except Exception as e:  # onnxruntime raises its own types
+        raise UserError(
+            f"{where}: onnxruntime cannot run the original graph (the oracle needs it): {e}"
+        ) from None
     inp = model.graph.input[[i.name for i in model.graph.input].index(sess.get_inputs()[0].name)]
     dtype = helper.tensor_dtype_to_np_dtype(inp.type.tensor_type.elem_type)
 
