@@ -109,22 +109,28 @@ class DataReport:
 
 def check_data_dir(ex, data_dir: str) -> DataReport:
     """NAME_infer on the test and validation features, NAME_step on whole recorded trials, and |C - float|."""
+    from seagen.codegen.render import has_pipeline
     from seagen.data.features import derive
     from seagen.data.schema import load_split
+    from seagen.errors import UserError
     from seagen.quant.features import external_inputs, step_features
     from seagen.quant.primitives import linkage_table_q16
     from seagen.reference.float_ref import predict, quantize_features
 
     qm = ex.qmodel
     names = [i.signal.name for i in qm.inputs]
-    ext_names = external_inputs(qm)
-    c = CModel(ex.files, ex.prefix, len(ext_names))
+    step = has_pipeline(qm)
+    ext_names = external_inputs(qm) if step else []
+    c = CModel(ex.files, ex.prefix, len(ext_names) if step else -1)
     onnx_model = (
         onnx.load_model_from_string(ex.onnx_bytes) if ex.onnx_bytes is not None else onnx_ref.build_onnx(qm)
     )
     checks, max_err, oracles = [], 0.0, []
     for split in ("test", "validation"):
         df = derive(load_split(data_dir, split))
+        missing = [n for n in names if n not in df.columns]
+        if missing:
+            raise UserError(f"{data_dir}/{split}.csv: no column {', '.join(missing)} for the model's inputs")
         xq = quantize_features(qm, df[names].to_numpy())
         infer_check = compare(f"{ex.prefix}_infer on {split}", qm, c, xq, onnx_model)
         checks.append(infer_check)
@@ -132,6 +138,12 @@ def check_data_dir(ex, data_dir: str) -> DataReport:
             oracles.append(
                 _oracle_rows(ex, f"C vs original on {split} rows", df[names].to_numpy(), infer_check)
             )
+        if split == "test":
+            assert infer_check.c_out is not None
+            fixed = infer_check.c_out * 2.0**-qm.out_frac
+            max_err = float(np.max(np.abs(fixed - predict(ex.float_model, df[names].to_numpy()))))
+        if not step:
+            continue
         ext = xq[:, [names.index(n) for n in ext_names]]
         ref = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), df.enc, df.pot, df.trial, ext))
         got = c.step(df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy(), ext if ext_names else None)
@@ -144,10 +156,6 @@ def check_data_dir(ex, data_dir: str) -> DataReport:
                 "C step == numpy pipeline + reference",
             )
         )
-        if split == "test":
-            assert infer_check.c_out is not None
-            fixed = infer_check.c_out * 2.0**-qm.out_frac
-            max_err = float(np.max(np.abs(fixed - predict(ex.float_model, df[names].to_numpy()))))
     return DataReport(checks, max_err, qm.output.unit, qm.error_bound, oracles)
 
 

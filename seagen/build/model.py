@@ -13,7 +13,7 @@ from seagen.codegen.render import environment
 
 
 def harness_source(prefix: str, n_ext: int) -> str:
-    """The batch/streaming harness rendered for `prefix`."""
+    """The batch/streaming harness rendered for `prefix` (n_ext < 0: the model has no NAME_step)."""
     return (
         environment()
         .get_template("harness.c.j2")
@@ -21,12 +21,13 @@ def harness_source(prefix: str, n_ext: int) -> str:
     )
 
 
-def cdef(prefix: str) -> str:
+def cdef(prefix: str, step: bool = True) -> str:
     """cffi declarations of the harness entry points."""
-    return (
-        f"void {prefix}_infer_batch(const int16_t *x, int n, int16_t *y);\n"
+    return f"void {prefix}_infer_batch(const int16_t *x, int n, int16_t *y);\n" + (
         f"void {prefix}_step_batch(const int32_t *enc, const int32_t *pot, const int16_t *ext, "
         f"const uint8_t *reset, int n, int16_t *y);\n"
+        if step
+        else ""
     )
 
 
@@ -36,9 +37,9 @@ class CModel:
     def __init__(self, files: dict[str, str], prefix: str, n_ext: int) -> None:
         sources = dict(files)
         sources[f"{prefix}_harness.c"] = harness_source(prefix, n_ext)
-        sources[f"{prefix}_harness.h"] = "#include <stdint.h>\n" + cdef(prefix)
+        sources[f"{prefix}_harness.h"] = "#include <stdint.h>\n" + cdef(prefix, n_ext >= 0)
         self.prefix, self.n_ext = prefix, n_ext
-        self.mod: ModuleType = build(cdef(prefix), sources, name=prefix)
+        self.mod: ModuleType = build(cdef(prefix, n_ext >= 0), sources, name=prefix)
 
     def infer(self, x: np.ndarray) -> np.ndarray:
         """NAME_infer on each row of int16 features (N, n_in)."""

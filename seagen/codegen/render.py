@@ -12,6 +12,7 @@ import numpy as np
 from seagen import __version__
 from seagen.codegen.cfmt import assert_valid_prefix, c_array, c_int
 from seagen.codegen.summary import buffer_width, summary_lines
+from seagen.errors import UserError
 from seagen.ir import QModel
 from seagen.quant.features import external_inputs, feature_plan
 from seagen.quant.primitives import linkage_table_q16
@@ -100,11 +101,21 @@ def _predictor(qm: QModel) -> dict[str, int] | None:
     return {"force_frac": qm.inputs[names.index("force_n")].frac, "up": 16 - qm.out_frac}
 
 
+def has_pipeline(qm: QModel) -> bool:
+    """True when the firmware feature pipeline computes every input (then NAME_step is generated too)."""
+    try:
+        feature_plan(qm)
+    except UserError:
+        return False
+    return True
+
+
 def context(qm: QModel, prefix: str) -> dict[str, Any]:
-    """Everything the templates print, decided here."""
+    """Everything the templates print, decided here (a bare network on other inputs gets NAME_infer only)."""
     prefix = assert_valid_prefix(prefix)
     width = buffer_width(qm)
-    features = _features(qm)
+    pipeline = has_pipeline(qm)
+    features = _features(qm) if pipeline else []
     return {
         "P": prefix,
         "PU": prefix.upper(),
@@ -125,7 +136,8 @@ def context(qm: QModel, prefix: str) -> dict[str, Any]:
         "needs_diff": any(f["kind"] in ("d", "dd") for f in features),
         "externals": external_inputs(qm),
         "link": linkage_table_q16(),
-        "predictor": _predictor(qm),
+        "predictor": _predictor(qm) if pipeline else None,
+        "pipeline": pipeline,
     }
 
 

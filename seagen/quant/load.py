@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -71,6 +72,8 @@ def signals(spec: FeatureSpec, ranges: Any, units: Any, where: str) -> tuple[Sig
         raise UserError(f"{where}: input_units has {len(units)} entries for {len(spec.inputs)} inputs")
     out = []
     for n, (lo, hi), u in zip(spec.inputs, ranges, units, strict=True):
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]{0,30}", n):
+            raise UserError(f"{where}: input name {n!r} is not a C identifier (letters, digits, _)")
         if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
             raise UserError(f"{where}: input '{n}' has an invalid range [{lo}, {hi}] (needs lo < hi)")
         out.append(Signal(n, u, lo, hi))
