@@ -1,0 +1,140 @@
+"""seagen export as a user meets it: bad input gets one line naming the file (exit 2, nothing written), a
+disagreement with the original exits 1 and writes nothing, a bare network on its own inputs gets NAME_infer
+alone. ~15 s on 2 cores."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from seagen.cli import main
+from seagen.demo import GENERATED
+from seagen.fit.modelfile import load_model
+from tests import table_models as T
+
+SF = GENERATED / "models" / "sf_calibration.pt"
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory) -> dict[str, Path]:
+    """A bare nn.Sequential with its features file, and broken variants of models and specs."""
+    d = tmp_path_factory.mktemp("user")
+    out = {"spec": T.spec_file(d), "seq": d / "seq.pt"}
+    torch.save(T.seq(torch.nn.ReLU()), out["seq"])
+    spec = json.loads(out["spec"].read_text())
+    for name, change in {
+        "flat": {"input_range": [[1.0, 1.0], *T.RANGE[1:]]},
+        "badname": {"inputs": ["pot", "my input", "x2"]},
+        "bare": {"inputs": ["x0", "x1", "x2"]},
+    }.items():
+        out[name] = d / f"{name}.json"
+        out[name].write_text(json.dumps({**spec, **change}))
+    (d / "broken.json").write_text("{inputs: nope")
+    out["broken"] = d / "broken.json"
+    sf = load_model(SF)
+    sf["sf"]["coef"] = sf["sf"]["coef"][:-1]
+    torch.save(sf, d / "sf_short.pt")
+    out["sf_short"] = d / "sf_short.pt"
+    (d / "a_file").write_text("keep")
+    out["a_file"] = d / "a_file"
+    return out
+
+
+def _seq(f: dict, spec: str = "spec") -> list[str]:
+    return [str(f["seq"]), "--features", str(f[spec])]
+
+
+BAD = {
+    "out is a file": (lambda f, o: [str(SF), "--out", str(f["a_file"])], "is not a directory", "a_file"),
+    "out under a file": (lambda f, o: [str(SF), "--out", str(f["a_file"] / "sub")], "a file, not a folder", "a_file"),
+    "out in /proc": (lambda f, o: [str(SF), "--out", "/proc/seagen_out"], "cannot write there", "/proc/seagen_out"),
+    "empty prefix": (lambda f, o: [str(SF), "--out", str(o), "--prefix", ""], "--prefix is empty", ""),
+    "prefix sea": (lambda f, o: [str(SF), "--out", str(o), "--prefix", "sea"], "belong to the C runtime", ""),
+    "prefix sea_": (lambda f, o: [str(SF), "--out", str(o), "--prefix", "sea_cal"], "belong to the C runtime", ""),
+    "range lo == hi": (lambda f, o: [*_seq(f, "flat"), "--out", str(o)], "needs lo < hi", "seq.pt"),
+    "sf lengths": (lambda f, o: [str(f["sf_short"]), "--out", str(o)], "coefficients for", "sf_short.pt"),
+    "bad input name": (lambda f, o: [*_seq(f, "badname"), "--out", str(o)], "not a C identifier", "seq.pt"),
+    "unparsable features": (lambda f, o: [*_seq(f, "broken"), "--out", str(o)], "cannot parse", "broken.json"),
+    "no features": (lambda f, o: [str(f["seq"]), "--out", str(o)], "needs --features", "seq.pt"),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_input_one_line_exit_2_nothing_written(case, files, tmp_path, capsys):
+    """Each bad input: exit 2, one line naming the file, no traceback, no output folder, files untouched."""
+    make, expect, names = BAD[case]
+    out = tmp_path / "out"
+    rc = main(["export", *make(files, out)])
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert len(err.strip().splitlines()) == 1 and expect in err and names in err, err
+    assert "Traceback" not in err
+    assert not out.exists()
+    assert files["a_file"].read_text() == "keep"
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes anywhere")
+def test_unwritable_out_exit_2(tmp_path, capsys):
+    """An --out in a read-only folder: exit 2 naming it, nothing written."""
+    ro = tmp_path / "ro"
+    ro.mkdir(mode=0o500)
+    rc = main(["export", str(SF), "--out", str(ro / "x")])
+    assert rc == 2 and "cannot write" in capsys.readouterr().err
+    assert not (ro / "x").exists()
+
+
+def test_stale_onnx_is_removed(files, tmp_path, capsys):
+    """Re-exporting without --onnx removes NAME.onnx an earlier export left (it described another model)."""
+    assert main(["export", str(SF), "--out", str(tmp_path), "--prefix", "m", "--onnx"]) == 0
+    assert (tmp_path / "m.onnx").is_file()
+    assert main(["export", str(SF), "--out", str(tmp_path), "--prefix", "m"]) == 0
+    assert not (tmp_path / "m.onnx").exists() and (tmp_path / "m.c").is_file()
+
+
+def test_misread_model_exits_1_and_writes_nothing(tmp_path, monkeypatch, capsys):
+    """A frontend that misreads a one-sided Clip (drops its bound) is caught by the oracle against
+    onnxruntime: exit 1, the first failing input with both outputs, no output folder."""
+    import seagen.frontends.onnx_reader as reader
+
+    onnx_path = T.save_onnx(T.graph_case("clip_min", 3), tmp_path / "clip.onnx")
+    monkeypatch.setattr(
+        reader, "clip_act", lambda op, p, lo, hi: reader.Act(op, p, "hardtanh", lo=-1e9, hi=1e9)
+    )
+    out = tmp_path / "out"
+    rc = main(["export", str(onnx_path), "--features", str(T.spec_file(tmp_path)), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 1, err
+    assert "integer" in err and "original" in err and "clip.onnx" in err
+    assert not out.exists()
+
+
+def test_failed_check_exits_1_and_writes_nothing(tmp_path, monkeypatch, capsys):
+    """--check that finds a disagreement: exit 1 and nothing in --out."""
+    import seagen.build.equivalence as eq
+
+    bad = eq.DataReport([eq.Check("x", 1, {"C": "row 0"})], 0.0, "N", 0.0)
+    monkeypatch.setattr(eq, "check_data_dir", lambda ex, d: bad)
+    out = tmp_path / "out"
+    assert main(["export", str(SF), "--out", str(out), "--check", str(tmp_path)]) == 1
+    assert "MISMATCH" in capsys.readouterr().out
+    assert not out.exists()
+
+
+def test_bare_network_exports_infer_alone(files, tmp_path):
+    """Inputs x0..x2 (not SEA features): NAME_infer only, no NAME_step/state; the C builds and equals numpy."""
+    from seagen.build.equivalence import random_inputs
+    from seagen.build.model import CModel
+    from seagen.export import prepare
+    from seagen.reference import numpy_ref
+
+    ex = prepare(str(files["seq"]), prefix="bare", features=str(files["bare"]))
+    h = ex.files["bare.h"]
+    assert "bare_infer" in h and "bare_step" not in h and "bare_state_t" not in h
+    assert "bare_step" not in ex.files["bare.c"]
+    x = random_inputs(ex.qmodel, 2000, 0)
+    assert np.array_equal(CModel(ex.files, "bare", -1).infer(x), numpy_ref.infer(ex.qmodel, x))
