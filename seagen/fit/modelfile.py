@@ -99,11 +99,12 @@ def nn_allowlist() -> list[Any]:
     import numpy as np
     import torch.nn as nn
 
+    # numpy scalars pickle as multiarray.scalar(dtype, bytes): data only, no code
     numeric = (np.float64, np.float32, np.int64, np.int32, np.bool_)
     return [
         nn.Sequential, nn.Linear, nn.ReLU, nn.ReLU6, nn.LeakyReLU, nn.Hardtanh, nn.Tanh, nn.Sigmoid,
         nn.Identity, nn.Dropout, nn.BatchNorm1d, nn.Flatten,
-        np._core.multiarray.scalar, np.dtype, *(type(np.dtype(t)) for t in numeric),
+        np.float64(0).__reduce__()[0], np.dtype, *(type(np.dtype(t)) for t in numeric),
     ]  # fmt: skip
 
 

@@ -63,6 +63,7 @@ def read_module(obj: Any, p: Path, n_in: int) -> Network:
     import torch
 
     where = str(p)
+    runner: Any
     if isinstance(obj, torch.jit.ScriptModule):
         from seagen.frontends.onnx_reader import onnx_items
 
@@ -138,7 +139,7 @@ def _script_to_onnx(sm: Any, p: Path, n_in: int) -> Any:
             torch.onnx.export(
                 sm,
                 (torch.zeros(TRACE_BATCH, n_in),),
-                buf,
+                buf,  # type: ignore[arg-type]  # the TorchScript-based exporter writes to file objects
                 dynamo=False,
                 input_names=["x"],
                 dynamic_axes={"x": {0: "N"}},

@@ -202,7 +202,8 @@ def sequential_items(m: Any) -> list[Item] | None:
     if type(m) is not nn.Sequential:
         return None
     items: list[Item] = []
-    for name, c in m.named_children():
+    for name, child in m.named_children():
+        c: Any = child
         p, t = name, type(c).__name__
         if type(c) is nn.Sequential:
             sub = sequential_items(c)
@@ -221,11 +222,16 @@ def sequential_items(m: Any) -> list[Item] | None:
         elif type(c) in (nn.Identity, nn.Dropout) or (type(c) is nn.Flatten and c.start_dim == 1):
             continue
         elif type(c) is nn.BatchNorm1d and c.track_running_stats and c.running_mean is not None:
-            v, mu = c.running_var.detach().double().numpy(), c.running_mean.detach().double().numpy()
-            g = c.weight.detach().double().numpy() if c.affine else np.ones_like(v)
-            b = c.bias.detach().double().numpy() if c.affine else np.zeros_like(v)
-            s = g / np.sqrt(v + c.eps)
-            items.append(Affine(t, p, s, b - mu * s))
+            items.append(_bn_module(c, t, p))
         else:
             return None
     return items
+
+
+def _bn_module(c: Any, t: str, p: str) -> Affine:
+    """An eval-mode BatchNorm1d module as an elementwise affine map."""
+    v, mu = c.running_var.detach().double().numpy(), c.running_mean.detach().double().numpy()
+    g = c.weight.detach().double().numpy() if c.affine else np.ones_like(v)
+    b = c.bias.detach().double().numpy() if c.affine else np.zeros_like(v)
+    s = g / np.sqrt(v + c.eps)
+    return Affine(t, p, s, b - mu * s)
