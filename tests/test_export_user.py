@@ -31,6 +31,7 @@ def files(tmp_path_factory) -> dict[str, Path]:
         "flat": {"input_range": [[1.0, 1.0], *T.RANGE[1:]]},
         "badname": {"inputs": ["pot", "my input", "x2"]},
         "bare": {"inputs": ["x0", "x1", "x2"]},
+        "typo": {"ouptut_std": 2.0},
     }.items():
         out[name] = d / f"{name}.json"
         out[name].write_text(json.dumps({**spec, **change}))
@@ -45,31 +46,29 @@ def files(tmp_path_factory) -> dict[str, Path]:
     return out
 
 
-def _seq(f: dict, spec: str = "spec") -> list[str]:
-    return [str(f["seq"]), "--features", str(f[spec])]
-
-
-BAD = {
-    "out is a file": (lambda f, o: [str(SF), "--out", str(f["a_file"])], "is not a directory", "a_file"),
-    "out under a file": (lambda f, o: [str(SF), "--out", str(f["a_file"] / "sub")], "a file, not a folder", "a_file"),
-    "out in /proc": (lambda f, o: [str(SF), "--out", "/proc/seagen_out"], "cannot write there", "/proc/seagen_out"),
-    "empty prefix": (lambda f, o: [str(SF), "--out", str(o), "--prefix", ""], "--prefix is empty", ""),
-    "prefix sea": (lambda f, o: [str(SF), "--out", str(o), "--prefix", "sea"], "belong to the C runtime", ""),
-    "prefix sea_": (lambda f, o: [str(SF), "--out", str(o), "--prefix", "sea_cal"], "belong to the C runtime", ""),
-    "range lo == hi": (lambda f, o: [*_seq(f, "flat"), "--out", str(o)], "needs lo < hi", "seq.pt"),
-    "sf lengths": (lambda f, o: [str(f["sf_short"]), "--out", str(o)], "coefficients for", "sf_short.pt"),
-    "bad input name": (lambda f, o: [*_seq(f, "badname"), "--out", str(o)], "not a C identifier", "seq.pt"),
-    "unparsable features": (lambda f, o: [*_seq(f, "broken"), "--out", str(o)], "cannot parse", "broken.json"),
-    "no features": (lambda f, o: [str(f["seq"]), "--out", str(o)], "needs --features", "seq.pt"),
-}  # fmt: skip
+OUT = ["--out", "{out}"]
+BAD = {  # case: (arguments with {placeholders}, expected text, the file the message names)
+    "out is a file": (["{sf}", "--out", "{a_file}"], "is not a directory", "a_file"),
+    "out under a file": (["{sf}", "--out", "{a_file}/sub"], "a file, not a folder", "a_file"),
+    "out in /proc": (["{sf}", "--out", "/proc/seagen_out"], "cannot write there", "/proc/seagen_out"),
+    "empty prefix": (["{sf}", *OUT, "--prefix", ""], "--prefix is empty", ""),
+    "prefix sea": (["{sf}", *OUT, "--prefix", "sea"], "belong to the C runtime", ""),
+    "prefix sea_": (["{sf}", *OUT, "--prefix", "sea_cal"], "belong to the C runtime", ""),
+    "range lo == hi": (["{seq}", "--features", "{flat}", *OUT], "needs lo < hi", "seq.pt"),
+    "sf lengths": (["{sf_short}", *OUT], "coefficients for", "sf_short.pt"),
+    "bad input name": (["{seq}", "--features", "{badname}", *OUT], "not a C identifier", "seq.pt"),
+    "unparsable features": (["{seq}", "--features", "{broken}", *OUT], "cannot parse", "broken.json"),
+    "unknown spec key": (["{seq}", "--features", "{typo}", *OUT], "unknown key(s) ouptut_std", "typo.json"),
+    "no features": (["{seq}", *OUT], "needs --features", "seq.pt"),
+}
 
 
 @pytest.mark.parametrize("case", sorted(BAD))
 def test_bad_input_one_line_exit_2_nothing_written(case, files, tmp_path, capsys):
     """Each bad input: exit 2, one line naming the file, no traceback, no output folder, files untouched."""
-    make, expect, names = BAD[case]
+    template, expect, names = BAD[case]
     out = tmp_path / "out"
-    rc = main(["export", *make(files, out)])
+    rc = main(["export", *(a.format(out=out, sf=SF, **files) for a in template)])
     err = capsys.readouterr().err
     assert rc == 2, err
     assert len(err.strip().splitlines()) == 1 and expect in err and names in err, err
@@ -126,7 +125,7 @@ def test_failed_check_exits_1_and_writes_nothing(tmp_path, monkeypatch, capsys):
 
 
 def test_bare_network_exports_infer_alone(files, tmp_path):
-    """Inputs x0..x2 (not SEA features): NAME_infer only, no NAME_step/state; the C builds and equals numpy."""
+    """Inputs x0..x2 (not SEA features): NAME_infer only, no NAME_step or state; the C equals numpy."""
     from seagen.build.equivalence import random_inputs
     from seagen.build.model import CModel
     from seagen.export import prepare

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import tomllib
@@ -175,6 +176,12 @@ def read_features_file(path: str | None) -> dict[str, Any]:
     keys = ("input_range", "input_units", "output_name", "output_units", "output_range", "task")
     out = {k: raw[k] for k in keys if k in raw}
     out["features"] = {k: v for k, v in raw.items() if k not in keys}
+    known = {f.name for f in dataclasses.fields(FeatureSpec)}
+    unknown = sorted(set(out["features"]) - known)
+    if unknown:
+        raise UserError(
+            f"{p}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(known | set(keys)))})"
+        )
     FeatureSpec.from_dict(out["features"], str(p))
     return out
 
@@ -199,9 +206,9 @@ def load_with_original(
         raise UserError(f"{p}: no such model file")
     extra = read_features_file(features)
     if p.suffix == ".onnx":
-        spec = FeatureSpec.from_dict(extra.get("features") or _need_features(p), str(p))
-        net = read_onnx(p)
-        return from_model_dict({"kind": "mlp", **extra}, str(p), ranges, net)
+        if not extra:
+            _need_features(p)
+        return from_model_dict({"kind": "mlp", **extra}, str(p), ranges, read_onnx(p))
     obj = load_torch(p, allow_pickle)
     if isinstance(obj, dict) and obj.get("format") == FORMAT:
         return from_model_dict({**obj, **extra}, str(p), ranges)

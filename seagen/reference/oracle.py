@@ -37,7 +37,7 @@ class OracleReport:
 
     def line(self) -> str:
         """One line for the console."""
-        lim = f"bound {self.bound:.3g} + float32 margin {self.margin:.3g} {self.unit}"
+        lim = f"bound {self.bound:.3g} + margin {self.margin:.3g} {self.unit}"
         if self.ok:
             worst = f"max |integer - original| {self.max_err:.3g} {self.unit}"
             return f"{self.what}: {self.rows} inputs, {worst} <= {lim}"
