@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import io
 import json
-import pickle
 import warnings
 import zipfile
 from collections.abc import Callable
@@ -257,11 +256,6 @@ def graph_case(kind: str, seed: int):
         return onnx_model([dead, g1, helper.make_node("Relu", ["h"], ["a"]), g2], base)
     # out of order: the nodes listed last-first
     return onnx_model([g2, helper.make_node("Relu", ["h"], ["a"]), g1], base)
-
-
-def pickle_bytes(obj: object) -> bytes:
-    """A plain (non-torch) pickle."""
-    return pickle.dumps(obj)
 
 
 def save_onnx(model, path: Path) -> Path:

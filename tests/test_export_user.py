@@ -137,3 +137,49 @@ def test_bare_network_exports_infer_alone(files, tmp_path):
     assert "bare_step" not in ex.files["bare.c"]
     x = random_inputs(ex.qmodel, 2000, 0)
     assert np.array_equal(CModel(ex.files, "bare", -1).infer(x), numpy_ref.infer(ex.qmodel, x))
+
+
+def test_onnx_external_data_outside_folder_refused(tmp_path, capsys):
+    """An ONNX initializer whose external data points outside the model's folder: exit 2, nothing read."""
+    from onnx import external_data_helper as ext
+
+    model = T.gemm_graph("transB0", 5)
+    inside = tmp_path / "model"
+    inside.mkdir()
+    ext.convert_model_to_external_data(
+        model, all_tensors_to_one_file=True, location="w.bin", size_threshold=0
+    )
+    for t in model.graph.initializer:
+        for e in t.external_data:
+            if e.key == "location":
+                e.value = "../w.bin"
+    (inside / "m.onnx").write_bytes(
+        model.SerializeToString()
+    )  # onnx.save itself refuses '..'; a file may not
+    (tmp_path / "w.bin").write_bytes(b"\0" * 4096)
+    rc = main(
+        [
+            "export",
+            str(inside / "m.onnx"),
+            "--features",
+            str(T.spec_file(tmp_path)),
+            "--out",
+            str(tmp_path / "o"),
+        ]
+    )
+    err = capsys.readouterr().err
+    assert rc == 2 and "outside the model folder" in err and "m.onnx" in err, err
+    assert not (tmp_path / "o").exists()
+
+
+def test_evaluate_refuses_pickles(tmp_path):
+    """seagen evaluate loads model files without running code: a malicious pickle is refused, the payload
+    never runs, and the message names --allow-pickle."""
+    from seagen.errors import UserError
+    from seagen.fit.evaluate import load_checked
+
+    marker = tmp_path / "ran"
+    torch.save({"format": "seagen-model/1", "x": T.Payload(marker)}, tmp_path / "evil.pt")
+    with pytest.raises(UserError, match="--allow-pickle"):
+        load_checked(tmp_path / "evil.pt")
+    assert not marker.exists()
