@@ -44,6 +44,11 @@ def _torch_rows(d: Path, spec: list[str]) -> dict[str, Row]:
     rows["sequential batchnorm dropout identity"] = Row(
         [str(d / "seq_bn.pt"), *spec], "export", original=T.torch_original(m)
     )
+    shared = nn.Linear(T.HIDDEN, T.HIDDEN)
+    torch.save(T.seq(nn.ReLU(), shared, nn.ReLU(), shared, seed=8), d / "seq_shared.pt")
+    rows["sequential Linear used twice (refused)"] = Row(
+        [str(d / "seq_shared.pt"), *spec], "refuse", 2, "called twice"
+    )
     f = T._init(T.Functional("tanh"), 8)
     torch.save(f, d / "func.pt")
     rows["custom module pickled (refused)"] = Row([str(d / "func.pt"), *spec], "refuse", 2, "--allow-pickle")
@@ -181,6 +186,7 @@ def table(tmp_path_factory) -> dict[str, Row]:
 ROW_NAMES = [
     *(f"sequential {a}" for a in ACTS),
     "sequential batchnorm dropout identity",
+    "sequential Linear used twice (refused)",
     "custom module pickled (refused)",
     "custom module pickled --allow-pickle",
     "custom module TorchScript scripted",

@@ -45,14 +45,22 @@ def _fold_constants(model: Any, nodes: list[Node], where: str) -> dict[str, np.n
     from onnx import numpy_helper
 
     consts = {t.name: numpy_helper.to_array(t) for t in model.graph.initializer}
-    for n in nodes:
-        if n.op == "Constant" or (n.inputs and all(i in consts or not i for i in n.inputs)):
+    todo = list(nodes)
+    while True:  # to a fixed point: nodes need not be listed in order
+        ready = [
+            n
+            for n in todo
+            if n.op == "Constant" or (n.inputs and all(i in consts or not i for i in n.inputs))
+        ]
+        if not ready:
+            return consts
+        for n in ready:
             try:
                 vals = _run_node(model, n.raw, consts)
             except Exception as e:  # the reference runtime raises many types
                 raise UserError(f"{where}: {n.path} ({n.op}): cannot evaluate constant node: {e}") from None
             consts.update(zip(n.outputs, vals, strict=False))
-    return consts
+        todo = [n for n in todo if n not in ready]
 
 
 def _run_node(model: Any, node: Any, consts: dict[str, np.ndarray]) -> list[np.ndarray]:

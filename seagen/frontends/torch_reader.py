@@ -202,6 +202,9 @@ def sequential_items(m: Any) -> list[Item] | None:
     if type(m) is not nn.Sequential:
         return None
     items: list[Item] = []
+    linears = [id(c) for _, c in m.named_modules(remove_duplicate=False) if type(c) is nn.Linear]
+    if len(linears) != len(set(linears)):
+        return None  # a Linear used twice: torch.export sees it and refuses
     for name, child in m.named_children():
         c: Any = child
         p, t = name, type(c).__name__
