@@ -16,9 +16,9 @@ from seagen.errors import UserError
 from seagen.ir import FloatLayer
 
 SUPPORTED = (
-    "supported: a chain of dense layers (Linear, Gemm, MatMul+Add), each followed by at most one of ReLU, "
-    "LeakyReLU, Hardtanh, ReLU6, Clip, Tanh, Sigmoid; constant Add/Sub/Mul/Div, BatchNorm (eval), Dropout, "
-    "Identity, Flatten, casts to float"
+    "supported: a chain of distinct dense layers (Linear, Gemm, MatMul+Add), each followed by at most one "
+    "of ReLU, LeakyReLU, Hardtanh, ReLU6, Clip, Tanh, Sigmoid; constant Add/Sub/Mul/Div, BatchNorm (eval), "
+    "Dropout, Identity, Flatten, casts to float"
 )
 
 

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from seagen.errors import UserError
+from seagen.frontends.chain import SUPPORTED
 
 
 @dataclass
@@ -37,14 +38,14 @@ def chain_nodes(
         if len(computed) != 1:
             what = ", ".join(computed) if computed else "nothing"
             raise UserError(
-                f"{where}: {node.path} ({node.op}) takes {len(computed)} computed inputs ({what}); seagen "
-                "exports a chain (no residual adds, no weights given as graph inputs, one input tensor)"
+                f"{where}: {node.path} ({node.op}) takes {len(computed)} computed inputs ({what}): not a "
+                f"chain (a residual add, a weight given as a graph input?); {SUPPORTED}"
             )
         for c in node.inputs:
             if c in consts and c in seen_consts and _is_weight(node) and _is_weight(seen_consts[c]):
                 raise UserError(
                     f"{where}: {node.path} ({node.op}) uses the weights '{c}' of {seen_consts[c].path} again "
-                    "(a layer called twice); seagen exports a chain of distinct layers"
+                    f"(a layer called twice); {SUPPORTED}"
                 )
             seen_consts.setdefault(c, node)
         path.append(node)
