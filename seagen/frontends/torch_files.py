@@ -39,7 +39,8 @@ def load_torch(p: Path, allow_pickle: bool = False) -> Any:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             if is_pt2(names):
-                check_pt2(p, names)
+                if not allow_pickle:
+                    check_pt2(p, names)
                 return torch.export.load(str(p))
             if is_torchscript(names):
                 return torch.jit.load(str(p), map_location="cpu")
@@ -70,4 +71,4 @@ def check_pt2(p: Path, names: list[str]) -> None:
                 try:
                     torch.load(io.BytesIO(z.read(n)), weights_only=True)
                 except Exception:  # anything the weights-only unpickler rejects
-                    raise UserError(f"{p}: member {n} {PICKLE_HINT}") from None
+                    raise UserError(f"{p}: member {n}: {PICKLE_HINT}") from None
