@@ -62,44 +62,63 @@ def read_module(obj: Any, p: Path, n_in: int) -> Network:
     """An nn.Module, a TorchScript module or an ExportedProgram -> chain -> layers."""
     import torch
 
-    where = str(p)
-    runner: Any
     if isinstance(obj, torch.jit.ScriptModule):
-        from seagen.frontends.onnx_reader import onnx_items
-
-        model = _script_to_onnx(obj, p, n_in)
-        items, width = onnx_items(p, model)
-        return Network(
-            to_layers(items, width, where), width, _torch_runner(obj, None), "TorchScript (float32)"
-        )
+        return _read_script(obj, p, n_in)
     if isinstance(obj, torch.export.ExportedProgram):
-        ep, runner = obj, obj.module()
-    elif isinstance(obj, torch.nn.Module):
+        return _read_exported(obj, obj.module(), p, _fixed_batch(obj, p))
+    if isinstance(obj, torch.nn.Module):
         from seagen.frontends.torch_reader import sequential_items
 
         obj.eval()
         seq = sequential_items(obj)
         if seq is not None:
-            return Network(
-                to_layers(seq, n_in, where), n_in, _torch_runner(obj, None), "torch forward (float32)"
-            )
-        ep, runner = _export(obj, p, n_in), obj
-    else:
-        raise UserError(f"{p}: holds a {type(obj).__name__}, not a torch module or a seagen model file")
+            run = _torch_runner(obj, None, _dtype(obj))
+            return Network(to_layers(seq, n_in, str(p)), n_in, run, "torch forward")
+        return _read_exported(_export(obj, p, n_in), obj, p, None)
+    raise UserError(f"{p}: holds a {type(obj).__name__}, not a torch module or a seagen model file")
+
+
+def _read_script(sm: Any, p: Path, n_in: int) -> Network:
+    """TorchScript: its inlined graph through the TorchScript-based ONNX exporter; the original is sm."""
+    from seagen.frontends.onnx_reader import onnx_items
+
+    items, width = onnx_items(p, _script_to_onnx(sm, p, n_in))
+    return Network(to_layers(items, width, str(p)), width, _torch_runner(sm, None, _dtype(sm)), "TorchScript")
+
+
+def _read_exported(ep: Any, runner: Any, p: Path, fixed: int | None) -> Network:
+    """An ExportedProgram's ATen graph; the original is `runner` (the module, or the program's module)."""
     from seagen.frontends.torch_reader import exported_items
 
-    items, width = exported_items(ep, where)
-    batch = int(
-        next(n for n in ep.graph.nodes if n.op == "placeholder" and n.name in _user(ep)).meta["val"].shape[0]
-    )
-    fixed = batch if isinstance(obj, torch.export.ExportedProgram) else None
+    items, width = exported_items(ep, str(p))
+    dtype = _user_input(ep, p).meta["val"].dtype
     return Network(
-        to_layers(items, width, where), width, _torch_runner(runner, fixed), "torch forward (float32)"
+        to_layers(items, width, str(p)), width, _torch_runner(runner, fixed, dtype), "torch forward"
     )
 
 
-def _user(ep: Any) -> set[str]:
-    return {s.arg.name for s in ep.graph_signature.input_specs if s.kind.name == "USER_INPUT"}
+def _dtype(m: Any) -> Any:
+    """The floating dtype of a module's first parameter (float32 when it has none)."""
+    import torch
+
+    return next((q.dtype for q in m.parameters() if q.is_floating_point()), torch.float32)
+
+
+def _user_input(ep: Any, p: Path) -> Any:
+    """The placeholder node of an ExportedProgram's one user input."""
+    users = {s.arg.name for s in ep.graph_signature.input_specs if s.kind.name == "USER_INPUT"}
+    nodes = [n for n in ep.graph.nodes if n.op == "placeholder" and n.name in users]
+    if len(nodes) != 1 or len(getattr(nodes[0].meta.get("val"), "shape", ())) != 2:
+        raise UserError(
+            f"{p}: the program takes {len(nodes)} inputs; seagen needs one (batch, features) tensor"
+        )
+    return nodes[0]
+
+
+def _fixed_batch(ep: Any, p: Path) -> int | None:
+    """The batch size a loaded program was exported for (its module only runs that size), None if dynamic."""
+    b = _user_input(ep, p).meta["val"].shape[0]
+    return int(b) if isinstance(b, int) else None
 
 
 def _export(m: Any, p: Path, n_in: int) -> Any:
@@ -114,7 +133,7 @@ def _export(m: Any, p: Path, n_in: int) -> Any:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            return torch.export.export(m, (torch.zeros(TRACE_BATCH, n_in),))
+            return torch.export.export(m, (torch.zeros(TRACE_BATCH, n_in, dtype=_dtype(m)),))
     except Exception as e:  # export raises many types for modules it cannot follow
         msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
         first = next((x for x in m.modules() if isinstance(x, torch.nn.Linear)), None)
@@ -138,7 +157,7 @@ def _script_to_onnx(sm: Any, p: Path, n_in: int) -> Any:
             warnings.simplefilter("ignore")
             torch.onnx.export(
                 sm,
-                (torch.zeros(TRACE_BATCH, n_in),),
+                (torch.zeros(TRACE_BATCH, n_in, dtype=_dtype(sm)),),
                 buf,  # type: ignore[arg-type]  # the TorchScript-based exporter writes to file objects
                 dynamo=False,
                 input_names=["x"],
@@ -150,22 +169,18 @@ def _script_to_onnx(sm: Any, p: Path, n_in: int) -> Any:
     return onnx.load_from_string(buf.getvalue())
 
 
-def _torch_runner(m: Any, fixed_batch: int | None) -> Callable[[np.ndarray], np.ndarray]:
-    """The module's own forward in float32 (in chunks of the exported batch size for a .pt2)."""
+def _torch_runner(m: Any, fixed_batch: int | None, dtype: Any) -> Callable[[np.ndarray], np.ndarray]:
+    """The module's own forward in its dtype (in chunks of the exported batch size for a .pt2)."""
     import torch
 
     def run(x: np.ndarray) -> np.ndarray:
-        x = np.asarray(x, dtype=np.float32)
         n = len(x)
+        t = torch.as_tensor(np.asarray(x, dtype=np.float64)).to(dtype)
         if fixed_batch is not None:
-            pad = (-n) % fixed_batch
-            x = np.vstack([x, np.zeros((pad, x.shape[1]), np.float32)])
+            t = torch.cat([t, t.new_zeros(((-n) % fixed_batch, t.shape[1]))])
         with torch.no_grad():
-            chunks = [x] if fixed_batch is None else np.split(x, len(x) // fixed_batch)
-            ys = [
-                m(torch.from_numpy(np.ascontiguousarray(c))).double().numpy().reshape(len(c), -1)
-                for c in chunks
-            ]
+            chunks = [t] if fixed_batch is None else list(torch.split(t, fixed_batch))
+            ys = [m(c).double().numpy().reshape(len(c), -1) for c in chunks]
         return np.vstack(ys)[:n]
 
     return run
