@@ -103,8 +103,7 @@ def prepare(
         from seagen.reference.onnx_ref import build_onnx
 
         onnx_bytes = build_onnx(qm, prefix).SerializeToString()
-    lines = [*summary_lines(qm), rep.line()]
-    return Export(loaded.model, qm, prefix, files, onnx_bytes, lines, loaded, rep)
+    return Export(loaded.model, qm, prefix, files, onnx_bytes, summary_lines(qm), loaded, rep)
 
 
 def check_out_dir(out_dir: str | os.PathLike[str]) -> Path:
