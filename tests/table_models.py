@@ -143,6 +143,9 @@ class Lambda(nn.Module):
             return self.out(torch.clamp(self.fc2(h), min=-0.3))
         if k == "clamp_max":
             return self.out(torch.clamp(self.fc2(h), max=0.4))
+        if k == "alpha_arith":  # add/rsub/sub with alpha, a constant built from torch.ones
+            g = torch.rsub(torch.add(self.fc2.bias, F.relu(self.fc2(h)), alpha=2.0), 1.0, alpha=0.5)
+            return self.out(torch.sub(3.0 * torch.ones(8), g, alpha=1.5)) / 2 - 1
         if k == "softplus":
             return self.out(F.softplus(self.fc2(h)))
         return self.out(F.hardtanh(self.fc2(h), -0.6, 0.6) * 0.5 + 0.25)

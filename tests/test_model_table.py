@@ -20,6 +20,9 @@ from seagen.reference.oracle import box_points
 from tests import table_models as T
 from tests.table_models import Row
 
+PT2_EXPORTED = (
+    "hardtanh_affine", "affine_after_act", "affine_after_last", "clamp_min", "clamp_max", "alpha_arith"
+)  # fmt: skip
 ACTS = {
     "relu": nn.ReLU(),
     "leaky": nn.LeakyReLU(0.1),
@@ -64,9 +67,7 @@ def _torch_rows(d: Path, spec: list[str]) -> dict[str, Row]:
     rows["custom module TorchScript traced"] = Row(
         [str(d / "func_trace.pt"), *spec], "export", original=T.torch_original(g)
     )
-    for i, kind in enumerate(
-        ("hardtanh_affine", "affine_after_act", "affine_after_last", "clamp_min", "clamp_max")
-    ):
+    for i, kind in enumerate(PT2_EXPORTED):
         m = T._init(T.Lambda(kind), 10 + i)
         torch.export.save(T._quiet(torch.export.export, m, T.example()), d / f"{kind}.pt2")
         rows[f".pt2 {kind}"] = Row([str(d / f"{kind}.pt2"), *spec], "export", original=T.torch_original(m))
@@ -191,10 +192,7 @@ ROW_NAMES = [
     "custom module pickled --allow-pickle",
     "custom module TorchScript scripted",
     "custom module TorchScript traced",
-    *(
-        f".pt2 {k}"
-        for k in ("hardtanh_affine", "affine_after_act", "affine_after_last", "clamp_min", "clamp_max")
-    ),
+    *(f".pt2 {k}" for k in PT2_EXPORTED),
     *(f".pt2 {k} (refused)" for k in ("residual", "shared", "stacked", "softplus")),
     "TorchScript stacked (refused)",
     "malicious torch.save (refused)",

@@ -46,14 +46,16 @@ def _consts(ep: Any) -> dict[str, Any]:
 
 
 def _fold(ep: Any, consts: dict[str, Any], where: str) -> None:
-    """Evaluate every call whose tensor inputs are all constants (t(), reshape of a weight, ...)."""
+    """Evaluate every call whose tensor inputs are all constants (t(), reshape of a weight, ones, ...);
+    random ops are left in the graph (and refused)."""
     import torch.fx
 
     for n in ep.graph.nodes:
         if n.op != "call_function":
             continue
         names = [x.name for x in n.all_input_nodes]
-        if names and all(x in consts for x in names):
+        random = torch.Tag.nondeterministic_seeded in getattr(n.target, "tags", ())
+        if all(x in consts for x in names) and not random:
             args, kwargs = torch.fx.node.map_arg((n.args, n.kwargs), lambda a: consts[a.name])
             try:
                 consts[n.name] = n.target(*args, **kwargs)
@@ -155,13 +157,13 @@ def _arith(n: Any, t: str, p: str, consts: dict, where: str) -> Affine:
     """add/sub/mul/div/rsub by a constant (tensor or scalar) as an elementwise affine map."""
     first_computed = _name(n.args[0]) is not None and _name(n.args[0]) not in consts
     c = np.asarray(_arg(n, 1 if first_computed else 0, "other", None, consts), dtype=float)
-    alpha = float(n.kwargs.get("alpha", 1.0))
+    alpha = float(n.kwargs.get("alpha", n.args[2] if len(n.args) > 2 else 1.0))
     one, zero = np.ones_like(c), np.zeros_like(c)
     op = t.split(".")[1]
     if op == "rsub":
         op, first_computed = "sub", not first_computed
-    if op == "add":
-        return Affine(t, p, one, c * alpha)
+    if op == "add":  # add(x, c, alpha) = x + alpha c; add(c, x, alpha) = c + alpha x
+        return Affine(t, p, one, c * alpha) if first_computed else Affine(t, p, one * alpha, c)
     if op == "mul":
         return Affine(t, p, c, zero)
     if op == "sub":
