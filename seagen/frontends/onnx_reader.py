@@ -137,7 +137,7 @@ def _item(n: Node, consts: dict, where: str) -> list[Item]:
         lo_v = float(lo) if lo is not None else a.get("min")
         hi_v = float(hi) if hi is not None else a.get("max")
         return [clip_act(op, p, lo_v, hi_v)]
-    if op == "BatchNormalization":
+    if op == "BatchNormalization" and not a.get("training_mode", 0):
         g_, b_, m_, v_ = (_c(n, consts, k) for k in (1, 2, 3, 4))
         s = g_ / np.sqrt(v_ + float(a.get("epsilon", 1e-5)))  # type: ignore[operator]
         return [Affine(op, p, s, b_ - m_ * s)]  # type: ignore[operator]
@@ -156,7 +156,7 @@ def _gemm(n: Node, consts: dict, where: str) -> Dense:
     """Gemm in every attribute form: Y = alpha * A' B' + beta * C with the computed input as A."""
     a = n.attrs
     item = Item("Gemm", n.path)
-    if n.inputs[1] not in consts or a.get("transA", 0):
+    if n.inputs[0] in consts or n.inputs[1] not in consts or a.get("transA", 0):
         raise refuse(where, item, "the computed input must be A (transA=0) and B a constant")
     w = _c(n, consts, 1)
     assert w is not None

@@ -147,8 +147,12 @@ def _dense(n: Any, t: str, p: str, consts: dict, where: str) -> Dense:
         w = _arg(n, 1, "other", None, consts)
         w = w.T if isinstance(w, np.ndarray) else w
         b = None
-    if not isinstance(w, np.ndarray) or w.ndim != 2:
-        raise refuse(where, Item(t, p), "the weight is not a constant matrix")
+    if (
+        not isinstance(w, np.ndarray)
+        or w.ndim != 2
+        or not (b is None or isinstance(b, np.ndarray | float | int))
+    ):
+        raise refuse(where, Item(t, p), "the weight or bias is not a constant")
     b = np.zeros(w.shape[0]) if b is None else np.broadcast_to(np.asarray(b).reshape(-1), (w.shape[0],))
     return Dense(t, p, w, np.array(b, dtype=float))
 
