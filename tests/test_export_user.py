@@ -183,3 +183,14 @@ def test_evaluate_refuses_pickles(tmp_path):
     with pytest.raises(UserError, match="--allow-pickle"):
         load_checked(tmp_path / "evil.pt")
     assert not marker.exists()
+
+
+def test_default_models_load_weights_only():
+    """generated/models/*.pt (a pickled nn.Sequential inside a dict) load with weights_only=True and the
+    torch.nn allowlist: every global they name is on it."""
+    from seagen.fit.modelfile import nn_allowlist, safe_load
+
+    allowed = {f"{c.__module__}.{c.__qualname__}" for c in nn_allowlist()}
+    for p in sorted((GENERATED / "models").glob("*.pt")):
+        assert set(torch.serialization.get_unsafe_globals_in_checkpoint(p)) <= allowed, p
+        assert safe_load(p)["format"] == "seagen-model/1"
