@@ -78,7 +78,7 @@ class QInput:
     frac: int
     lo_q: int
     hi_q: int
-    source: FeatureSource  # how NAME_step computes it from raw counts
+    source: FeatureSource | None  # how NAME_step computes it from raw counts (None: it cannot)
 
 
 @dataclass(frozen=True, eq=False)

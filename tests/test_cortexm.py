@@ -7,10 +7,10 @@ import pytest
 
 from seagen.build.cortexm import CPUS, CortexM, build_image, toolchain_missing
 from seagen.build.equivalence import edge_inputs, first_mismatch, random_inputs
-from seagen.codegen.export import prepare
 from seagen.data.schema import load_split
 from seagen.defaults import DEFAULT_PREFIX, GENERATED
 from seagen.errors import UserError
+from seagen.export import prepare
 from seagen.quant.features import external_inputs, step_features
 from seagen.quant.primitives import linkage_table_q16
 from seagen.reference import numpy_ref

@@ -9,9 +9,9 @@ import pytest
 
 from seagen.build.equivalence import compare, edge_inputs, first_mismatch, random_inputs
 from seagen.build.model import CModel, sanitized_infer
-from seagen.codegen.export import prepare
 from seagen.data.features import derive
 from seagen.data.schema import load_split
+from seagen.export import prepare
 from seagen.quant.features import external_inputs, step_features
 from seagen.quant.primitives import linkage_table_q16
 from seagen.reference import float_ref, numpy_ref

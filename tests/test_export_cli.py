@@ -14,9 +14,9 @@ import torch
 from onnx import TensorProto, helper, numpy_helper
 
 from seagen.cli import main
-from seagen.codegen.export import prepare
 from seagen.defaults import DEFAULT_PREFIX, GENERATED
 from seagen.demo import regenerate
+from seagen.export import prepare
 from seagen.fit.modelfile import load_model
 
 
@@ -125,9 +125,9 @@ def _bad_nan(tmp: Path, files: dict) -> list[str]:
 
 def _bad_layer(tmp: Path, files: dict) -> list[str]:
     d = load_model(files["mlp_relu"])
-    d["module"] = torch.nn.Sequential(d["module"][0], torch.nn.Dropout(), *list(d["module"])[1:])
-    torch.save(d, tmp / "drop.pt")
-    return [str(tmp / "drop.pt")]
+    d["module"] = torch.nn.Sequential(d["module"][0], torch.nn.Softplus(), *list(d["module"])[1:])
+    torch.save(d, tmp / "softplus.pt")
+    return [str(tmp / "softplus.pt"), "--allow-pickle"]
 
 
 def _bad_width(tmp: Path, files: dict) -> list[str]:
@@ -175,8 +175,8 @@ def _bad_onnx(tmp: Path, files: dict) -> list[str]:
 
 
 BAD = {
-    "unsupported onnx node": (_bad_onnx, "unsupported ONNX node Softmax"),
-    "unsupported layer": (_bad_layer, "unsupported Dropout"),
+    "unsupported onnx node": (_bad_onnx, "(Softmax): unsupported op"),
+    "unsupported layer": (_bad_layer, "1/softplus (aten.softplus.default): unsupported op"),
     "input width": (_bad_width, "takes 9 inputs"),
     "nan weights": (_bad_nan, "NaN or Inf"),
     "range": (_bad_range, "cannot be represented"),

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from seagen.build.cortexm import CPUS, Machine, build_image, toolchain_missing
-from seagen.codegen.export import prepare
 from seagen.control.controller import ControlConfig, control_reset, control_step, q16
 from seagen.control.firmware import controller_files, shipped_config
 from seagen.control.gentwin import StepTwin, export
 from seagen.defaults import GENERATED
+from seagen.export import prepare
 from seagen.quant import features as F
 from seagen.quant import primitives as P
 from seagen.reference import numpy_ref

@@ -120,7 +120,7 @@ def float_run(fm: FloatMLP | FloatSF, cpu: str, x: np.ndarray) -> tuple[np.ndarr
 
 def bench_model(name: str, n: int = 50) -> list[dict]:
     """Fixed-point and float instruction counts and flash of one default model on both cores."""
-    from seagen.codegen.export import prepare
+    from seagen.export import prepare
     from seagen.reference import float_ref
 
     ex = prepare(str(MODELS / f"{name}.pt"), prefix=PREFIX[name])

@@ -90,15 +90,16 @@ class DataReport:
     max_err: float
     unit: str
     bound: float
+    oracles: list = field(default_factory=list)  # OracleReport per split: the built C against the original
 
     @property
     def ok(self) -> bool:
         """Every check passed."""
-        return all(c.ok for c in self.checks)
+        return all(c.ok for c in self.checks) and all(o.ok for o in self.oracles)
 
     def report(self) -> str:
         """The checks and the float-vs-fixed error as text."""
-        lines = [c.line() for c in self.checks]
+        lines = [c.line() for c in self.checks] + [o.line() for o in self.oracles]
         lines.append(
             f"max |C - float| on the test set: {self.max_err:.5f} {self.unit} "
             f"(proven bound over the box: {self.bound:.5f} {self.unit})"
@@ -110,23 +111,38 @@ def check_data_dir(ex, data_dir: str) -> DataReport:
     """NAME_infer on the test and validation features, NAME_step on whole recorded trials, and |C - float|."""
     from seagen.data.features import derive
     from seagen.data.schema import load_split
-    from seagen.quant.features import external_inputs, step_features
+    from seagen.errors import UserError
+    from seagen.quant.features import external_inputs, has_pipeline, step_features
     from seagen.quant.primitives import linkage_table_q16
     from seagen.reference.float_ref import predict, quantize_features
 
     qm = ex.qmodel
     names = [i.signal.name for i in qm.inputs]
-    ext_names = external_inputs(qm)
+    step = has_pipeline(qm)
+    ext_names = external_inputs(qm) if step else []
     c = CModel(ex.files, ex.prefix, qm)
     onnx_model = (
         onnx.load_model_from_string(ex.onnx_bytes) if ex.onnx_bytes is not None else onnx_ref.build_onnx(qm)
     )
-    checks, max_err = [], 0.0
+    checks, max_err, oracles = [], 0.0, []
     for split in ("test", "validation"):
         df = derive(load_split(data_dir, split))
+        missing = [n for n in names if n not in df.columns]
+        if missing:
+            raise UserError(f"{data_dir}/{split}.csv: no column {', '.join(missing)} for the model's inputs")
         xq = quantize_features(qm, df[names].to_numpy())
         infer_check = compare(f"{ex.prefix}_infer on {split}", qm, c, xq, onnx_model)
         checks.append(infer_check)
+        if ex.loaded is not None:
+            oracles.append(
+                _oracle_rows(ex, f"C vs original on {split} rows", df[names].to_numpy(), infer_check)
+            )
+        if split == "test":
+            assert infer_check.c_out is not None
+            fixed = infer_check.c_out * 2.0**-qm.out_frac
+            max_err = float(np.max(np.abs(fixed - predict(ex.float_model, df[names].to_numpy()))))
+        if not step:
+            continue
         ext = xq[:, [names.index(n) for n in ext_names]]
         ref = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), df.enc, df.pot, df.trial, ext))
         got = c.step(df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy(), ext if ext_names else None)
@@ -139,8 +155,16 @@ def check_data_dir(ex, data_dir: str) -> DataReport:
                 "C step == numpy pipeline + reference",
             )
         )
-        if split == "test":
-            assert infer_check.c_out is not None
-            fixed = infer_check.c_out * 2.0**-qm.out_frac
-            max_err = float(np.max(np.abs(fixed - predict(ex.float_model, df[names].to_numpy()))))
-    return DataReport(checks, max_err, qm.output.unit, qm.error_bound)
+    return DataReport(checks, max_err, qm.output.unit, qm.error_bound, oracles)
+
+
+def _oracle_rows(ex, what: str, x: np.ndarray, infer_check: Check):
+    """The built C's outputs on data rows inside the calibrated box against the user's original model."""
+    from seagen.reference.oracle import compare_original, in_box
+
+    assert infer_check.c_out is not None
+    keep = in_box(ex.qmodel, x)
+    what = f"{what} ({int(keep.sum())} of {len(x)} inside the box)"
+    return compare_original(
+        what, ex.qmodel, ex.loaded.original, x[keep], ex.loaded.margin, infer_check.c_out[keep]
+    )

@@ -14,7 +14,7 @@ import numpy as np
 from seagen import __version__
 from seagen.codegen.runtime import runtime_sources
 from seagen.ir import QModel
-from seagen.quant.features import external_inputs, is_predictor
+from seagen.quant.features import external_inputs, has_pipeline, is_predictor
 
 # NAME_tick_batch's parameter words: the sea_control_config fields, in order, with their C types.
 TICK_FIELDS = (
@@ -40,6 +40,7 @@ def driver_sources(prefix: str, qm: QModel) -> dict[str, str]:
         "n_ext": len(external_inputs(qm)),
         "version": __version__,
         "tick_fields": TICK_FIELDS if tick else (),
+        "pipeline": has_pipeline(qm),
     }
     env = environment()
     out = {f"{prefix}_driver{ext}": env.get_template(f"driver{ext}.j2").render(ctx) for ext in (".h", ".c")}
@@ -48,7 +49,11 @@ def driver_sources(prefix: str, qm: QModel) -> dict[str, str]:
 
 def entry_points(prefix: str, qm: QModel) -> tuple[str, ...]:
     """The driver functions of `qm`: NAME_infer_batch, NAME_step_batch (+ NAME_tick_batch)."""
-    fns = ("infer_batch", "step_batch", *(("tick_batch",) if is_predictor(qm) else ()))
+    fns = (
+        "infer_batch",
+        *(("step_batch",) if has_pipeline(qm) else ()),
+        *(("tick_batch",) if is_predictor(qm) else ()),
+    )
     return tuple(f"{prefix}_{f}" for f in fns)
 
 

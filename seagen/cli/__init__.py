@@ -7,7 +7,7 @@ import importlib
 import sys
 
 from seagen import __version__
-from seagen.errors import UserError
+from seagen.errors import CheckFailed, UserError
 
 # Each module defines register(subparsers); its handlers take the parsed args and return an exit code.
 COMMAND_MODULES = (
@@ -35,7 +35,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns the exit code (2 for bad input, with a message naming the problem)."""
+    """Entry point; returns the exit code (2 for bad input, 1 for a failed check, with a message)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
@@ -43,6 +43,9 @@ def main(argv: list[str] | None = None) -> int:
     except UserError as e:
         print(f"seagen: error: {e}", file=sys.stderr)
         return 2
+    except CheckFailed as e:
+        print(f"seagen: check failed: {e}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("seagen: interrupted", file=sys.stderr)
         return 130

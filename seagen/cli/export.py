@@ -10,12 +10,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "export",
         help="quantize a model and emit integer-only C (NAME.h, NAME.c + runtime)",
-        description="Quantize MODEL to fixed point and write NAME.h/NAME.c rendered from templates, the C "
-        "runtime it needs, and optionally the quantized ONNX graph. MODEL: a model.pt from `seagen train`, "
-        "a torch.save'd nn.Sequential, a TorchScript module, or an .onnx (Linear/Gemm with ReLU, LeakyReLU, "
-        "Hardtanh, Tanh, Sigmoid); bare networks need --features.",
+        description="Quantize MODEL to fixed point and write NAME.h/NAME.c rendered from templates and the C "
+        "runtime it needs (optionally the quantized ONNX graph). MODEL: a model.pt from `seagen train`, an "
+        "nn.Sequential saved whole, a TorchScript archive, a torch.export .pt2, or an .onnx; it must compute "
+        "a chain of dense layers each followed by at most one ReLU, LeakyReLU, Hardtanh, ReLU6, Clip, Tanh "
+        "or Sigmoid. Bare networks need --features. Every export is checked against the original model run "
+        "by its own runtime. Exit codes: 0 written, 1 a check disagreed (nothing written), 2 bad input.",
     )
-    p.add_argument("model", metavar="MODEL", help="model file (.pt, TorchScript or .onnx)")
+    p.add_argument("model", metavar="MODEL", help="model file (.pt, TorchScript, .pt2 or .onnx)")
     p.add_argument("--out", default=".", help="output directory (default: current)")
     p.add_argument("--prefix", help="C symbol prefix NAME (default: from the file name)")
     p.add_argument(
@@ -33,29 +35,46 @@ def register(sub: argparse._SubParsersAction) -> None:
         "in as the predictor) and the controller runtime (sea_pid, sea_control)",
     )
     p.add_argument(
+        "--allow-pickle",
+        action="store_true",
+        help="unpickle a .pt that holds arbitrary Python objects (this RUNS CODE from the file: only for "
+        "files you trust)",
+    )
+    p.add_argument(
         "--check",
         metavar="DIR",
-        help="after writing, check C == numpy == torch == onnxruntime on "
-        "DIR's test and validation sets and report max |C - float|",
+        help="before writing, also check C == numpy == torch == onnxruntime on DIR's test and validation "
+        "sets, and the C against the original model on those rows",
     )
     p.set_defaults(func=cmd_export)
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    """Export, print the summary, optionally check equivalence."""
-    from seagen.codegen.export import prepare, write
+    """Export (checked against the original), optionally check on data, then write; 1 if a check fails."""
+    from seagen.errors import CheckFailed
+    from seagen.export import check_out_dir, prepare, write
 
-    ex = prepare(args.model, args.prefix, args.weights, args.calib, args.features, args.onnx)
-    if args.controller:
-        from seagen.control.firmware import controller_files
-
-        ex.files.update(controller_files(ex.prefix, ex.qmodel))
-    written = write(ex, args.out)
-    print(f"seagen export: {args.model} -> {args.out}/ ({', '.join(p.name for p in written)})")
-    for line in ex.lines:
-        print("  " + line)
+    check_out_dir(args.out)
+    ex = prepare(
+        args.model,
+        args.prefix,
+        args.weights,
+        args.calib,
+        args.features,
+        args.onnx,
+        args.allow_pickle,
+        controller=args.controller,
+    )
     if args.check:
         from seagen.build.equivalence import check_data_dir
 
-        print(check_data_dir(ex, args.check).report())
+        rep = check_data_dir(ex, args.check)
+        print(rep.report())
+        if not rep.ok:
+            raise CheckFailed(f"{args.model}: the checks on {args.check} disagree; nothing written")
+    written = write(ex, args.out)
+    print(f"seagen export: {args.model} -> {args.out}/ ({', '.join(p.name for p in written)})")
+    assert ex.oracle is not None  # prepare always runs the oracle
+    for line in [*ex.lines, ex.oracle.line()]:
+        print("  " + line)
     return 0

@@ -69,6 +69,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--data", required=True, metavar="DIR", help="data directory with test.csv (+ validation)")
     e.add_argument("--json", action="store_true", help="print one JSON object keyed by model name")
     e.add_argument("--plots", metavar="DIR", help="write PNGs: SF surfaces and validation predictions")
+    e.add_argument(
+        "--allow-pickle",
+        action="store_true",
+        help="unpickle arbitrary objects (RUNS CODE: trusted files only)",
+    )
     e.set_defaults(func=cmd_evaluate)
 
 
@@ -102,7 +107,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     """Print Table IV / V (or JSON) and optionally write the plots."""
     from seagen.fit.evaluate import evaluate, format_tables, frames_and_models, model_names
 
-    result = evaluate(args.models, args.data)
+    result = evaluate(args.models, args.data, args.allow_pickle)
     print(
         json.dumps(result, indent=2) if args.json else format_tables(result),
         end="" if not args.json else "\n",
@@ -110,7 +115,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if args.plots:
         from seagen.fit.plots import write_plots
 
-        frames, models = frames_and_models(args.models, args.data)
+        frames, models = frames_and_models(args.models, args.data, args.allow_pickle)
         written = write_plots(dict(zip(model_names(args.models), models, strict=True)), frames, args.plots)
         if not args.json:
             print("wrote " + ", ".join(str(p) for p in written))

@@ -118,13 +118,13 @@ def _features(qm: QModel) -> list[dict[str, Any]]:
     return [
         {
             "name": q.signal.name,
-            "arg": f"{q.signal.name}_q" if q.source.kind == F.EXTERNAL else None,
-            "kind": F.KIND_C[q.source.kind],
-            "index": F.BASE_C[q.source.index] if q.source.kind in F.BASE_C_KINDS else q.source.index,
-            "from_frac": q.source.from_frac,
+            "arg": f"{q.signal.name}_q" if src.kind == F.EXTERNAL else None,
+            "kind": F.KIND_C[src.kind],
+            "index": F.BASE_C[src.index] if src.kind in F.BASE_C_KINDS else src.index,
+            "from_frac": src.from_frac,
             "to_frac": q.frac,
         }
-        for q in qm.inputs
+        for q, src in zip(qm.inputs, F.sources(qm), strict=True)
     ]
 
 
@@ -160,7 +160,8 @@ def context(qm: QModel, prefix: str) -> dict[str, Any]:
         "output": qm.output,
         "out_frac": qm.out_frac,
         "summary": summary_lines(qm),
-        "features": _features(qm),
+        "pipeline": F.has_pipeline(qm),
+        "features": _features(qm) if F.has_pipeline(qm) else [],
         "externals": F.external_inputs(qm),
         "link": linkage_table_q16(),
         "predictor": {"force_input": "force_n"} if F.is_predictor(qm) else None,

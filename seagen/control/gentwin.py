@@ -21,7 +21,7 @@ MODEL_FILES = {prefix: f"{name}.pt" for name, prefix in DEFAULT_PREFIX.items()} 
 @cache
 def export(prefix: str):
     """The in-memory export (float model, quantized IR) of the default control model `prefix`."""
-    from seagen.codegen.export import prepare
+    from seagen.export import prepare
 
     return prepare(str(GENERATED / "models" / MODEL_FILES[prefix]), prefix=prefix)
 

@@ -7,14 +7,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from seagen.codegen.export import Export
+    from seagen.export import Export
 
 from seagen.defaults import DEFAULT_PREFIX
 
 
 def export_defaults(models: dict[str, Path], out: Path, calib: str | None = None) -> dict[str, Export]:
     """Export every default model (with its ONNX graph) into `out`; returns prefix -> Export."""
-    from seagen.codegen.export import prepare, write
+    from seagen.export import prepare, write
 
     done = {}
     for name, path in models.items():

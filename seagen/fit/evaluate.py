@@ -30,9 +30,9 @@ TITLES = {
 }
 
 
-def load_checked(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """Load a model file and check the keys evaluation needs (errors name the file and the field)."""
-    obj = load_model(path)
+def load_checked(path: str | os.PathLike[str], allow_pickle: bool = False) -> dict[str, Any]:
+    """Load a model file (no code runs unless allow_pickle) and check the keys evaluation needs."""
+    obj = load_model(path, allow_pickle)
     for key in REQUIRED_KEYS:
         if key not in obj:
             raise UserError(f"{path}: model file has no '{key}' field")
@@ -65,11 +65,13 @@ def _scores(task: str, pred_of: Any, frames: dict[str, pd.DataFrame]) -> dict[st
     return out
 
 
-def evaluate(paths: list[str], data_dir: str | os.PathLike[str]) -> dict[str, dict[str, Any]]:
+def evaluate(
+    paths: list[str], data_dir: str | os.PathLike[str], allow_pickle: bool = False
+) -> dict[str, dict[str, Any]]:
     """Scores of each model and of the kinematics baseline of each task present, keyed by name."""
     if not paths:
         raise UserError("evaluate: name at least one model file")
-    models = [load_checked(p) for p in paths]
+    models = [load_checked(p, allow_pickle) for p in paths]
     frames = load_derived(data_dir, need=("test",))
     result: dict[str, dict[str, Any]] = {}
     for task in TASKS:
@@ -127,6 +129,8 @@ def format_tables(result: dict[str, dict[str, Any]]) -> str:
     return "\n".join(lines).rstrip() + "\n"
 
 
-def frames_and_models(paths: list[str], data_dir: str | os.PathLike[str]) -> tuple[dict, list[dict]]:
+def frames_and_models(
+    paths: list[str], data_dir: str | os.PathLike[str], allow_pickle: bool = False
+) -> tuple[dict, list[dict]]:
     """Derived splits and loaded models (for the plots)."""
-    return load_derived(data_dir, need=("test",)), [load_checked(p) for p in paths]
+    return load_derived(data_dir, need=("test",)), [load_checked(p, allow_pickle) for p in paths]

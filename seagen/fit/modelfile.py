@@ -94,17 +94,49 @@ def save_model(obj: dict[str, Any], path: str | os.PathLike[str]) -> None:
         torch.save(obj, tmp)
 
 
-def load_model(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """Read a seagen model file; errors name the file."""
+def nn_allowlist() -> list[Any]:
+    """What a model.pt (or an nn.Sequential saved whole) may contain: torch.nn layers and numpy scalars."""
+    import numpy as np
+    import torch.nn as nn
+
+    # numpy scalars pickle as multiarray.scalar(dtype, bytes): data only, no code
+    numeric = (np.float64, np.float32, np.int64, np.int32, np.bool_)
+    return [
+        nn.Sequential, nn.Linear, nn.ReLU, nn.ReLU6, nn.LeakyReLU, nn.Hardtanh, nn.Tanh, nn.Sigmoid,
+        nn.Identity, nn.Dropout, nn.BatchNorm1d, nn.Flatten,
+        np.float64(0).__reduce__()[0], np.dtype, *(type(np.dtype(t)) for t in numeric),
+    ]  # fmt: skip
+
+
+PICKLE_HINT = (
+    "it holds Python objects seagen will not unpickle (loading a pickle can run any code); "
+    "if you trust this file, pass --allow-pickle"
+)
+
+
+def safe_load(p: Path, allow_pickle: bool = False) -> Any:
+    """torch.load with weights_only=True and the torch.nn allowlist (any pickle only with allow_pickle)."""
     import torch
 
+    try:
+        if allow_pickle:
+            return torch.load(p, map_location="cpu", weights_only=False)
+        with torch.serialization.safe_globals(nn_allowlist()):
+            return torch.load(p, map_location="cpu", weights_only=True)
+    except Exception as e:  # torch raises many types for corrupt or refused files
+        text = str(e)
+        if "weights_only" in text or "Unsupported global" in text or "Unpickler" in text:
+            raise UserError(f"{p}: {PICKLE_HINT}") from None
+        first = text.strip().splitlines()[0] if text.strip() else type(e).__name__
+        raise UserError(f"{p}: not a readable torch file: {first}") from None
+
+
+def load_model(path: str | os.PathLike[str], allow_pickle: bool = False) -> dict[str, Any]:
+    """Read a seagen model file without running code; errors name the file."""
     p = Path(path)
     if not p.is_file():
         raise UserError(f"{p}: no such model file")
-    try:
-        obj = torch.load(p, map_location="cpu", weights_only=False)
-    except Exception as e:  # torch raises many types for corrupt files
-        raise UserError(f"{p}: not a readable torch file: {e}") from None
+    obj = safe_load(p, allow_pickle)
     if not isinstance(obj, dict) or obj.get("format") != FORMAT:
         raise UserError(f"{p}: not a seagen model file (no format '{FORMAT}')")
     return obj

@@ -60,13 +60,12 @@ def name_of(kind: int, index: int) -> str:
     return next(f.name for f in FEATURES.values() if (f.kind, f.index) == (kind, index))
 
 
-def source_of(name: str, frac: int) -> FeatureSource:
-    """Where NAME_step takes the input `name` from; an input the pipeline cannot compute is an error."""
+def source_of(name: str, frac: int) -> FeatureSource | None:
+    """Where NAME_step takes the input `name` from; None for an input the pipeline does not compute (a bare
+    network on other inputs: it exports NAME_infer alone)."""
     f = FEATURES.get(name)
     if f is None:
-        raise UserError(
-            f"input '{name}' is not a feature the firmware pipeline computes (known: {', '.join(FEATURES)})"
-        )
+        return None
     from_frac = {ANGLE: _H["SEA_FEAT_ANGLE_FRAC_BITS"], EXTERNAL: frac}.get(f.kind, BASE_FRAC.get(f.index, 0))
     return FeatureSource(f.kind, f.index, from_frac)
 
@@ -154,6 +153,8 @@ def inputs(
     cols = []
     for q in qins:
         src = q.source
+        if src is None:
+            raise UserError(f"input '{q.signal.name}' is not a feature the firmware pipeline computes")
         if src.kind == EXTERNAL:
             assert ext is not None, "this model needs external inputs (desired force)"
             cols.append(np.asarray(ext, dtype=np.int64).reshape(b.shape[1], -1)[:, src.index])
@@ -162,10 +163,26 @@ def inputs(
     return np.stack(cols, axis=1)
 
 
+def has_pipeline(qm: QModel) -> bool:
+    """True when the firmware feature pipeline computes every input (then NAME_step is generated too)."""
+    return all(q.source is not None for q in qm.inputs)
+
+
+def sources(qm: QModel) -> list[FeatureSource]:
+    """Every input's source; a model the pipeline cannot feed is an error naming the first such input."""
+    missing = [q.signal.name for q in qm.inputs if q.source is None]
+    if missing:
+        raise UserError(
+            f"input '{missing[0]}' is not a feature the firmware pipeline computes "
+            f"(known: {', '.join(FEATURES)})"
+        )
+    return [q.source for q in qm.inputs if q.source is not None]
+
+
 def is_predictor(qm: QModel) -> bool:
     """Whether the model maps the desired force (one external input) to a compression in at most Q16: then
     it is a sea_control predictor (NAME_predict_q16)."""
-    ext = [q for q in qm.inputs if q.source.kind == EXTERNAL]
+    ext = [q for q in qm.inputs if q.source is not None and q.source.kind == EXTERNAL]
     return (
         qm.output.name == "compression_mm"
         and [q.signal.name for q in ext] == ["force_n"]
@@ -175,7 +192,11 @@ def is_predictor(qm: QModel) -> bool:
 
 def external_inputs(qm: QModel) -> list[str]:
     """Names of the inputs NAME_step takes as arguments (already quantized), in argument order."""
-    ext = sorted((q.source.index, q.signal.name) for q in qm.inputs if q.source.kind == EXTERNAL)
+    ext = sorted(
+        (q.source.index, q.signal.name)
+        for q in qm.inputs
+        if q.source is not None and q.source.kind == EXTERNAL
+    )
     return [name for _, name in ext]
 
 

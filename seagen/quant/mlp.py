@@ -95,8 +95,9 @@ def _activation(layer: FloatLayer, pre_frac: int, index: int) -> tuple[tuple[int
     if layer.activation == "leaky_relu":
         return (int(quantize(layer.alpha, 15)),), None
     if layer.activation == "hardtanh":
-        lo = int(np.clip(quantize(layer.lo, pre_frac), -(2**15), INT16_MAX))
-        hi = int(np.clip(quantize(layer.hi, pre_frac), -(2**15), INT16_MAX))
+        # clip before rounding: an unbounded side (+-inf, a one-sided Clip) saturates instead of overflowing
+        lo = int(quantize(np.clip(layer.lo * 2.0**pre_frac, -(2**15), INT16_MAX), 0))
+        hi = int(quantize(np.clip(layer.hi * 2.0**pre_frac, -(2**15), INT16_MAX), 0))
         return (lo, hi), None
     if layer.activation in ("tanh", "sigmoid"):
         return (), make_table(layer.activation, pre_frac, f"l{index}_{layer.activation}")

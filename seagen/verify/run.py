@@ -19,7 +19,7 @@ CORES = ("host", "cortex-m0plus", "cortex-m4")
 
 def rebuild(man: Manifest, model: Path, features: str | None):
     """The export MODEL gives today with the manifest's resolved options (ranges, features, weights)."""
-    from seagen.codegen.export import prepare
+    from seagen.export import prepare
 
     opts, res = man.data["options"], man.data["resolved"]
     ranges = [[float(lo), float(hi)] for _n, _u, lo, hi in res["inputs"]]
@@ -28,7 +28,16 @@ def rebuild(man: Manifest, model: Path, features: str | None):
             features = str(Path(tmp) / "features.json")
             spec = res["features"]
             Path(features).write_text(json.dumps({**spec.pop("features", {}), **spec}))
-        return prepare(str(model), man.prefix, opts["weights"], None, features, True, ranges)
+        return prepare(
+            str(model),
+            man.prefix,
+            opts["weights"],
+            None,
+            features,
+            True,
+            controller=bool(opts.get("controller")),
+            ranges=ranges,
+        )
 
 
 def disk_target(folder: Path, man: Manifest, core: str, qm):

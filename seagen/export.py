@@ -1,0 +1,187 @@
+"""`seagen export`, the pipeline: model file -> float IR -> quantized IR -> C, checked by the oracle, written
+atomically. A driver at the top of the package graph (it uses frontends, quant, reference, codegen, build)."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from seagen.codegen.cfmt import assert_valid_prefix
+from seagen.codegen.manifest import SUFFIX, manifest_text
+from seagen.codegen.render import RUNTIME, model_hash, render
+from seagen.codegen.runtime import runtime_sources
+from seagen.codegen.summary import summary_lines
+from seagen.errors import CheckFailed, UserError
+from seagen.ir import FloatMLP, FloatModel, QModel
+from seagen.frontends.load import Loaded, load_with_original
+from seagen.quant.mlp import quantize_mlp
+from seagen.quant.sf import quantize_sf
+from seagen.reference.oracle import OracleReport, box_points, compare_original
+
+
+@dataclass
+class Export:
+    """What an export produced: the float and quantized models, the files, the summary and the oracle."""
+
+    float_model: FloatModel
+    qmodel: QModel
+    prefix: str
+    files: dict[str, str]
+    onnx_bytes: bytes | None = None
+    lines: list[str] = field(default_factory=list)
+    loaded: Loaded | None = field(default=None, repr=False)
+    oracle: OracleReport | None = None
+
+
+def calib_ranges(data_dir: str, names: list[str]) -> list[list[float]]:
+    """Observed [min, max] of each named feature on the training split of a data directory."""
+    from seagen.data.features import derive
+    from seagen.data.schema import load_split
+
+    df = derive(load_split(data_dir, "train"))
+    missing = [n for n in names if n not in df.columns]
+    if missing:
+        raise UserError(f"{data_dir}: cannot compute a calibration range for {', '.join(missing)}")
+    return [[float(df[n].min()), float(df[n].max())] for n in names]
+
+
+def quantize(model: FloatModel, weight_bits: int = 16) -> QModel:
+    """Float IR -> quantized IR (MLP or surface fit)."""
+    if weight_bits not in (8, 16):
+        raise UserError(f"--weights must be int16 or int8, not int{weight_bits}")
+    if isinstance(model, FloatMLP):
+        return quantize_mlp(model, weight_bits)
+    return quantize_sf(model)
+
+
+def default_prefix(model_path: str) -> str:
+    """A C identifier from the model file name (e.g. mlp_calibration.pt -> mlp_calibration)."""
+    stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(model_path).stem)
+    return stem if stem[:1].isalpha() else f"m_{stem}"
+
+
+def check_prefix(prefix: str) -> str:
+    """A valid C prefix outside the runtime's own `sea` namespace."""
+    if not prefix:
+        raise UserError("--prefix is empty: give a C identifier such as cal_mlp")
+    if prefix.lower() == "sea" or prefix.lower().startswith("sea_"):
+        raise UserError(
+            f"invalid prefix {prefix!r}: sea and sea_* belong to the C runtime (sea_fixed, sea_nn)"
+        )
+    return assert_valid_prefix(prefix)
+
+
+def prepare(
+    model_path: str,
+    prefix: str | None = None,
+    weights: str = "int16",
+    calib: str | None = None,
+    features: str | None = None,
+    with_onnx: bool = False,
+    allow_pickle: bool = False,
+    controller: bool = False,
+    ranges: list[list[float]] | None = None,
+) -> Export:
+    """Everything of an export, in memory (nothing is written); refuses (CheckFailed) when the integer
+    reference and the original model disagree beyond the proven bound on the calibrated box.
+
+    `controller` adds NAME_controller.{h,c} and the controller runtime (control models); `ranges` gives the
+    input ranges outright (seagen verify rebuilds an export from its manifest that way)."""
+    prefix = check_prefix(default_prefix(model_path) if prefix is None else prefix)
+    bits = {"int16": 16, "int8": 8}.get(weights)
+    if bits is None:
+        raise UserError(f"--weights must be int16 or int8, not {weights!r}")
+    given = ranges or ((lambda names: calib_ranges(calib, names)) if calib else None)
+    loaded = load_with_original(model_path, features, given, allow_pickle)
+    qm = quantize(loaded.model, bits)
+    rep = compare_original(
+        f"oracle ({loaded.runtime}) on the box", qm, loaded.original, box_points(qm), loaded.margin
+    )
+    if not rep.ok:
+        raise CheckFailed(f"{model_path}: {rep.line()}")
+    files = {**render(qm, prefix), **runtime_sources(*RUNTIME)}
+    if controller:
+        from seagen.control.firmware import controller_files
+
+        files.update(controller_files(prefix, qm))
+    onnx_bytes = None
+    if with_onnx:
+        from seagen.reference.onnx_ref import build_onnx
+
+        onnx_bytes = build_onnx(qm, prefix).SerializeToString()
+    options = {"weights": weights, "target": "portable", "calib": calib, "onnx": with_onnx}
+    options["controller"] = controller
+    files[f"{prefix}{SUFFIX}"] = export_manifest(qm, prefix, model_path, options, features, files, onnx_bytes)
+    return Export(loaded.model, qm, prefix, files, onnx_bytes, summary_lines(qm), loaded, rep)
+
+
+def export_manifest(
+    qm: QModel,
+    prefix: str,
+    model_path: str,
+    options: dict,
+    features: str | None,
+    files: dict[str, str],
+    onnx_bytes: bytes | None,
+) -> str:
+    """NAME.seagen.json for the files of this export (the runtime files and NAME.onnx included)."""
+    from seagen.frontends.load import read_features_file
+
+    emitted = {name: text.encode() for name, text in files.items()}
+    if onnx_bytes is not None:
+        emitted[f"{prefix}.onnx"] = onnx_bytes
+    resolved = {
+        "inputs": [[i.signal.name, i.signal.unit, i.signal.lo, i.signal.hi] for i in qm.inputs],
+        "output": [qm.output.name, qm.output.unit],
+        "qmodel_hash": model_hash(qm),
+        "error_bound": qm.error_bound,
+        "features": read_features_file(features) or None,
+    }
+    return manifest_text(prefix, model_path, options, resolved, emitted)
+
+
+def check_out_dir(out_dir: str | os.PathLike[str]) -> Path:
+    """The output folder: an existing writable directory, or a path whose nearest existing parent is one."""
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{out}: exists and is not a directory (--out needs a folder)")
+    probe = out
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir():
+        raise UserError(f"{out}: {probe} is a file, not a folder (--out needs a folder)")
+    if not os.access(probe, os.W_OK | os.X_OK) or str(out.resolve()).startswith(("/proc/", "/sys/")):
+        raise UserError(f"{out}: cannot write there (no permission or not a regular file system)")
+    return out
+
+
+def write(ex: Export, out_dir: str | os.PathLike[str]) -> list[Path]:
+    """Write all files atomically: staged in a temporary folder, then renamed in. A NAME.onnx from an
+    earlier export that this one does not write is removed (it would describe another model)."""
+    out = check_out_dir(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        stage = Path(tempfile.mkdtemp(dir=out, prefix=".export."))
+    except OSError as e:
+        raise UserError(f"{out}: cannot write the export: {e.strerror or e}") from None
+    try:
+        for name, text in ex.files.items():
+            (stage / name).write_text(text)
+        if ex.onnx_bytes is not None:
+            (stage / f"{ex.prefix}.onnx").write_bytes(ex.onnx_bytes)
+        written = []
+        for f in sorted(stage.iterdir()):
+            os.replace(f, out / f.name)
+            written.append(out / f.name)
+        stale = out / f"{ex.prefix}.onnx"
+        if ex.onnx_bytes is None and stale.is_file():
+            stale.unlink()
+        return written
+    except OSError as e:
+        raise UserError(f"{out}: cannot write the export: {e.strerror or e}") from None
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)

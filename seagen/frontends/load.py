@@ -1,0 +1,226 @@
+"""Read a model file (seagen model.pt, torch module, TorchScript, .pt2, ONNX) into the float IR."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import re
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from seagen.errors import UserError
+from seagen.fit.modelfile import FORMAT, FeatureSpec
+from seagen.frontends import Network, read_module, read_onnx
+from seagen.frontends.margin import float32_margin
+from seagen.frontends.torch_files import load_torch
+from seagen.ir import FloatLayer, FloatMLP, FloatModel, FloatSF, Signal
+from seagen.quant.qformat import widened
+
+UNITS = {"pot": "count", "enc": "count", "angle_deg": "deg", "compression_mm": "mm", "force_n": "N"}
+
+
+def unit_of(name: str) -> str:
+    """Physical unit of a feature name (differences are per 10 ms sample)."""
+    base = name.removeprefix("dd_").removeprefix("d_")
+    return UNITS.get(base, "")
+
+
+def fold_normalization(layers: list[FloatLayer], spec: FeatureSpec, where: str = "model") -> list[FloatLayer]:
+    """Fold x_model = (x - mean)/std * w into the first layer and y = y_m * std + mean into the last."""
+    scale = np.array(spec.weights()) / np.array(spec.std)
+    first = layers[0]
+    if first.weight.shape[1] != len(spec.inputs):
+        raise UserError(
+            f"{where}: the first layer takes {first.weight.shape[1]} inputs but the feature specification "
+            f"names {len(spec.inputs)} ({', '.join(spec.inputs)})"
+        )
+    w1 = first.weight * scale[None, :]
+    b1 = first.bias - first.weight @ (np.array(spec.mean) * scale)
+    out = [FloatLayer(w1, b1, first.activation, first.alpha, first.lo, first.hi), *layers[1:]]
+    last = out[-1]
+    if last.activation == "linear":
+        out[-1] = FloatLayer(last.weight * spec.output_std, last.bias * spec.output_std + spec.output_mean)
+    elif spec.output_std != 1.0 or spec.output_mean != 0.0:
+        out.append(FloatLayer(np.array([[spec.output_std]]), np.array([spec.output_mean])))
+    if out[-1].weight.shape[0] != 1:
+        raise UserError(
+            f"{where}: the model has {out[-1].weight.shape[0]} outputs; seagen exports one-output models"
+        )
+    return out
+
+
+def signals(spec: FeatureSpec, ranges: Any, units: Any, where: str) -> tuple[Signal, ...]:
+    """Input signals with their calibrated ranges; a missing or bad range is an error."""
+    if callable(ranges):
+        ranges = ranges(list(spec.inputs))
+    if ranges is None:
+        raise UserError(f"{where}: no calibrated input range (give --calib DATA_DIR or 'input_range')")
+    try:
+        ranges = [[float(r[0]), float(r[1])] for r in ranges if len(r) == 2]
+    except (TypeError, ValueError) as e:
+        raise UserError(f"{where}: input_range is not a list of [lo, hi] pairs: {e}") from None
+    if len(ranges) != len(spec.inputs):
+        raise UserError(
+            f"{where}: input_range has {len(ranges)} [lo, hi] pairs for {len(spec.inputs)} inputs"
+        )
+    units = [str(u) for u in units] if units else [unit_of(n) for n in spec.inputs]
+    if len(units) != len(spec.inputs):
+        raise UserError(f"{where}: input_units has {len(units)} entries for {len(spec.inputs)} inputs")
+    out = []
+    for n, (lo, hi), u in zip(spec.inputs, ranges, units, strict=True):
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]{0,30}", n):
+            raise UserError(f"{where}: input name {n!r} is not a C identifier (letters, digits, _)")
+        if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
+            raise UserError(f"{where}: input '{n}' has an invalid range [{lo}, {hi}] (needs lo < hi)")
+        out.append(Signal(n, u, lo, hi))
+    return tuple(out)
+
+
+@dataclass
+class Loaded:
+    """A float model and the original it came from, run by its own runtime on physical inputs."""
+
+    model: FloatModel
+    original: Callable[[np.ndarray], np.ndarray]  # physical inputs (N, n_in) float64 -> outputs (N,)
+    runtime: str
+    margin: float  # stated allowance for the original's own rounding (float32 forward, float64 polynomial)
+
+
+def _sf_model(d: dict[str, Any], where: str, rng: Any, output: Signal, task: str) -> Loaded:
+    """A seagen surface fit; the original is the polynomial in float64 from its coefficients."""
+    sf = d["sf"]
+    try:
+        powers = tuple((int(i), int(j)) for i, j in sf["powers"])
+        coef = np.asarray(sf["coef"], dtype=float).reshape(-1)
+        names = tuple(sf["inputs"])
+    except (KeyError, TypeError, ValueError) as e:
+        raise UserError(f"{where}: field 'sf' is invalid: {e}") from None
+    if len(coef) != len(powers) or len(names) != 2:
+        raise UserError(
+            f"{where}: field 'sf' has {len(coef)} coefficients for {len(powers)} powers and "
+            f"{len(names)} inputs (needs equal lengths and 2 inputs)"
+        )
+    if not np.all(np.isfinite(coef)):
+        raise UserError(f"{where}: sf coefficients contain NaN or Inf")
+    a, b = signals(FeatureSpec(names, (0.0, 0.0), (1.0, 1.0)), rng, d.get("input_units"), where)
+    model = FloatSF((a, b), output, powers, tuple(coef.tolist()), task)
+
+    def poly(x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=np.float64)
+        return sum(c * x[:, 0] ** i * x[:, 1] ** j for c, (i, j) in zip(coef, powers, strict=True))
+
+    box = [widened(s.lo, s.hi) for s in (a, b)]
+    am, bm = (max(abs(lo), abs(hi)) for lo, hi in box)
+    size = sum(abs(c) * am**i * bm**j for c, (i, j) in zip(coef, powers, strict=True))
+    return Loaded(model, poly, "float64 polynomial from the coefficients", 2.0**-40 * (1.0 + size))
+
+
+def _mlp_model(
+    net: Network, spec: FeatureSpec, d: dict[str, Any], where: str, rng: Any, out: Signal
+) -> Loaded:
+    """A network with its feature normalisation folded in; the original runs the network between the
+    normalisation and de-normalisation the spec states."""
+    layers = fold_normalization(net.layers, spec, where)
+    model = FloatMLP(
+        signals(spec, rng, d.get("input_units"), where), out, tuple(layers), d.get("task", "calibration")
+    )
+    mean, std = np.array(spec.mean), np.array(spec.std)
+    w = np.array(spec.weights())
+
+    def original(x: np.ndarray) -> np.ndarray:
+        y = net.run((np.asarray(x, dtype=np.float64) - mean) / std * w)
+        return y[:, 0] * spec.output_std + spec.output_mean
+
+    box = np.array([widened(s.lo, s.hi) for s in model.inputs]).T
+    xmax = np.max(np.abs((box - mean) / std * w), axis=0)
+    margin = float32_margin(net.layers, xmax) * spec.output_std
+    return Loaded(model, original, net.runtime, margin)
+
+
+def from_model_dict(d: dict[str, Any], where: str, ranges: Any = None, net: Network | None = None) -> Loaded:
+    """Float IR (and the original) from a seagen model dict or a bare network with a features dict."""
+    rng = ranges if ranges is not None else d.get("input_range")
+    out_rng = d.get("output_range") or [0.0, 0.0]
+    try:
+        output = Signal(
+            d.get("output_name", "y"), d.get("output_units", ""), float(out_rng[0]), float(out_rng[1])
+        )
+    except (TypeError, ValueError, IndexError) as e:
+        raise UserError(f"{where}: field 'output_range' is invalid: {e}") from None
+    if d.get("kind") == "sf":
+        return _sf_model(d, where, rng, output, d.get("task", "calibration"))
+    if not d.get("features"):
+        raise UserError(f"{where}: no feature specification (give --features SPEC)")
+    spec = FeatureSpec.from_dict(d["features"], where)
+    if net is None:
+        net = read_module(d.get("module"), Path(where), len(spec.inputs))
+    return _mlp_model(net, spec, d, where, rng, output)
+
+
+def read_features_file(path: str | None) -> dict[str, Any]:
+    """A --features SPEC file (JSON or TOML) -> dict with 'features' and optional range/unit keys."""
+    if path is None:
+        return {}
+    p = Path(path)
+    if not p.is_file():
+        raise UserError(f"{p}: no such feature specification file")
+    try:
+        raw = tomllib.loads(p.read_text()) if p.suffix == ".toml" else json.loads(p.read_text())
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as e:
+        raise UserError(f"{p}: cannot parse: {e}") from None
+    keys = ("input_range", "input_units", "output_name", "output_units", "output_range", "task")
+    out = {k: raw[k] for k in keys if k in raw}
+    out["features"] = {k: v for k, v in raw.items() if k not in keys}
+    known = {f.name for f in dataclasses.fields(FeatureSpec)}
+    unknown = sorted(set(out["features"]) - known)
+    if unknown:
+        raise UserError(
+            f"{p}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(known | set(keys)))})"
+        )
+    FeatureSpec.from_dict(out["features"], str(p))
+    return out
+
+
+def load_float_model(
+    path: str, features: str | None = None, ranges: Any = None, allow_pickle: bool = False
+) -> FloatModel:
+    """Any supported model file -> float IR (a features file overrides/fills the model's own metadata).
+
+    `ranges` (a list of [lo, hi] or a function of the input names returning one) overrides the model's own
+    calibrated input ranges.
+    """
+    return load_with_original(path, features, ranges, allow_pickle).model
+
+
+def load_with_original(
+    path: str, features: str | None = None, ranges: Any = None, allow_pickle: bool = False
+) -> Loaded:
+    """The float IR of a model file and its original run by its own runtime (for the oracle)."""
+    p = Path(path)
+    if not p.is_file():
+        raise UserError(f"{p}: no such model file")
+    extra = read_features_file(features)
+    if p.suffix == ".onnx":
+        if not extra:
+            _need_features(p)
+        return from_model_dict({"kind": "mlp", **extra}, str(p), ranges, read_onnx(p))
+    obj = load_torch(p, allow_pickle)
+    if isinstance(obj, dict) and obj.get("format") == FORMAT:
+        return from_model_dict({**obj, **extra}, str(p), ranges)
+    if isinstance(obj, dict):
+        raise UserError(f"{p}: a dict but not a seagen model file (no format '{FORMAT}')")
+    if not extra:
+        _need_features(p)
+    spec = FeatureSpec.from_dict(extra["features"], str(p))
+    return from_model_dict({"kind": "mlp", **extra}, str(p), ranges, read_module(obj, p, len(spec.inputs)))
+
+
+def _need_features(p: Path) -> dict[str, Any]:
+    raise UserError(
+        f"{p}: a bare network needs --features SPEC naming its inputs (and their ranges or --calib)"
+    )

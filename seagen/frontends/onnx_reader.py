@@ -1,0 +1,186 @@
+"""ONNX graph -> op chain, read by its edges (tensor names) from the graph input to the graph output."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from seagen.errors import UserError
+from seagen.frontends.chain import Act, Affine, Dense, Item, Reshape, clip_act, refuse
+from seagen.frontends.graph import Node, chain_nodes
+
+_ACTS = {"Relu": "relu", "Tanh": "tanh", "Sigmoid": "sigmoid"}
+_NOOPS = ("Identity", "Dropout")
+_FLOAT = (1, 11)  # TensorProto.FLOAT, DOUBLE
+
+
+def load_onnx(path: Path) -> Any:
+    """The ONNX model; external data must lie inside the model's folder."""
+    import onnx
+
+    try:
+        model = onnx.load(str(path), load_external_data=False)
+    except Exception as e:  # onnx raises several types for unreadable files
+        raise UserError(f"{path}: not a readable ONNX file: {e}") from None
+    folder = path.resolve().parent
+    for t in onnx.external_data_helper._get_all_tensors(model):
+        if onnx.external_data_helper.uses_external_data(t):
+            loc = {e.key: e.value for e in t.external_data}.get("location", "")
+            target = (folder / loc).resolve()
+            if not target.is_relative_to(folder) or not target.is_file():
+                raise UserError(
+                    f"{path}: tensor '{t.name}' has external data '{loc}' outside the model folder"
+                )
+    try:
+        onnx.load_external_data_for_model(model, str(folder))
+    except Exception as e:
+        raise UserError(f"{path}: cannot read external data: {e}") from None
+    return model
+
+
+def _fold_constants(model: Any, nodes: list[Node], where: str) -> dict[str, np.ndarray]:
+    """Initializers and every node whose inputs are all constant, evaluated once (onnx reference runtime)."""
+    from onnx import numpy_helper
+
+    consts = {t.name: numpy_helper.to_array(t) for t in model.graph.initializer}
+    todo = list(nodes)
+    while True:  # to a fixed point: nodes need not be listed in order
+        ready = [
+            n
+            for n in todo
+            if n.op == "Constant" or (n.inputs and all(i in consts or not i for i in n.inputs))
+        ]
+        if not ready:
+            return consts
+        for n in ready:
+            try:
+                vals = _run_node(model, n.raw, consts)
+            except Exception as e:  # the reference runtime raises many types
+                raise UserError(f"{where}: {n.path} ({n.op}): cannot evaluate constant node: {e}") from None
+            consts.update(zip(n.outputs, vals, strict=False))
+        todo = [n for n in todo if n not in ready]
+
+
+def _run_node(model: Any, node: Any, consts: dict[str, np.ndarray]) -> list[np.ndarray]:
+    """One node on constant inputs through onnx.reference."""
+    from onnx import helper, numpy_helper
+    from onnx.reference import ReferenceEvaluator
+
+    ins = [numpy_helper.from_array(np.asarray(consts[i]), i) for i in node.input if i]
+    outs = [helper.make_tensor_value_info(o, 0, None) for o in node.output]
+    g = helper.make_graph([node], "c", [], outs, ins)
+    m = helper.make_model(g, opset_imports=model.opset_import, ir_version=model.ir_version)
+    return list(ReferenceEvaluator(m).run(None, {}))
+
+
+def onnx_items(path: Path, model: Any) -> tuple[list[Item], int]:
+    """The model's op chain and its input width."""
+    import onnx
+
+    where = str(path)
+    g = model.graph
+    nodes = [
+        Node(
+            n.op_type,
+            n.name or n.output[0],
+            list(n.input),
+            list(n.output),
+            {a.name: onnx.helper.get_attribute_value(a) for a in n.attribute},
+            n,
+        )
+        for n in g.node
+    ]
+    consts = _fold_constants(model, nodes, where)
+    inputs = [i for i in g.input if i.name not in consts]
+    if len(inputs) != 1 or len(g.output) != 1:
+        names = ", ".join(i.name for i in inputs)
+        raise UserError(
+            f"{where}: the graph has {len(inputs)} inputs ({names}) and {len(g.output)} outputs; "
+            "seagen exports one input tensor (a weight must be an initializer) and one output"
+        )
+    dims = [d.dim_value for d in inputs[0].type.tensor_type.shape.dim]
+    if len(dims) != 2 or dims[1] <= 0:
+        raise UserError(f"{where}: input '{inputs[0].name}' has shape {dims}; seagen needs (batch, features)")
+    chain = chain_nodes(nodes, set(consts), inputs[0].name, g.output[0].name, where)
+    items: list[Item] = []
+    for n in chain:
+        items.extend(_item(n, consts, where))
+    return items, dims[1]
+
+
+def _c(n: Node, consts: dict, k: int) -> np.ndarray | None:
+    """Constant input k of a node (None when absent)."""
+    return np.asarray(consts[n.inputs[k]], dtype=float) if len(n.inputs) > k and n.inputs[k] else None
+
+
+def _item(n: Node, consts: dict, where: str) -> list[Item]:
+    """One chain node -> zero or more chain items; anything unsupported is refused."""
+    op, p, a = n.op, n.path, n.attrs
+    if op == "Gemm":
+        return [_gemm(n, consts, where)]
+    if op == "MatMul" and n.inputs[1] in consts:
+        w = _c(n, consts, 1)
+        assert w is not None
+        if w.ndim != 2:
+            raise refuse(where, Item(op, p), f"weight of shape {w.shape}")
+        return [Dense(op, p, w.T, np.zeros(w.shape[1]))]
+    if op in ("Add", "Sub", "Mul", "Div"):
+        return [_arith(n, consts, where)]
+    if op in _ACTS:
+        return [Act(op, p, _ACTS[op])]
+    if op == "LeakyRelu":
+        return [Act(op, p, "leaky_relu", alpha=float(a.get("alpha", 0.01)))]
+    if op == "Clip":
+        lo, hi = _c(n, consts, 1), _c(n, consts, 2)
+        lo_v = float(lo) if lo is not None else a.get("min")
+        hi_v = float(hi) if hi is not None else a.get("max")
+        return [clip_act(op, p, lo_v, hi_v)]
+    if op == "BatchNormalization" and not a.get("training_mode", 0):
+        g_, b_, m_, v_ = (_c(n, consts, k) for k in (1, 2, 3, 4))
+        s = g_ / np.sqrt(v_ + float(a.get("epsilon", 1e-5)))  # type: ignore[operator]
+        return [Affine(op, p, s, b_ - m_ * s)]  # type: ignore[operator]
+    if op in _NOOPS or (op == "Cast" and a.get("to") in _FLOAT):
+        return []
+    if op == "Flatten" and int(a.get("axis", 1)) == 1:
+        return []
+    if op == "Reshape":
+        shape = _c(n, consts, 1)
+        if shape is not None and shape.size == 2 and shape[0] in (-1, 0):
+            return [Reshape(op, p, int(shape[1]))]
+    raise refuse(where, Item(op, p), "unsupported op")
+
+
+def _gemm(n: Node, consts: dict, where: str) -> Dense:
+    """Gemm in every attribute form: Y = alpha * A' B' + beta * C with the computed input as A."""
+    a = n.attrs
+    item = Item("Gemm", n.path)
+    if n.inputs[0] in consts or n.inputs[1] not in consts or a.get("transA", 0):
+        raise refuse(where, item, "the computed input must be A (transA=0) and B a constant")
+    w = _c(n, consts, 1)
+    assert w is not None
+    w = w if a.get("transB", 0) else w.T
+    c = _c(n, consts, 2)
+    c = np.zeros(w.shape[0]) if c is None else c
+    if c.size not in (1, w.shape[0]) or (c.ndim == 2 and c.shape[0] != 1) or c.ndim > 2:
+        raise refuse(where, item, f"bias of shape {c.shape} for {w.shape[0]} outputs")
+    b = np.broadcast_to(c.reshape(-1), (w.shape[0],)) * float(a.get("beta", 1.0))
+    return Dense("Gemm", n.path, w * float(a.get("alpha", 1.0)), b.copy())
+
+
+def _arith(n: Node, consts: dict, where: str) -> Affine:
+    """Add/Sub/Mul/Div by a constant as an elementwise affine map (constant / x is refused)."""
+    op, p = n.op, n.path
+    k = 0 if n.inputs[0] in consts else 1
+    c = np.asarray(consts[n.inputs[k]], dtype=float)
+    one, zero = np.ones_like(c), np.zeros_like(c)
+    if op == "Add":
+        return Affine(op, p, one, c)
+    if op == "Mul":
+        return Affine(op, p, c, zero)
+    if op == "Sub":
+        return Affine(op, p, one, -c) if k == 1 else Affine(op, p, -one, c)
+    if k == 1 and np.all(c != 0):
+        return Affine(op, p, 1.0 / c, zero)
+    raise refuse(where, Item(op, p), "division by a computed value or by zero")

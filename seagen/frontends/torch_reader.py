@@ -1,0 +1,246 @@
+"""torch.export graph (ATen ops) -> op chain: what the module computes, not how its layers were registered."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from seagen.errors import UserError
+from seagen.frontends.chain import Act, Affine, Dense, Item, Reshape, clip_act, refuse
+from seagen.frontends.graph import Node, chain_nodes
+
+_ACTS = {"aten.relu.default": "relu", "aten.tanh.default": "tanh", "aten.sigmoid.default": "sigmoid"}
+_NOOPS = (
+    "aten.clone.default",
+    "aten.alias.default",
+    "aten.contiguous.default",
+    "aten.detach.default",
+    "aten.flatten.using_ints",
+    "<built-in function getitem>",
+)
+_FLOATS = ("torch.float32", "torch.float64")
+
+
+def _name(a: Any) -> str | None:
+    """The edge name of an fx.Node argument (None for scalars)."""
+    return a.name if hasattr(a, "op") and hasattr(a, "name") else None
+
+
+def _path(n: Any) -> str:
+    """Module path of an fx node (from nn_module_stack) joined with the node name."""
+    stack = n.meta.get("nn_module_stack") or {}
+    mod = list(stack.values())[-1][0] if stack else ""
+    return f"{mod}/{n.name}" if mod else n.name
+
+
+def _consts(ep: Any) -> dict[str, Any]:
+    """Placeholder name -> tensor for every parameter, buffer and lifted constant."""
+    sig = ep.graph_signature
+    values = {**ep.state_dict, **ep.constants}
+    out = {}
+    for spec in sig.input_specs:
+        if spec.target is not None and spec.target in values:
+            out[spec.arg.name] = values[spec.target].detach()
+    return out
+
+
+def _fold(ep: Any, consts: dict[str, Any], where: str) -> None:
+    """Evaluate every call whose tensor inputs are all constants (t(), reshape of a weight, ones, ...);
+    random ops are left in the graph (and refused)."""
+    import torch.fx
+
+    for n in ep.graph.nodes:
+        if n.op != "call_function":
+            continue
+        names = [x.name for x in n.all_input_nodes]
+        random = torch.Tag.nondeterministic_seeded in getattr(n.target, "tags", ())
+        if all(x in consts for x in names) and not random:
+            args, kwargs = torch.fx.node.map_arg((n.args, n.kwargs), lambda a: consts[a.name])
+            try:
+                consts[n.name] = n.target(*args, **kwargs)
+            except Exception as e:  # any op can fail on odd inputs
+                raise UserError(f"{where}: {_path(n)} ({n.target}): cannot evaluate constant: {e}") from None
+
+
+def exported_items(ep: Any, where: str) -> tuple[list[Item], int]:
+    """The op chain of an ExportedProgram and its input width."""
+    consts = _consts(ep)
+    _fold(ep, consts, where)
+    users = [s.arg.name for s in ep.graph_signature.input_specs if s.kind.name == "USER_INPUT"]
+    outs = [s.arg.name for s in ep.graph_signature.output_specs if s.kind.name == "USER_OUTPUT"]
+    if len(users) != 1 or len(outs) != 1:
+        raise UserError(
+            f"{where}: the program has {len(users)} inputs and {len(outs)} outputs; "
+            "seagen exports one input tensor and one output"
+        )
+    ph = next(n for n in ep.graph.nodes if n.name == users[0])
+    shape = tuple(ph.meta["val"].shape)
+    if len(shape) != 2:
+        raise UserError(f"{where}: input '{users[0]}' has shape {shape}; seagen needs (batch, features)")
+    fx = {n.name: n for n in ep.graph.nodes}
+    nodes = [
+        Node(str(n.target), _path(n), [a.name for a in n.all_input_nodes], [n.name], raw=n)
+        for n in ep.graph.nodes
+        if n.op == "call_function" and n.name not in consts
+    ]
+    chain = chain_nodes(nodes, set(consts), users[0], outs[0], where)
+    items = [it for n in chain for it in _item(n.raw, consts, fx, where)]
+    return items, int(shape[1])
+
+
+def _arg(n: Any, k: int, key: str, default: Any, consts: dict) -> Any:
+    """Argument k (or keyword key) of an fx node, constants resolved to numpy."""
+    a = n.args[k] if len(n.args) > k else n.kwargs.get(key, default)
+    nm = _name(a)
+    if nm is not None:
+        return consts[nm].double().numpy() if nm in consts else a
+    return a
+
+
+def _item(n: Any, consts: dict, fx: dict, where: str) -> list[Item]:
+    """One ATen call -> zero or more chain items; anything unsupported is refused."""
+    t, p = str(n.target), _path(n)
+    if t in ("aten.linear.default", "aten.addmm.default", "aten.mm.default", "aten.matmul.default"):
+        return [_dense(n, t, p, consts, where)]
+    if t.startswith(("aten.add.", "aten.sub.", "aten.mul.", "aten.div.", "aten.rsub.")):
+        return [_arith(n, t, p, consts, where)]
+    if t in _ACTS:
+        return [Act(t, p, _ACTS[t])]
+    if t == "aten.leaky_relu.default":
+        return [Act(t, p, "leaky_relu", alpha=float(_arg(n, 1, "negative_slope", 0.01, consts)))]
+    if t in (
+        "aten.hardtanh.default",
+        "aten.clamp.default",
+        "aten.clamp_min.default",
+        "aten.clamp_max.default",
+    ):
+        return [_clamp(n, t, p, consts)]
+    if t == "aten.relu6.default":
+        return [clip_act(t, p, 0.0, 6.0)]
+    if t in ("aten.batch_norm.default", "aten._native_batch_norm_legit_no_training.default"):
+        return [_batchnorm(n, t, p, consts, where)]
+    if t in _NOOPS and (t != "<built-in function getitem>" or n.args[1] == 0):
+        return []
+    if t == "aten.dropout.default" and not _arg(n, 2, "train", False, consts):
+        return []
+    if t in ("aten.to.dtype", "aten._to_copy.default", "aten.to.dtype_layout"):
+        dtype = n.kwargs.get("dtype", n.args[1] if len(n.args) > 1 else None)
+        if str(dtype) in _FLOATS:
+            return []
+    if t in ("aten.view.default", "aten.reshape.default", "aten._unsafe_view.default"):
+        shape = list(n.args[1])
+        if len(shape) == 2 and all(isinstance(s, int) for s in shape):
+            return [Reshape(t, p, int(shape[1]))]
+    raise refuse(where, Item(t, p), "unsupported op")
+
+
+def _dense(n: Any, t: str, p: str, consts: dict, where: str) -> Dense:
+    """linear(x, W, b), addmm(b, x, W^T), mm/matmul(x, W) with constant weights."""
+    if t == "aten.linear.default":
+        w = _arg(n, 1, "weight", None, consts)
+        b = _arg(n, 2, "bias", None, consts)
+    elif t == "aten.addmm.default":
+        b, w = _arg(n, 0, "self", None, consts), _arg(n, 2, "mat2", None, consts)
+        w = w.T if isinstance(w, np.ndarray) else w
+    else:
+        w = _arg(n, 1, "other", None, consts)
+        w = w.T if isinstance(w, np.ndarray) else w
+        b = None
+    if (
+        not isinstance(w, np.ndarray)
+        or w.ndim != 2
+        or not (b is None or isinstance(b, np.ndarray | float | int))
+    ):
+        raise refuse(where, Item(t, p), "the weight or bias is not a constant")
+    b = np.zeros(w.shape[0]) if b is None else np.broadcast_to(np.asarray(b).reshape(-1), (w.shape[0],))
+    return Dense(t, p, w, np.array(b, dtype=float))
+
+
+def _arith(n: Any, t: str, p: str, consts: dict, where: str) -> Affine:
+    """add/sub/mul/div/rsub by a constant (tensor or scalar) as an elementwise affine map."""
+    first_computed = _name(n.args[0]) is not None and _name(n.args[0]) not in consts
+    c = np.asarray(_arg(n, 1 if first_computed else 0, "other", None, consts), dtype=float)
+    alpha = float(n.kwargs.get("alpha", n.args[2] if len(n.args) > 2 else 1.0))
+    one, zero = np.ones_like(c), np.zeros_like(c)
+    op = t.split(".")[1]
+    if op == "rsub":
+        op, first_computed = "sub", not first_computed
+    if op == "add":  # add(x, c, alpha) = x + alpha c; add(c, x, alpha) = c + alpha x
+        return Affine(t, p, one, c * alpha) if first_computed else Affine(t, p, one * alpha, c)
+    if op == "mul":
+        return Affine(t, p, c, zero)
+    if op == "sub":
+        return Affine(t, p, one, -c * alpha) if first_computed else Affine(t, p, -one * alpha, c)
+    if first_computed and np.all(c != 0) and not n.kwargs.get("rounding_mode"):
+        return Affine(t, p, 1.0 / c, zero)
+    raise refuse(where, Item(t, p), "division by a computed value, by zero or with rounding")
+
+
+def _clamp(n: Any, t: str, p: str, consts: dict) -> Act:
+    """hardtanh(lo, hi), clamp(min, max), clamp_min, clamp_max -> relu or hardtanh."""
+    if t == "aten.hardtanh.default":
+        return clip_act(t, p, _arg(n, 1, "min_val", -1.0, consts), _arg(n, 2, "max_val", 1.0, consts))
+    if t == "aten.clamp_min.default":
+        return clip_act(t, p, _arg(n, 1, "min", None, consts), None)
+    if t == "aten.clamp_max.default":
+        return clip_act(t, p, None, _arg(n, 1, "max", None, consts))
+    return clip_act(t, p, _arg(n, 1, "min", None, consts), _arg(n, 2, "max", None, consts))
+
+
+def _batchnorm(n: Any, t: str, p: str, consts: dict, where: str) -> Affine:
+    """BatchNorm in eval mode (running statistics) as an elementwise affine map."""
+    if t == "aten.batch_norm.default" and _arg(n, 5, "training", False, consts):
+        raise refuse(where, Item(t, p), "BatchNorm in training mode")
+    eps_k = 7 if t == "aten.batch_norm.default" else 6
+    g, b, m, v = (_arg(n, k, "", None, consts) for k in (1, 2, 3, 4))
+    if any(not isinstance(a, np.ndarray) for a in (g, b, m, v)):
+        raise refuse(where, Item(t, p), "BatchNorm without affine parameters and running statistics")
+    s = g / np.sqrt(v + float(n.args[eps_k]))
+    return Affine(t, p, s, b - m * s)
+
+
+def sequential_items(m: Any) -> list[Item] | None:
+    """A plain nn.Sequential of known torch.nn layers, read layer by layer (exactly what its forward does);
+    None for anything else (custom forward, subclasses, other layers), which goes through torch.export."""
+    import torch.nn as nn
+
+    if type(m) is not nn.Sequential:
+        return None
+    items: list[Item] = []
+    linears = [id(c) for _, c in m.named_modules(remove_duplicate=False) if type(c) is nn.Linear]
+    if len(linears) != len(set(linears)):
+        return None  # a Linear used twice: torch.export sees it and refuses
+    for name, child in m.named_children():
+        c: Any = child
+        p, t = name, type(c).__name__
+        if type(c) is nn.Sequential:
+            sub = sequential_items(c)
+            if sub is None:
+                return None
+            items += sub
+        elif type(c) is nn.Linear:
+            b = c.bias.detach().double().numpy() if c.bias is not None else np.zeros(c.out_features)
+            items.append(Dense(t, p, c.weight.detach().double().numpy(), b))
+        elif type(c) in (nn.ReLU, nn.Tanh, nn.Sigmoid):
+            items.append(Act(t, p, {"ReLU": "relu", "Tanh": "tanh", "Sigmoid": "sigmoid"}[t]))
+        elif type(c) is nn.LeakyReLU:
+            items.append(Act(t, p, "leaky_relu", alpha=float(c.negative_slope)))
+        elif type(c) in (nn.Hardtanh, nn.ReLU6):
+            items.append(clip_act(t, p, float(c.min_val), float(c.max_val)))
+        elif type(c) in (nn.Identity, nn.Dropout) or (type(c) is nn.Flatten and c.start_dim == 1):
+            continue
+        elif type(c) is nn.BatchNorm1d and c.track_running_stats and c.running_mean is not None:
+            items.append(_bn_module(c, t, p))
+        else:
+            return None
+    return items
+
+
+def _bn_module(c: Any, t: str, p: str) -> Affine:
+    """An eval-mode BatchNorm1d module as an elementwise affine map."""
+    v, mu = c.running_var.detach().double().numpy(), c.running_mean.detach().double().numpy()
+    g = c.weight.detach().double().numpy() if c.affine else np.ones_like(v)
+    b = c.bias.detach().double().numpy() if c.affine else np.zeros_like(v)
+    s = g / np.sqrt(v + c.eps)
+    return Affine(t, p, s, b - mu * s)

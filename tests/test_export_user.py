@@ -1,0 +1,196 @@
+"""seagen export as a user meets it: bad input gets one line naming the file (exit 2, nothing written), a
+disagreement with the original exits 1 and writes nothing, a bare network on its own inputs gets NAME_infer
+alone. ~15 s on 2 cores."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from seagen.cli import main
+from seagen.demo import GENERATED
+from seagen.fit.modelfile import load_model
+from tests import table_models as T
+
+SF = GENERATED / "models" / "sf_calibration.pt"
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory) -> dict[str, Path]:
+    """A bare nn.Sequential with its features file, and broken variants of models and specs."""
+    d = tmp_path_factory.mktemp("user")
+    out = {"spec": T.spec_file(d), "seq": d / "seq.pt"}
+    torch.save(T.seq(torch.nn.ReLU()), out["seq"])
+    spec = json.loads(out["spec"].read_text())
+    for name, change in {
+        "flat": {"input_range": [[1.0, 1.0], *T.RANGE[1:]]},
+        "badname": {"inputs": ["pot", "my input", "x2"]},
+        "bare": {"inputs": ["x0", "x1", "x2"]},
+        "typo": {"ouptut_std": 2.0},
+    }.items():
+        out[name] = d / f"{name}.json"
+        out[name].write_text(json.dumps({**spec, **change}))
+    (d / "broken.json").write_text("{inputs: nope")
+    out["broken"] = d / "broken.json"
+    sf = load_model(SF)
+    sf["sf"]["coef"] = sf["sf"]["coef"][:-1]
+    torch.save(sf, d / "sf_short.pt")
+    out["sf_short"] = d / "sf_short.pt"
+    (d / "a_file").write_text("keep")
+    out["a_file"] = d / "a_file"
+    return out
+
+
+OUT = ["--out", "{out}"]
+BAD = {  # case: (arguments with {placeholders}, expected text, the file the message names)
+    "out is a file": (["{sf}", "--out", "{a_file}"], "is not a directory", "a_file"),
+    "out under a file": (["{sf}", "--out", "{a_file}/sub"], "a file, not a folder", "a_file"),
+    "out in /proc": (["{sf}", "--out", "/proc/seagen_out"], "cannot write there", "/proc/seagen_out"),
+    "empty prefix": (["{sf}", *OUT, "--prefix", ""], "--prefix is empty", ""),
+    "prefix sea": (["{sf}", *OUT, "--prefix", "sea"], "belong to the C runtime", ""),
+    "prefix sea_": (["{sf}", *OUT, "--prefix", "sea_cal"], "belong to the C runtime", ""),
+    "range lo == hi": (["{seq}", "--features", "{flat}", *OUT], "needs lo < hi", "seq.pt"),
+    "sf lengths": (["{sf_short}", *OUT], "coefficients for", "sf_short.pt"),
+    "bad input name": (["{seq}", "--features", "{badname}", *OUT], "not a C identifier", "seq.pt"),
+    "unparsable features": (["{seq}", "--features", "{broken}", *OUT], "cannot parse", "broken.json"),
+    "unknown spec key": (["{seq}", "--features", "{typo}", *OUT], "unknown key(s) ouptut_std", "typo.json"),
+    "no features": (["{seq}", *OUT], "needs --features", "seq.pt"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_input_one_line_exit_2_nothing_written(case, files, tmp_path, capsys):
+    """Each bad input: exit 2, one line naming the file, no traceback, no output folder, files untouched."""
+    template, expect, names = BAD[case]
+    out = tmp_path / "out"
+    rc = main(["export", *(a.format(out=out, sf=SF, **files) for a in template)])
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert len(err.strip().splitlines()) == 1 and expect in err and names in err, err
+    assert "Traceback" not in err
+    assert not out.exists()
+    assert files["a_file"].read_text() == "keep"
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes anywhere")
+def test_unwritable_out_exit_2(tmp_path, capsys):
+    """An --out in a read-only folder: exit 2 naming it, nothing written."""
+    ro = tmp_path / "ro"
+    ro.mkdir(mode=0o500)
+    rc = main(["export", str(SF), "--out", str(ro / "x")])
+    assert rc == 2 and "cannot write" in capsys.readouterr().err
+    assert not (ro / "x").exists()
+
+
+def test_stale_onnx_is_removed(files, tmp_path, capsys):
+    """Re-exporting without --onnx removes NAME.onnx an earlier export left (it described another model)."""
+    assert main(["export", str(SF), "--out", str(tmp_path), "--prefix", "m", "--onnx"]) == 0
+    assert (tmp_path / "m.onnx").is_file()
+    assert main(["export", str(SF), "--out", str(tmp_path), "--prefix", "m"]) == 0
+    assert not (tmp_path / "m.onnx").exists() and (tmp_path / "m.c").is_file()
+
+
+def test_misread_model_exits_1_and_writes_nothing(tmp_path, monkeypatch, capsys):
+    """A frontend that misreads a one-sided Clip (drops its bound) is caught by the oracle against
+    onnxruntime: exit 1, the first failing input with both outputs, no output folder."""
+    import seagen.frontends.onnx_reader as reader
+
+    onnx_path = T.save_onnx(T.graph_case("clip_min", 3), tmp_path / "clip.onnx")
+    monkeypatch.setattr(
+        reader, "clip_act", lambda op, p, lo, hi: reader.Act(op, p, "hardtanh", lo=-1e9, hi=1e9)
+    )
+    out = tmp_path / "out"
+    rc = main(["export", str(onnx_path), "--features", str(T.spec_file(tmp_path)), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 1, err
+    assert "integer" in err and "original" in err and "clip.onnx" in err
+    assert not out.exists()
+
+
+def test_failed_check_exits_1_and_writes_nothing(tmp_path, monkeypatch, capsys):
+    """--check that finds a disagreement: exit 1 and nothing in --out."""
+    import seagen.build.equivalence as eq
+
+    bad = eq.DataReport([eq.Check("x", 1, {"C": "row 0"})], 0.0, "N", 0.0)
+    monkeypatch.setattr(eq, "check_data_dir", lambda ex, d: bad)
+    out = tmp_path / "out"
+    assert main(["export", str(SF), "--out", str(out), "--check", str(tmp_path)]) == 1
+    assert "MISMATCH" in capsys.readouterr().out
+    assert not out.exists()
+
+
+def test_bare_network_exports_infer_alone(files, tmp_path):
+    """Inputs x0..x2 (not SEA features): NAME_infer only, no NAME_step or state; the C equals numpy."""
+    from seagen.build.equivalence import random_inputs
+    from seagen.build.model import CModel
+    from seagen.export import prepare
+    from seagen.reference import numpy_ref
+
+    ex = prepare(str(files["seq"]), prefix="bare", features=str(files["bare"]))
+    h = ex.files["bare.h"]
+    assert "bare_infer" in h and "bare_step" not in h and "bare_state_t" not in h
+    assert "bare_step" not in ex.files["bare.c"]
+    x = random_inputs(ex.qmodel, 2000, 0)
+    assert np.array_equal(CModel(ex.files, "bare", -1).infer(x), numpy_ref.infer(ex.qmodel, x))
+
+
+def test_onnx_external_data_outside_folder_refused(tmp_path, capsys):
+    """An ONNX initializer whose external data points outside the model's folder: exit 2, nothing read."""
+    from onnx import external_data_helper as ext
+
+    model = T.gemm_graph("transB0", 5)
+    inside = tmp_path / "model"
+    inside.mkdir()
+    ext.convert_model_to_external_data(
+        model, all_tensors_to_one_file=True, location="w.bin", size_threshold=0
+    )
+    for t in model.graph.initializer:
+        for e in t.external_data:
+            if e.key == "location":
+                e.value = "../w.bin"
+    (inside / "m.onnx").write_bytes(
+        model.SerializeToString()
+    )  # onnx.save itself refuses '..'; a file may not
+    (tmp_path / "w.bin").write_bytes(b"\0" * 4096)
+    rc = main(
+        [
+            "export",
+            str(inside / "m.onnx"),
+            "--features",
+            str(T.spec_file(tmp_path)),
+            "--out",
+            str(tmp_path / "o"),
+        ]
+    )
+    err = capsys.readouterr().err
+    assert rc == 2 and "outside the model folder" in err and "m.onnx" in err, err
+    assert not (tmp_path / "o").exists()
+
+
+def test_evaluate_refuses_pickles(tmp_path):
+    """seagen evaluate loads model files without running code: a malicious pickle is refused, the payload
+    never runs, and the message names --allow-pickle."""
+    from seagen.errors import UserError
+    from seagen.fit.evaluate import load_checked
+
+    marker = tmp_path / "ran"
+    torch.save({"format": "seagen-model/1", "x": T.Payload(marker)}, tmp_path / "evil.pt")
+    with pytest.raises(UserError, match="--allow-pickle"):
+        load_checked(tmp_path / "evil.pt")
+    assert not marker.exists()
+
+
+def test_default_models_load_weights_only():
+    """generated/models/*.pt (a pickled nn.Sequential inside a dict) load with weights_only=True and the
+    torch.nn allowlist: every global they name is on it."""
+    from seagen.fit.modelfile import nn_allowlist, safe_load
+
+    allowed = {f"{c.__module__}.{c.__qualname__}" for c in nn_allowlist()}
+    for p in sorted((GENERATED / "models").glob("*.pt")):
+        assert set(torch.serialization.get_unsafe_globals_in_checkpoint(p)) <= allowed, p
+        assert safe_load(p)["format"] == "seagen-model/1"
