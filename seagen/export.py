@@ -16,8 +16,8 @@ from seagen.codegen.render import RUNTIME, model_hash, render
 from seagen.codegen.runtime import runtime_sources
 from seagen.codegen.summary import summary_lines
 from seagen.errors import CheckFailed, UserError
-from seagen.ir import FloatMLP, FloatModel, QModel
 from seagen.frontends.load import Loaded, load_with_original
+from seagen.ir import FloatMLP, FloatModel, QModel
 from seagen.quant.mlp import quantize_mlp
 from seagen.quant.sf import quantize_sf
 from seagen.reference.oracle import OracleReport, box_points, compare_original

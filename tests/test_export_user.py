@@ -13,7 +13,7 @@ import pytest
 import torch
 
 from seagen.cli import main
-from seagen.demo import GENERATED
+from seagen.defaults import GENERATED
 from seagen.fit.modelfile import load_model
 from tests import table_models as T
 
@@ -136,7 +136,7 @@ def test_bare_network_exports_infer_alone(files, tmp_path):
     assert "bare_infer" in h and "bare_step" not in h and "bare_state_t" not in h
     assert "bare_step" not in ex.files["bare.c"]
     x = random_inputs(ex.qmodel, 2000, 0)
-    assert np.array_equal(CModel(ex.files, "bare", -1).infer(x), numpy_ref.infer(ex.qmodel, x))
+    assert np.array_equal(CModel(ex.files, "bare", ex.qmodel).infer(x), numpy_ref.infer(ex.qmodel, x))
 
 
 def test_onnx_external_data_outside_folder_refused(tmp_path, capsys):
