@@ -138,3 +138,20 @@ def test_cortex_m4_core(tmp_path, capsys):
     out = one_export(tmp_path)
     assert main(["verify", str(out), "--model", str(CAL), "--vectors", "300", "--core", "cortex-m4"]) == 0
     assert "(cortex-m4)" in capsys.readouterr().out
+
+
+def test_controller_export_ticks_checked(tmp_path, capsys):
+    """An export with --controller: its NAME_controller_tick equals the controller twin; a changed gain in
+    NAME_controller.c is named as an edit and its ticks disagree (exit 1)."""
+    model = default_model("mlp_control")
+    assert main(["export", str(model), "--prefix", "ctl_mlp", "--controller", "--out", str(tmp_path)]) == 0
+    assert main(["verify", str(tmp_path), "--model", str(model), "--vectors", "200"]) == 0
+    assert "ok   ctl_mlp_controller_tick over" in capsys.readouterr().out
+    c = tmp_path / "ctl_mlp_controller.c"
+    c.write_text(
+        re.sub(r"(ctl_mlp_pid = \{ )(\d+)", lambda m: m.group(1) + str(int(m.group(2)) * 2), c.read_text())
+    )
+    assert main(["verify", str(tmp_path), "--model", str(model), "--vectors", "200"]) == 1
+    text = capsys.readouterr().out
+    assert "ctl_mlp_controller.c: edited since export" in text
+    assert re.search(r"FAIL ctl_mlp_controller_tick .*: tick \d+ .*C -?\d+ vs twin -?\d+ mV", text), text

@@ -35,6 +35,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="where the C runs: host (cffi) or an emulated core (arm-none-eabi-gcc + unicorn)",
     )
     p.add_argument("--features", metavar="SPEC", help="feature specification, as given to seagen export")
+    p.add_argument(
+        "--allow-pickle",
+        action="store_true",
+        help="unpickle a .pt holding arbitrary Python objects (RUNS CODE from the file: trusted files only)",
+    )
     p.add_argument("--junit", metavar="FILE", help="also write a JUnit XML report (one test case per check)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.set_defaults(func=cmd_verify)
@@ -44,7 +49,16 @@ def cmd_verify(args: argparse.Namespace) -> int:
     """Run every check, print the report, write the JUnit file; 0 agrees, 1 disagrees."""
     from seagen.verify.run import verify
 
-    verdict = verify(args.dir, args.model, args.prefix, args.data, args.vectors, args.core, args.features)
+    verdict = verify(
+        args.dir,
+        args.model,
+        args.prefix,
+        args.data,
+        args.vectors,
+        args.core,
+        args.features,
+        args.allow_pickle,
+    )
     print(verdict.to_json() if args.json else verdict.text())
     if args.junit:
         with atomic_path(Path(args.junit)) as tmp:

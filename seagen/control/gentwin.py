@@ -33,8 +33,8 @@ class StepTwin:
     like NAME_reset.
     """
 
-    def __init__(self, prefix: str) -> None:
-        self.qm = export(prefix).qmodel
+    def __init__(self, prefix: str, qm=None) -> None:
+        self.qm = qm if qm is not None else export(prefix).qmodel
         self.pipeline = F.Pipeline(P.linkage_table_q16())
 
     def __call__(self, enc: np.ndarray, pot: np.ndarray, force_q16: np.ndarray) -> np.ndarray:
