@@ -13,6 +13,8 @@ from seagen.build.runtime import runtime_sources
 from seagen.codegen.cfmt import assert_valid_prefix
 from seagen.codegen.render import RUNTIME, render
 from seagen.codegen.summary import summary_lines
+from seagen.codegen.targets import RUNTIME as TARGET_RUNTIME
+from seagen.codegen.targets import check_target
 from seagen.errors import UserError
 from seagen.ir import FloatMLP, FloatModel, QModel
 from seagen.quant.load import load_float_model
@@ -66,6 +68,7 @@ def prepare(
     calib: str | None = None,
     features: str | None = None,
     with_onnx: bool = False,
+    target: str = "portable",
 ) -> Export:
     """Everything of an export, in memory (nothing is written)."""
     prefix = assert_valid_prefix(prefix or default_prefix(model_path))
@@ -74,7 +77,8 @@ def prepare(
         raise UserError(f"--weights must be int16 or int8, not {weights!r}")
     fm = load_float_model(model_path, features, (lambda names: calib_ranges(calib, names)) if calib else None)
     qm = quantize(fm, bits)
-    files = {**render(qm, prefix), **runtime_sources(*RUNTIME)}
+    # issue 12 hook: the target's kernel and the extra runtime header it includes (seagen/codegen/targets.py)
+    files = {**render(qm, prefix, target), **runtime_sources(*RUNTIME, *TARGET_RUNTIME[check_target(target)])}
     onnx_bytes = None
     if with_onnx:
         from seagen.reference.onnx_ref import build_onnx
