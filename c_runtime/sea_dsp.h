@@ -19,6 +19,15 @@
 #include <arm_acle.h>
 #endif
 
+/* SEA_OPAQUE(p): makes the compiler forget what pointer p holds (an empty asm on gcc/clang), so loads
+ * through it are not hoisted out of a loop: on the M0+ the hoisted inputs would live in high registers,
+ * which Thumb-1 arithmetic cannot use directly. No effect on the results. */
+#if defined(__GNUC__)
+#define SEA_OPAQUE(p) __asm__("" : "+r"(p))
+#else
+#define SEA_OPAQUE(p) ((void)0)
+#endif
+
 /* Low (first) int16 of a packed word, as int32; exact, no implementation-defined conversion. */
 static inline int32_t sea_lo16(int32_t w)
 {

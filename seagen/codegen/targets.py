@@ -1,4 +1,4 @@
-"""Per-target MLP kernels: weight packing and the template context for Cortex-M4 (SMLAD) and M0+ (offset uint16).
+"""Per-target MLP kernels: weight packing and template context for Cortex-M4 (SMLAD) and M0+ (offset uint16).
 
 The integer semantics are the portable kernel's (QLayer: acc = b + W x, y = act(sat16(rshift_rne(acc, s))));
 only the evaluation order of the exact integer sum and the representation of the tables change:
