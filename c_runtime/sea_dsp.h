@@ -127,6 +127,37 @@ static inline int32_t sea_clamp_s32(int32_t v, int32_t lo, int32_t hi)
     return v < lo ? lo : (v > hi ? hi : v);
 }
 
+/* floor(x * r / 2^s) for an int16 x and int32 r, 16 <= s <= 46 (the surface-fit planner's MIN_SHIFT), by a
+ * 16x32 split: r = rh * 2^16 + rl with 0 <= rl < 2^16, so floor(x * r / 2^16) = x * rh + floor(x * rl / 2^16),
+ * both products exact in int32 (ARMv6-M has no 32x32->64 multiply). Exact for every such x, r. */
+static inline int32_t sea_mulshr_split_s32(int32_t x, int32_t r, int s)
+{
+    const int32_t rh = r >> 16;
+    const int32_t rl = (int32_t)((uint32_t)r & 0xFFFFu);
+    return (x * rh + ((x * rl) >> 16)) >> (s - 16);
+}
+
+/* The same through a 64-bit product: for s <= 32 the high word of (x * 2^(32 - s)) * r (one SMMUL, or SMMLA
+ * with the addend, on ARMv7E-M; x * 2^(32 - s) fits int32 as |x| <= 2^15). The result must fit int32. */
+static inline int32_t sea_mulshr_wide_s32(int32_t x, int32_t r, int s)
+{
+    if (s <= 32) {
+        return (int32_t)(((int64_t)(x * (1 << (32 - s))) * r) >> 32);
+    }
+    return (int32_t)(((int64_t)x * r) >> s);
+}
+
+/* floor(x * r / 2^s): the Horner step's product (c_runtime/README.md, item 7); identical integers on every
+ * core, the split form where the core lacks a long multiply (ARMv6-M: Cortex-M0/M0+). */
+static inline int32_t sea_mulshr_s32(int32_t x, int32_t r, int s)
+{
+#if defined(__ARM_ARCH_6M__)
+    return sea_mulshr_split_s32(x, r, s);
+#else
+    return sea_mulshr_wide_s32(x, r, s);
+#endif
+}
+
 /* Modular uint32 -> int32 (two's complement reinterpretation) without implementation-defined conversion;
  * compiles to nothing. Used by the M0+ kernel, whose accumulators are uint32 sums proven to end in int32. */
 static inline int32_t sea_u32_to_s32(uint32_t u)

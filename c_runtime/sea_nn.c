@@ -86,8 +86,9 @@ void sea_table_s16(int16_t *y, int n, const int16_t *table, int32_t len, int in_
 
 int32_t sea_horner_s32(int16_t x, int32_t t, int32_t add, int align, int shift)
 {
-    int64_t acc = (int64_t)x * t + (int64_t)add * ((int64_t)1 << align);
-    return sea_sat32(sea_rshift_rne_s64(acc, shift));
+    int64_t p = ((int64_t)x * t) >> shift; /* floor: arithmetic shift (c_runtime/README.md, item 7) */
+    int64_t a = align >= 0 ? (int64_t)add * ((int64_t)1 << align) : (int64_t)add >> -align;
+    return sea_sat32(p + a);
 }
 
 int16_t sea_to_s16(int64_t v, int from_frac, int to_frac)

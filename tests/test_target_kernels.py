@@ -22,15 +22,15 @@ from seagen.quant.mlp import quantize_mlp
 from seagen.quant.primitives import linkage_table_q16, rshift_rne
 from seagen.reference import numpy_ref
 
-MLPS = [n for n in sorted(DEFAULT_PREFIX) if n.startswith("mlp_")]
+MODELS = sorted(DEFAULT_PREFIX)  # both MLPs and both surface fits
 TARGETS = ("cortex-m4", "cortex-m0plus")
-KEYS = [(m, t) for m in MLPS for t in TARGETS]
+KEYS = [(m, t) for m in MODELS for t in TARGETS]
 IDS = [f"{m}-{t}" for m, t in KEYS]
 
 
 @pytest.fixture(scope="module")
 def exports():
-    """Every default MLP exported for each target kernel, keyed by (model, target)."""
+    """Every default model exported for each target kernel, keyed by (model, target)."""
     return {
         (m, t): prepare(str(GENERATED / "models" / f"{m}.pt"), prefix=DEFAULT_PREFIX[m], target=t)
         for m, t in KEYS
@@ -66,7 +66,7 @@ def test_host_build_bit_exact(exports, key, data_dir):
     assert first_mismatch(got, want, df[["trial", "enc", "pot"]].to_numpy()) is None
 
 
-@pytest.mark.parametrize("model", MLPS)
+@pytest.mark.parametrize("model", MODELS)
 def test_m4_fallback_sanitized(exports, model):
     """The M4 kernel's portable fallback is clean under UBSan+ASan on random and edge inputs, same output."""
     ex = exports[(model, "cortex-m4")]
@@ -140,7 +140,8 @@ def prepare_runtime(target: str) -> dict[str, str]:
 
 
 def test_dsp_helpers_match_python_twins():
-    """sea_dsp.h fallbacks: folded rounding == rshift_rne, SMLAD == exact sum, pack/unpack round-trips."""
+    """sea_dsp.h fallbacks: folded rounding == rshift_rne, SMLAD == exact sum, pack/unpack round-trip, and
+    both forms of the Horner product equal floor(x * r / 2^s) where the planner allows them."""
     from seagen.build.host import build
     from seagen.build.runtime import runtime_sources
 
@@ -148,6 +149,7 @@ def test_dsp_helpers_match_python_twins():
         "int32_t t_rne32(int32_t v, int s); int64_t t_rne64(int64_t v, int s);"
         "int32_t t_smlad(int32_t x, int32_t w, int32_t a); int32_t t_pack(int32_t lo, int32_t hi);"
         "int32_t t_lo(int32_t w); int32_t t_hi(int32_t w); int32_t t_u2s(uint32_t u);"
+        "int32_t t_split(int32_t x, int32_t r, int s); int32_t t_wide(int32_t x, int32_t r, int s);"
     )
     body = (
         '#include "sea_dsp.h"\n#include "t_dsp.h"\n'
@@ -157,6 +159,8 @@ def test_dsp_helpers_match_python_twins():
         "int32_t t_pack(int32_t lo, int32_t hi) { return sea_pack16x2(lo, hi); }\n"
         "int32_t t_lo(int32_t w) { return sea_lo16(w); }\nint32_t t_hi(int32_t w) { return sea_hi16(w); }\n"
         "int32_t t_u2s(uint32_t u) { return sea_u32_to_s32(u); }\n"
+        "int32_t t_split(int32_t x, int32_t r, int s) { return sea_mulshr_split_s32(x, r, s); }\n"
+        "int32_t t_wide(int32_t x, int32_t r, int s) { return sea_mulshr_wide_s32(x, r, s); }\n"
     )
     header = "#include <stdint.h>\n" + cdef.replace(";", ";\n")
     lib = build(cdef, {**runtime_sources("sea_dsp.h"), "t_dsp.h": header, "t_dsp.c": body}, name="tdsp").lib
@@ -175,6 +179,14 @@ def test_dsp_helpers_match_python_twins():
         assert lib.t_smlad(x, w, -12345) == -12345 + a * c + b * d  # within the proven bound
     for u in (0, 1, 2**31 - 1, 2**31, 2**32 - 1):
         assert lib.t_u2s(u) == (u - 2**32 if u >= 2**31 else u)
+    xs = [*rng.integers(-(2**15), 2**15, 200).tolist(), -(2**15), 2**15 - 1, 0, -1]
+    rs = [*rng.integers(-(2**31), 2**31, 200).tolist(), -(2**31), 2**31 - 1, 0, -1, 65535, -65536]
+    for x, r in zip(xs * 2, rs * 2, strict=False):
+        for s in range(16, 47):  # the planner's MIN_SHIFT = 16
+            want = (x * r) >> s  # Python ints: exact floor
+            assert lib.t_split(x, r, s) == want, (x, r, s)
+            if -(2**31) <= want < 2**31:
+                assert lib.t_wide(x, r, s) == want, (x, r, s)
 
 
 def test_bad_target_and_unsupported_activation_are_clear_errors():

@@ -12,7 +12,7 @@ import numpy as np
 from seagen import __version__
 from seagen.codegen.cfmt import assert_valid_prefix, c_array, c_int
 from seagen.codegen.summary import buffer_width, summary_lines
-from seagen.codegen.targets import TEMPLATES, kernel_context
+from seagen.codegen.targets import kernel_context
 from seagen.ir import QModel
 from seagen.quant.features import external_inputs, feature_plan
 from seagen.quant.primitives import linkage_table_q16
@@ -136,7 +136,7 @@ def render(qm: QModel, prefix: str, target: str = "portable") -> dict[str, str]:
     ctx = context(qm, prefix)
     # issue 12 hook: a target kernel (seagen/codegen/targets.py) replaces the layer tables and NAME_infer
     kctx = kernel_context(qm, target)
-    ctx["kernel"] = env.get_template(TEMPLATES[target]).render({**ctx, **kctx}) if kctx else None
+    ctx["kernel"] = env.get_template(kctx["template"]).render({**ctx, **kctx}) if kctx else None
     return {
         f"{prefix}.h": env.get_template("model.h.j2").render(ctx),
         f"{prefix}.c": env.get_template("model.c.j2").render(ctx),

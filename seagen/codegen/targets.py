@@ -16,8 +16,9 @@ from typing import Any
 
 import numpy as np
 
+from seagen.codegen.cfmt import c_int
 from seagen.errors import UserError
-from seagen.ir import QModel
+from seagen.ir import QHorner, QModel
 
 TARGETS = ("portable", "cortex-m0plus", "cortex-m4")
 TEMPLATES = {"cortex-m4": "mlp_cortex_m4.c.j2", "cortex-m0plus": "mlp_cortex_m0plus.c.j2"}
@@ -165,11 +166,53 @@ def m0plus_layers(qm: QModel) -> list[dict[str, Any]]:
     return out
 
 
+def _addend(op: QHorner) -> str:
+    """C expression of a Horner step's addend: the constant, or a register aligned to the new format."""
+    if op.add_reg < 0:
+        return c_int(op.coef_q)
+    if op.align > 0:
+        return f"r{op.add_reg} * {1 << op.align}"
+    return f"r{op.add_reg}" if op.align == 0 else f"(r{op.add_reg} >> {-op.align})"
+
+
+def sf_steps(qm: QModel) -> dict[str, Any]:
+    """Surface-fit kernel context: one C statement per Horner step, and the rounding of the output."""
+    steps = []
+    for op in qm.horner:
+        if op.var < 0:
+            steps.append({"dst": op.dst, "load": c_int(op.coef_q)})
+        else:
+            steps.append(
+                {
+                    "dst": op.dst,
+                    "load": None,
+                    "var": op.var,
+                    "src": op.src,
+                    "shift": op.shift,
+                    "add": _addend(op),
+                }
+            )
+    last = qm.horner[-1]
+    # |r| < 2^30 + its proven error (QHorner planning), so r + 2^(s-1) cannot overflow int32 for s <= 30
+    if not 0 <= qm.out_shift <= 30:
+        raise UserError(f"surface fit: output shift {qm.out_shift} outside 0..30")
+    return {
+        "steps": steps,
+        "n_regs": qm.n_regs,
+        "final": last.dst,
+        "out_shift": qm.out_shift,
+        "out_half": _half(qm.out_shift),
+        "template": "sf_horner.c.j2",
+    }
+
+
 def kernel_context(qm: QModel, target: str) -> dict[str, Any]:
-    """Extra template context of a target kernel ({} for the portable one or a surface fit)."""
+    """Extra template context of a target kernel ({} for the portable one)."""
     check_target(target)
-    if target == "portable" or qm.kind != "mlp":
+    if target == "portable":
         return {}
+    if qm.kind == "sf":
+        return {"target": target, **sf_steps(qm)}
     _check_layers(qm, target)
     layers = m4_layers(qm) if target == "cortex-m4" else m0plus_layers(qm)
-    return {"target": target, "tlayers": layers}
+    return {"target": target, "tlayers": layers, "template": TEMPLATES[target]}
