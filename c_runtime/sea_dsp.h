@@ -121,6 +121,19 @@ static inline int32_t sea_relu_sat16_s64(int64_t q)
     return q < 0 ? 0 : (q > 32767 ? 32767 : (int32_t)q);
 }
 
+/* Narrowing of a value the generator proved to lie in int16 (the layer's output format was chosen so that
+ * nothing saturates inside the calibrated box, c_runtime/README.md item 5): sea_sat16 would not act. */
+static inline int32_t sea_proven16_s32(int32_t q)
+{
+    return q;
+}
+
+/* The same for a 64-bit accumulator's shifted value. */
+static inline int32_t sea_proven16_s64(int64_t q)
+{
+    return (int32_t)q;
+}
+
 /* Clamp an input to its calibrated box [lo, hi] (sea_clamp_s16 on one value). */
 static inline int32_t sea_clamp_s32(int32_t v, int32_t lo, int32_t hi)
 {

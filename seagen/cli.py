@@ -14,6 +14,7 @@ COMMAND_MODULES = (
     "seagen.data.commands",
     "seagen.fit.commands",
     "seagen.codegen.commands",
+    "seagen.build.commands",
     "seagen.control.commands",
     "seagen.discrepancy.commands",
     "seagen.demo",

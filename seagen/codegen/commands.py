@@ -25,6 +25,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--features", metavar="SPEC", help="feature specification (JSON or TOML) for bare networks"
     )
+    p.add_argument(
+        "--target",
+        choices=("portable", "cortex-m0plus", "cortex-m4"),
+        default="portable",
+        help="kernel of NAME_infer: portable C99 (default, the reference), cortex-m4 (SMLAD; M4/M7/M33, "
+        "portable fallback elsewhere) or cortex-m0plus (ARMv6-M); same integers on every target",
+    )
     p.add_argument("--onnx", action="store_true", help="also write the quantized integer graph NAME.onnx")
     p.add_argument(
         "--check",
@@ -39,7 +46,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     """Export, print the summary, optionally check equivalence."""
     from seagen.codegen.export import prepare, write
 
-    ex = prepare(args.model, args.prefix, args.weights, args.calib, args.features, args.onnx)
+    ex = prepare(args.model, args.prefix, args.weights, args.calib, args.features, args.onnx, args.target)
     written = write(ex, args.out)
     print(f"seagen export: {args.model} -> {args.out}/ ({', '.join(p.name for p in written)})")
     for line in ex.lines:

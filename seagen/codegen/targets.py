@@ -19,6 +19,7 @@ import numpy as np
 from seagen.codegen.cfmt import c_int
 from seagen.errors import UserError
 from seagen.ir import QHorner, QModel
+from seagen.quant.primitives import rshift_rne
 
 TARGETS = ("portable", "cortex-m0plus", "cortex-m4")
 TEMPLATES = {"cortex-m4": "mlp_cortex_m4.c.j2", "cortex-m0plus": "mlp_cortex_m0plus.c.j2"}
@@ -73,9 +74,19 @@ def _check_layers(qm: QModel, target: str) -> None:
         raise UserError(f"--target {target}: the last layer must have one output")
 
 
-def _helpers(acc: int, act: str) -> dict[str, str]:
+def _proven16(mn: list, mx: list, shift: int) -> bool:
+    """Every neuron's shifted accumulator lies in int16 over the box (saturation would never act)."""
+    lo, hi = int(rshift_rne(int(min(mn)), shift)), int(rshift_rne(int(max(mx)), shift))
+    return -(2**15) <= lo and hi <= 2**15 - 1
+
+
+def _helpers(acc: int, act: str, proven: bool = False) -> dict[str, str]:
     """Names of the sea_dsp.h helpers (accumulator type, rounding shift, fused activation) for a layer."""
-    sat = {"relu": "sea_relu_sat16", "linear": "sea_sat16"}[act]
+    sat = (
+        "sea_proven16"
+        if act == "linear" and proven
+        else {"relu": "sea_relu_sat16", "linear": "sea_sat16"}[act]
+    )
     if acc == 32:
         return {
             "acc_t": "int32_t",
@@ -100,8 +111,9 @@ def m4_layers(qm: QModel) -> list[dict[str, Any]]:
     for k, (q, (lo, hi)) in enumerate(zip(qm.layers, _in_bounds(qm), strict=True)):
         n_out, n_in = q.w_q.shape
         half = _half(q.shift)
-        _, _, worst = _acc_interval(q.w_q, q.b_q, lo, hi)
+        mn, mx, worst = _acc_interval(q.w_q, q.b_q, lo, hi)
         acc = 32 if max(worst) + half <= INT32_MAX else 64
+        unroll = 4 if len(_words(q.w_q[0])) % 4 == 0 else (2 if len(_words(q.w_q[0])) % 2 == 0 else 1)
         bias = [int(b) + half for b in q.b_q]
         rows = [_words(q.w_q[j]) for j in range(n_out)]
         table = [v for j in range(n_out) for v in ([bias[j]] if acc == 32 else []) + rows[j]]
@@ -118,7 +130,8 @@ def m4_layers(qm: QModel) -> list[dict[str, Any]]:
                 "table": table,
                 "bias64": bias if acc == 64 else None,
                 "last": k == len(qm.layers) - 1,
-                **_helpers(acc, q.activation),
+                "unroll": unroll,
+                **_helpers(acc, q.activation, _proven16(mn, mx, q.shift)),
             }
         )
     return out
