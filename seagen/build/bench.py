@@ -155,7 +155,7 @@ def _trajectory(n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _tick_driver(prefix: str) -> dict[str, str]:
-    """The controller-tick driver for a control predictor, with the tuned PID (see templates/bench_tick.c.j2)."""
+    """The controller-tick driver of a control predictor with the tuned PID (templates/bench_tick.c.j2)."""
     from seagen.codegen.render import environment
     from seagen.control.controller import ControlConfig
     from seagen.control.experiment import MLP_PRED_AVG
@@ -176,21 +176,28 @@ def _tick_driver(prefix: str) -> dict[str, str]:
     return {f"{prefix}_bench.c": text}
 
 
-def _calls(prefix: str, entry: str, header: str, box: tuple[np.ndarray, np.ndarray]):
+def _calls(prefix: str, entry: str, header: str, box: tuple[np.ndarray, np.ndarray]) -> tuple[list, list]:
     """(symbol, args) of the measured calls of one entry point, after the set-up calls (symbol, args)."""
     rng = np.random.default_rng(0)
-    n_ext = len(re.search(rf"int16_t {prefix}_step\(([^)]*)\)", header).group(1).split(",")) - 3
+    sig = re.search(rf"int16_t {prefix}_step\(([^)]*)\)", header)
+    if sig is None:
+        raise UserError(f"{prefix}.h declares no {prefix}_step")
+    n_ext = len(sig.group(1).split(",")) - 3
     enc, pot = _trajectory(N_CALLS)
     if entry == "infer":
         rows = rng.integers(box[0], box[1] + 1, (N_CALLS, len(box[0])))
         return [], [(f"{prefix}_infer", [r.astype(np.int16), np.zeros(1, np.int16)]) for r in rows]
     if entry == "step":
         ext = [6000] * n_ext  # e.g. a desired force around 6 N in the predictor's Q10
-        setup = [(f"{prefix}_reset", ["state"])]
-        return setup, [(f"{prefix}_step", ["state", int(e), int(p), *ext]) for e, p in zip(enc, pot)]
+        setup: list[tuple[str, list]] = [(f"{prefix}_reset", ["state"])]
+        return setup, [
+            (f"{prefix}_step", ["state", int(e), int(p), *ext]) for e, p in zip(enc, pot, strict=True)
+        ]
     force = 8 << 16  # 8 N desired, Q16
     setup = [(f"{prefix}_bench_init", ["state", int(enc[0]), int(pot[0])])]
-    return setup, [(f"{prefix}_bench_tick", ["state", int(e), int(p), force]) for e, p in zip(enc, pot)]
+    return setup, [
+        (f"{prefix}_bench_tick", ["state", int(e), int(p), force]) for e, p in zip(enc, pot, strict=True)
+    ]
 
 
 def _run(machine, code, setup, calls) -> list[Trace]:
@@ -256,7 +263,8 @@ def bench_model(d: Path, prefix: str, cpu: str) -> list[Entry]:
         out = []
         for e in entries:
             measured = ROOTS[e][-1].format(p=prefix)
-            alone = _link(work, objs, flags, (ROOTS[e][0].format(p=prefix), measured) if e == "tick" else (measured,), e)
+            keep = (ROOTS[e][0].format(p=prefix), measured) if e == "tick" else (measured,)
+            alone = _link(work, objs, flags, keep, e)
             setup, calls = _calls(prefix, e, sources[f"{prefix}.h"], box)
             traces = _run(machine, code, setup, calls)
             n = np.array([t.instructions for t in traces])

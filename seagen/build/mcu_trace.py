@@ -25,12 +25,88 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 LINE = re.compile(r"^\s*([0-9a-f]+):\s+([0-9a-f]{4})(?: ([0-9a-f]{4}))?\s+(\S+)\s*(.*)$")
-CONDS = "eq ne cs cc hs lo mi pl vs vc hi ls ge lt gt le al".split()
+CONDS = ["eq", "ne", "cs", "cc", "hs", "lo", "mi", "pl", "vs", "vc", "hi", "ls", "ge", "lt", "gt", "le", "al"]
 V6M = set(
-    "adc adcs add adds adr and ands asr asrs b bic bics bkpt bl blx bx cmn cmp cpsid cpsie dmb dsb eor eors "
-    "isb ldm ldmia ldr ldrb ldrh ldrsb ldrsh lsl lsls lsr lsrs mov movs mrs msr mul muls mvn mvns neg negs "
-    "nop orr orrs pop push rev rev16 revsh ror rors rsb rsbs sbc sbcs sev stm stmia str strb strh sub subs "
-    "svc sxtb sxth tst udf uxtb uxth wfe wfi yield".split()
+    [
+        "adc",
+        "adcs",
+        "add",
+        "adds",
+        "adr",
+        "and",
+        "ands",
+        "asr",
+        "asrs",
+        "b",
+        "bic",
+        "bics",
+        "bkpt",
+        "bl",
+        "blx",
+        "bx",
+        "cmn",
+        "cmp",
+        "cpsid",
+        "cpsie",
+        "dmb",
+        "dsb",
+        "eor",
+        "eors",
+        "isb",
+        "ldm",
+        "ldmia",
+        "ldr",
+        "ldrb",
+        "ldrh",
+        "ldrsb",
+        "ldrsh",
+        "lsl",
+        "lsls",
+        "lsr",
+        "lsrs",
+        "mov",
+        "movs",
+        "mrs",
+        "msr",
+        "mul",
+        "muls",
+        "mvn",
+        "mvns",
+        "neg",
+        "negs",
+        "nop",
+        "orr",
+        "orrs",
+        "pop",
+        "push",
+        "rev",
+        "rev16",
+        "revsh",
+        "ror",
+        "rors",
+        "rsb",
+        "rsbs",
+        "sbc",
+        "sbcs",
+        "sev",
+        "stm",
+        "stmia",
+        "str",
+        "strb",
+        "strh",
+        "sub",
+        "subs",
+        "svc",
+        "sxtb",
+        "sxth",
+        "tst",
+        "udf",
+        "uxtb",
+        "uxth",
+        "wfe",
+        "wfi",
+        "yield",
+    ]
 )
 V6M_WIDE = {"bl", "dmb", "dsb", "isb", "mrs", "msr"}
 V8M_ONLY = {"sg", "tt", "ttt", "tta", "ttat", "lda", "ldab", "ldah", "stl", "stlb", "stlh", "ldaex", "stlex"}
@@ -128,19 +204,21 @@ def traced_call(machine, code: dict[int, Insn], symbol: str, *args) -> tuple[lis
     from unicorn import UC_HOOK_CODE
     from unicorn import arm_const as A
 
-    t, prev = Trace(), [None]  # prev: (address, size, insn) of the previous instruction
+    t = Trace()
+    prev: list[tuple[int, int, Insn, bool] | None] = [None]  # the previous instruction, settled on the next
 
     def settle(next_addr: int) -> None:
-        if prev[0] is not None:
-            addr, size, insn, after_mem = prev[0]
+        if (p := prev[0]) is not None:
+            addr, size, insn, after_mem = p
             t.cycles += cycles(machine.cpu, insn, next_addr != addr + size, after_mem)
 
     def hook(uc, addr: int, size: int, _data) -> None:
         settle(addr)
+        last = prev[0]
         insn = code.get(addr, Insn("?", size, ""))
         if (bad := isa_violation(machine.cpu, insn)) is not None:
             t.violations.add(bad)
-        after_mem = prev[0] is not None and prev[0][2].mnemonic.startswith(("ldr", "str"))
+        after_mem = last is not None and last[2].mnemonic.startswith(("ldr", "str"))
         prev[0] = (addr, size, insn, after_mem)
         if t.instructions == 0:
             t.entry_sp = uc.reg_read(A.UC_ARM_REG_SP)

@@ -77,7 +77,7 @@ def _check_layers(qm: QModel, target: str) -> None:
 def _proven16(mn: list, mx: list, shift: int) -> bool:
     """Every neuron's shifted accumulator lies in int16 over the box (saturation would never act)."""
     lo, hi = int(rshift_rne(int(min(mn)), shift)), int(rshift_rne(int(max(mx)), shift))
-    return -(2**15) <= lo and hi <= 2**15 - 1
+    return lo >= -(2**15) and hi <= 2**15 - 1
 
 
 def _helpers(acc: int, act: str, proven: bool = False) -> dict[str, str]:
