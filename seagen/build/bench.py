@@ -22,7 +22,7 @@ import numpy as np
 from seagen import __version__
 from seagen.build import cortexm as cm
 from seagen.build.host import compile_objects
-from seagen.build.mcu_trace import Trace, disassemble, traced_call
+from seagen.build.mcu_trace import Trace, reg_count, disassemble, traced_call
 from seagen.errors import UserError
 
 FLOAT_HELPER = re.compile(  # soft-float helpers of libgcc (AEABI and GCC names); integer helpers do not match
@@ -105,20 +105,34 @@ def _stack_usage(work: Path) -> dict[str, int]:
     return out
 
 
-def static_stack(elf: Path, usage: dict[str, int], root: str) -> int | None:
-    """Worst stack over the call graph from `root` (bl edges of the disassembly; indirect calls are taken
-    to reach any NAME_predict_q16 linked). None when a reachable function has no -fstack-usage record."""
-    text = cm._run(["arm-none-eabi-objdump", "-d", str(elf)], "objdump")
+def _frames(text: str) -> tuple[dict[str, set[str]], dict[str, int]]:
+    """From `objdump -d`: each function's callees (bl; "<indirect>" for blx rN) and the bytes its own
+    pushes and `sub sp` reserve (the frame of code without -fstack-usage records, e.g. libgcc helpers)."""
     calls: dict[str, set[str]] = {}
+    frame: dict[str, int] = {}
     cur = None
     for line in text.splitlines():
         if m := re.match(r"^[0-9a-f]+ <([^>]+)>:$", line):
             cur = m.group(1)
-            calls[cur] = set()
-        elif cur and (m := re.search(r"\bbl\w*\s+[0-9a-f]+ <([^>+]+)>", line)):
+            calls[cur], frame[cur] = set(), 0
+        elif cur is None:
+            continue
+        elif m := re.search(r"\bbl\w*\s+[0-9a-f]+ <([^>+]+)>", line):
             calls[cur].add(m.group(1))
-        elif cur and re.search(r"\bblx\s+r\d", line):
+        elif re.search(r"\bbl?x(\.n)?\s+(r\d+|ip|sl|fp|sb)\b", line):  # indirect call or tail call
             calls[cur].add("<indirect>")
+        elif m := re.search(r"\t(push|stmdb)(\.w)?\s+(sp!, )?(\{[^}]*\})", line):
+            frame[cur] += 4 * reg_count(m.group(4))
+        elif m := re.search(r"\tsub(\.w)?\s+sp, (sp, )?#(\d+)", line):
+            frame[cur] += int(m.group(3))
+    return calls, frame
+
+
+def static_stack(elf: Path, usage: dict[str, int], root: str) -> int | None:
+    """Worst stack over the call graph from `root`: -fstack-usage records, else the function's own pushes
+    and `sub sp` (libgcc helpers); indirect calls are taken to reach any NAME_predict_q16 linked. None on
+    recursion."""
+    calls, frame = _frames(cm._run(["arm-none-eabi-objdump", "-d", str(elf)], "objdump"))
     predictors = {f for f in calls if f.endswith("_predict_q16")}
     memo: dict[str, int | None] = {}
 
@@ -128,9 +142,9 @@ def static_stack(elf: Path, usage: dict[str, int], root: str) -> int | None:
         if f in path:
             return None  # recursion: no static bound
         if f not in memo:
-            own = usage.get(f, 0 if f.startswith("__") else None)  # libgcc helpers: leaf assembly
+            own = usage.get(f, frame.get(f, 0))
             kids = [worst(g, (*path, f)) for g in sorted(calls.get(f, ()))]
-            memo[f] = None if own is None or None in kids else own + max([k or 0 for k in kids], default=0)
+            memo[f] = None if None in kids else own + max([k or 0 for k in kids], default=0)
         return memo[f]
 
     return worst(root, ())

@@ -140,7 +140,7 @@ def _branch(mn: str) -> bool:
     return mn in ("b", "bx", "blx", "cbz", "cbnz") or (mn[:1] == "b" and mn[1:] in CONDS)
 
 
-def _regs(ops: str) -> int:
+def reg_count(ops: str) -> int:
     """Registers in a {..} list (ranges r4-r7 counted)."""
     inner = ops[ops.find("{") + 1 : ops.find("}")]
     n = 0
@@ -154,7 +154,7 @@ def cycles(cpu: str, insn: Insn, taken: bool, after_mem: bool) -> int:
     """Cycles of one executed instruction under the model in the module docstring."""
     mn, p = insn.mnemonic, 2
     if mn in ("push", "pop", "ldm", "ldmia", "stm", "stmia", "stmdb", "ldmdb"):
-        return 1 + _regs(insn.ops) + (2 if "pc" in insn.ops else 0)
+        return 1 + reg_count(insn.ops) + (2 if "pc" in insn.ops else 0)
     if mn == "bl":
         return 3
     if _branch(mn):
