@@ -23,6 +23,7 @@ import numpy as np
 from seagen.build import bench as B
 from seagen.build import cortexm as cm
 from seagen.build.bench_mcu import FLOAT_FLAGS, float_source, macs
+from seagen.build.elfinfo import library_helpers
 from seagen.build.host import compile_objects
 from seagen.build.mcu_trace import disassemble, traced_call
 from seagen.demo import DEFAULT_PREFIX, GENERATED
@@ -117,7 +118,7 @@ def _measure(
             ys.append(back[1][0])
             traces.append(t)
         sections = cm._sections(elf)
-        helpers = B._helpers(elf, objs)
+        helpers = library_helpers(elf, objs)
         row = {
             "impl": name,
             "cpu": cpu,
