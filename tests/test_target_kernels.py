@@ -200,3 +200,50 @@ def test_bad_target_and_unsupported_activation_are_clear_errors():
     )
     with pytest.raises(UserError, match="portable"):
         render(quantize_mlp(tanh), "m", "cortex-m4")
+
+
+def test_32_bit_paths_of_sea_fixed_match_twins():
+    """sea_rshift_rne_s64's int32 fast path, sea_div_rne_s32's unsigned 32-bit division and sea_to_s16's
+    saturation decided before scaling equal the Python twins at the limits, on ties and on random values."""
+    from seagen.build.host import build
+    from seagen.build.runtime import FIXED, runtime_sources
+    from seagen.quant.kernels import to_s16
+    from seagen.quant.primitives import div_rne
+
+    cdef = (
+        "int64_t sea_rshift_rne_s64(int64_t v, int s); int32_t sea_div_rne_s32(int32_t num, int32_t den);"
+        "int16_t sea_to_s16(int64_t v, int from_frac, int to_frac);"
+    )
+    lib = build(cdef, runtime_sources(*FIXED, "sea_nn.h", "sea_nn.c"), name="fixed32").lib
+    rng = np.random.default_rng(9)
+    edges = [-(2**31) - 1, -(2**31), -(2**31) + 1, -1, 0, 1, 2**31 - 2, 2**31 - 1, 2**31]
+    for s in (1, 2, 13, 29, 30, 31):
+        vals = (
+            edges
+            + rng.integers(-(2**32), 2**32, 300).tolist()
+            + [k * (1 << s) + (1 << (s - 1)) for k in range(-4, 4)]
+        )
+        for v in vals:
+            assert lib.sea_rshift_rne_s64(v, s) == int(rshift_rne(v, s)), (v, s)
+    nums = [
+        -(2**31),
+        -(2**31) + 1,
+        -7,
+        -5,
+        -1,
+        0,
+        1,
+        5,
+        7,
+        2**31 - 1,
+        *rng.integers(-(2**31), 2**31, 300).tolist(),
+    ]
+    dens = [1, 2, 3, 9, 10, 2**31 - 1, *rng.integers(1, 2**31, 20).tolist(), 0, -3]
+    for n in nums:
+        for d in dens:
+            assert lib.sea_div_rne_s32(n, d) == int(div_rne(n, d)), (n, d)
+    vs = [-(2**40), -(2**31), -32769, -32768, -4097, -4096, -1, 0, 1, 4095, 4096, 32767, 32768, 2**31, 2**40]
+    vs += rng.integers(-(2**33), 2**33, 200).tolist() + rng.integers(-40000, 40000, 200).tolist()
+    for v in vs:
+        for frm, to in ((0, 0), (0, 3), (0, 10), (16, 11), (0, 15), (0, 16), (0, 20), (24, 10)):
+            assert lib.sea_to_s16(v, frm, to) == int(to_s16(v, frm, to)), (v, frm, to)
