@@ -134,6 +134,18 @@ static inline int32_t sea_proven16_s64(int64_t q)
     return (int32_t)q;
 }
 
+/* ReLU of a value proven to be at most INT16_MAX (the upper saturation would not act): max(q, 0). */
+static inline int32_t sea_relu_proven_s32(int32_t q)
+{
+    return q < 0 ? 0 : q;
+}
+
+/* The same for a 64-bit accumulator's shifted value. */
+static inline int32_t sea_relu_proven_s64(int64_t q)
+{
+    return q < 0 ? 0 : (int32_t)q;
+}
+
 /* Clamp an input to its calibrated box [lo, hi] (sea_clamp_s16 on one value). */
 static inline int32_t sea_clamp_s32(int32_t v, int32_t lo, int32_t hi)
 {

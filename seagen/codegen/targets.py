@@ -80,21 +80,23 @@ def _proven16(mn: list, mx: list, shift: int) -> bool:
     return lo >= -(2**15) and hi <= 2**15 - 1
 
 
-def _helpers(acc: int, act: str, proven: bool = False) -> dict[str, str]:
-    """Names of the sea_dsp.h helpers (accumulator type, rounding shift, fused activation) for a layer."""
-    sat = (
-        "sea_proven16"
-        if act == "linear" and proven
-        else {"relu": "sea_relu_sat16", "linear": "sea_sat16"}[act]
-    )
+def _helpers(acc: int, act: str, proven: bool = False, usat: bool = True) -> dict[str, str]:
+    """Names of the sea_dsp.h helpers (accumulator type, rounding shift, fused activation) for a layer.
+
+    proven: the shifted accumulator is proven to lie in int16, so no upper saturation is needed (ReLU is then
+    max(q, 0); on the M4 USAT does ReLU and saturation in one instruction anyway, usat=True keeps it)."""
+    w = "s32" if acc == 32 else "s64"
+    if act == "relu":
+        sat = (
+            f"sea_relu_proven_{w}"
+            if proven and not usat
+            else ("sea_relu_sat16" if w == "s32" else "sea_relu_sat16_s64")
+        )
+    else:
+        sat = f"sea_proven16_{w}" if proven else f"sea_sat16_{w}"
     if acc == 32:
-        return {
-            "acc_t": "int32_t",
-            "mac": "sea_smlad",
-            "rne": "sea_rne_folded_s32",
-            "sat": sat + ("_s32" if act == "linear" else ""),
-        }
-    return {"acc_t": "int64_t", "mac": "sea_smlald", "rne": "sea_rne_folded_s64", "sat": sat + "_s64"}
+        return {"acc_t": "int32_t", "mac": "sea_smlad", "rne": "sea_rne_folded_s32", "sat": sat}
+    return {"acc_t": "int64_t", "mac": "sea_smlald", "rne": "sea_rne_folded_s64", "sat": sat}
 
 
 def _words(row: np.ndarray) -> list[int]:
@@ -152,6 +154,7 @@ def m0plus_layers(qm: QModel) -> list[dict[str, Any]]:
         mn, mx, _ = _acc_interval(q.w_q, q.b_q + half, lo, hi)
         bias = [int(b) + half for b in q.b_q]
         acc = _m0_acc(mn, mx, bias)
+        proven = _proven16(*_acc_interval(q.w_q, q.b_q, lo, hi)[:2], q.shift)
         u = (q.w_q.astype(np.int64) + 32768).tolist()
         order = [j for p in range(0, n_out - 1, 2) for j in (p, p + 1)] + ([n_out - 1] if n_out % 2 else [])
         out.append(
@@ -170,7 +173,7 @@ def m0plus_layers(qm: QModel) -> list[dict[str, Any]]:
                 "fold": None,
                 "folded": False,
                 "last": k == len(qm.layers) - 1,
-                **_helpers(acc, q.activation),
+                **_helpers(acc, q.activation, proven, usat=False),
             }
         )
     if len(out) >= 2:
