@@ -7,8 +7,11 @@ int64_t sea_rshift_rne_s64(int64_t v, int s)
     if (s <= 0) {
         return v;
     }
+    if (s <= 30 && v >= INT32_MIN && v <= INT32_MAX) {
+        return sea_rshift_rne_s32((int32_t)v, s); /* same integers in 32-bit arithmetic (cheap on a Cortex-M) */
+    }
     q = v >> s;                        /* floor(v / 2^s): arithmetic shift (checked in the header) */
-    r = v - q * ((int64_t)1 << s);     /* 0 <= r < 2^s; no left shift of a negative value */
+    r = (int64_t)((uint64_t)v & (((uint64_t)1 << s) - 1u)); /* v - q 2^s, 0 <= r < 2^s: the low s bits */
     half = (int64_t)1 << (s - 1);
     if (r > half || (r == half && (q & 1) != 0)) {
         q += 1;
@@ -83,17 +86,25 @@ int64_t sea_clamp_s64(int64_t v, int64_t lo, int64_t hi)
 
 int32_t sea_div_rne_s32(int32_t num, int32_t den)
 {
-    int64_t q, r;
+    /* Floor quotient and remainder from unsigned 32-bit division of |num| (no 64-bit division: a Cortex-M0+
+     * would call __aeabi_ldivmod), then round half to even. |num| of INT32_MIN is 2^31 as uint32. */
+    uint32_t d, a, qa, ra, r;
+    int64_t q;
     if (den <= 0) {
         return 0;
     }
-    q = (int64_t)num / den;            /* C99: truncates toward zero */
-    r = (int64_t)num - q * den;        /* same sign as num */
-    if (r < 0) {                       /* make it floor division: 0 <= r < den */
-        q -= 1;
-        r += den;
+    d = (uint32_t)den;
+    a = num < 0 ? 0u - (uint32_t)num : (uint32_t)num;
+    qa = a / d;
+    ra = a - qa * d;
+    if (num >= 0) {
+        q = (int64_t)qa;
+        r = ra;
+    } else {
+        q = -(int64_t)qa - (ra != 0u); /* floor: 0 <= r < den */
+        r = ra != 0u ? d - ra : 0u;
     }
-    if (2 * r > den || (2 * r == den && (q & 1) != 0)) {
+    if (r > d - r || (r == d - r && (q & 1) != 0)) {
         q += 1;
     }
     return (int32_t)q;

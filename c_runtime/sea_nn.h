@@ -31,8 +31,9 @@ void sea_hardtanh_s16(int16_t *y, int n, int16_t lo, int16_t hi);
 /* y = table[clamp(rshift_rne(y, in_shift) + offset, 0, len - 1)] (tanh / sigmoid, Q14 outputs). */
 void sea_table_s16(int16_t *y, int n, const int16_t *table, int32_t len, int in_shift, int32_t offset);
 
-/* One Horner step: sat32(rshift_rne(x * t + add * 2^align, shift)), int64 arithmetic; the generator
- * proved |x * t| + |add| 2^align < 2^62 over the box. */
+/* One Horner step: sat32(floor(x * t / 2^shift) + A), A = add * 2^align (align >= 0) or floor(add / 2^-align);
+ * floor shifts (c_runtime/README.md, item 7). The generator proved |x * t| / 2^shift and the result < 2^30
+ * over the box, so the saturation never acts and the Cortex-M kernels compute it in int32. */
 int32_t sea_horner_s32(int16_t x, int32_t t, int32_t add, int align, int shift);
 
 /* A value in Q(from_frac) converted to an int16 in Q(to_frac): exact scaling up or rounding shift down,

@@ -15,11 +15,12 @@ from seagen.codegen.manifest import SUFFIX, manifest_text
 from seagen.codegen.render import RUNTIME, model_hash, render
 from seagen.codegen.runtime import runtime_sources
 from seagen.codegen.summary import summary_lines
+from seagen.codegen.targets import RUNTIME as TARGET_RUNTIME
+from seagen.codegen.targets import check_target
 from seagen.errors import CheckFailed, UserError
 from seagen.frontends.load import Loaded, load_with_original
-from seagen.ir import FloatMLP, FloatModel, QModel
-from seagen.quant.mlp import quantize_mlp
-from seagen.quant.sf import quantize_sf
+from seagen.ir import FloatModel, QModel
+from seagen.quant.model import quantize
 from seagen.reference.oracle import OracleReport, box_points, compare_original
 
 
@@ -49,15 +50,6 @@ def calib_ranges(data_dir: str, names: list[str]) -> list[list[float]]:
     return [[float(df[n].min()), float(df[n].max())] for n in names]
 
 
-def quantize(model: FloatModel, weight_bits: int = 16) -> QModel:
-    """Float IR -> quantized IR (MLP or surface fit)."""
-    if weight_bits not in (8, 16):
-        raise UserError(f"--weights must be int16 or int8, not int{weight_bits}")
-    if isinstance(model, FloatMLP):
-        return quantize_mlp(model, weight_bits)
-    return quantize_sf(model)
-
-
 def default_prefix(model_path: str) -> str:
     """A C identifier from the model file name (e.g. mlp_calibration.pt -> mlp_calibration)."""
     stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(model_path).stem)
@@ -85,12 +77,14 @@ def prepare(
     allow_pickle: bool = False,
     controller: bool = False,
     ranges: list[list[float]] | None = None,
+    target: str = "portable",
 ) -> Export:
     """Everything of an export, in memory (nothing is written); refuses (CheckFailed) when the integer
     reference and the original model disagree beyond the proven bound on the calibrated box.
 
     `controller` adds NAME_controller.{h,c} and the controller runtime (control models); `ranges` gives the
-    input ranges outright (seagen verify rebuilds an export from its manifest that way)."""
+    input ranges outright (seagen verify rebuilds an export from its manifest that way); `target` picks the
+    kernel of NAME_infer (seagen/codegen/targets.py) and the runtime header it includes."""
     prefix = check_prefix(default_prefix(model_path) if prefix is None else prefix)
     bits = {"int16": 16, "int8": 8}.get(weights)
     if bits is None:
@@ -103,7 +97,7 @@ def prepare(
     )
     if not rep.ok:
         raise CheckFailed(f"{model_path}: {rep.line()}")
-    files = {**render(qm, prefix), **runtime_sources(*RUNTIME)}
+    files = {**render(qm, prefix, target), **runtime_sources(*RUNTIME, *TARGET_RUNTIME[check_target(target)])}
     if controller:
         from seagen.control.firmware import controller_files
 
@@ -113,7 +107,7 @@ def prepare(
         from seagen.reference.onnx_ref import build_onnx
 
         onnx_bytes = build_onnx(qm, prefix).SerializeToString()
-    options = {"weights": weights, "target": "portable", "calib": calib, "onnx": with_onnx}
+    options = {"weights": weights, "target": target, "calib": calib, "onnx": with_onnx}
     options["controller"] = controller
     files[f"{prefix}{SUFFIX}"] = export_manifest(qm, prefix, model_path, options, features, files, onnx_bytes)
     return Export(loaded.model, qm, prefix, files, onnx_bytes, summary_lines(qm), loaded, rep)

@@ -113,11 +113,11 @@ class QTable:
 
 @dataclass(frozen=True, eq=False)
 class QHorner:
-    """One Horner step on int32 registers (int64 arithmetic).
+    """One Horner step on int32 registers (floor shifts, c_runtime/README.md item 7).
 
-    var < 0: r[dst] = coef_q (a load). Otherwise
-    r[dst] = sat32(rshift_rne(x[var] * r[src] + addend * 2^align, shift)), addend = r[add_reg] if
-    add_reg >= 0 else coef_q. frac is the Q format of r[dst].
+    var < 0: r[dst] = coef_q (a load). Otherwise r[dst] = sat32(floor(x[var] * r[src] / 2^shift) + A),
+    A = coef_q (in r[dst]'s format), or r[add_reg] * 2^align (align >= 0) or floor(r[add_reg] / 2^-align).
+    frac is the Q format of r[dst].
     """
 
     dst: int

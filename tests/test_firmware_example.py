@@ -11,7 +11,8 @@ import pytest
 from seagen.build.cortexm import CPUS, Machine, build_image, toolchain_missing
 from seagen.control.controller import ControlConfig, control_reset, control_step, q16
 from seagen.control.firmware import controller_files, shipped_config
-from seagen.control.gentwin import StepTwin, export
+from seagen.control.gentwin import StepTwin
+from seagen.control.gentwin import export as default_ir
 from seagen.defaults import GENERATED
 from seagen.export import prepare
 from seagen.quant import features as F
@@ -28,7 +29,7 @@ N_SEA, TICKS = 7, 120
 def folder():
     """What the README's two exports write into one folder, plus glove.c/.h; the calibration IR."""
     cal = prepare(str(GENERATED / "models" / "mlp_calibration.pt"), prefix="cal_mlp")
-    ctl = export("ctl_mlp")
+    ctl = prepare(str(GENERATED / "models" / "mlp_control.pt"), prefix="ctl_mlp")
     files = {**cal.files, **ctl.files, **controller_files("ctl_mlp", ctl.qmodel)}
     files.update({f.name: f.read_text() for f in EXAMPLE.glob("glove.[ch]")})
     return files, cal.qmodel
@@ -46,7 +47,7 @@ def _sensors(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def _twins(cal_qm, enc, pot, force) -> tuple[np.ndarray, np.ndarray]:
     """Motor commands (controller twin + StepTwin, the shipped configuration) and force estimates
     (the feature pipeline's twin + numpy_ref) per tick, for the batch of actuators."""
-    cfg = shipped_config(export("ctl_mlp").qmodel)
+    cfg = shipped_config(default_ir("ctl_mlp").qmodel)
     c = ControlConfig(**{**cfg.__dict__, "predictor": StepTwin("ctl_mlp")})
     s, pipe = control_reset(c, enc[0], pot[0]), F.Pipeline(P.linkage_table_q16())
     motor, est = [], []

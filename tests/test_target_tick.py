@@ -10,7 +10,9 @@ from seagen.build.cortexm import toolchain_missing
 from seagen.build.targets import NAMES, build_target
 from seagen.control.controller import ControlConfig, control_reset, control_step, q16
 from seagen.control.firmware import tick_config
-from seagen.control.gentwin import StepTwin, export
+from seagen.control.gentwin import MODEL_FILES, StepTwin
+from seagen.defaults import GENERATED
+from seagen.export import prepare
 
 PREFIXES = ("ctl_sf", "ctl_mlp")
 
@@ -41,7 +43,7 @@ def _twin(prefix: str, cfg: ControlConfig, enc, pot, force) -> np.ndarray:
 @pytest.mark.parametrize("prefix", PREFIXES)
 def test_tick_equals_twin(prefix, target):
     """Target.tick (NAME_tick_batch) == the Python controller twin with the per-tick predictor twin."""
-    ex = export(prefix)
+    ex = prepare(str(GENERATED / "models" / MODEL_FILES[prefix]), prefix=prefix)
     if target != "host":
         if msg := toolchain_missing():
             pytest.skip(msg)

@@ -17,6 +17,7 @@ COMMAND_MODULES = (
     "seagen.cli.control",
     "seagen.cli.discrepancy",
     "seagen.cli.verify",
+    "seagen.cli.bench",
     "seagen.demo",
 )
 

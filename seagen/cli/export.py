@@ -27,6 +27,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--features", metavar="SPEC", help="feature specification (JSON or TOML) for bare networks"
     )
+    p.add_argument(
+        "--target",
+        choices=("portable", "cortex-m0plus", "cortex-m4"),
+        default="portable",
+        help="kernel of NAME_infer: portable C99 (default, the reference), cortex-m4 (SMLAD; M4/M7/M33, "
+        "portable fallback elsewhere) or cortex-m0plus (ARMv6-M); same integers on every target",
+    )
     p.add_argument("--onnx", action="store_true", help="also write the quantized integer graph NAME.onnx")
     p.add_argument(
         "--controller",
@@ -64,6 +71,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         args.onnx,
         args.allow_pickle,
         controller=args.controller,
+        target=args.target,
     )
     if args.check:
         from seagen.build.equivalence import check_data_dir

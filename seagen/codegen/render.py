@@ -12,6 +12,7 @@ import numpy as np
 from seagen import __version__
 from seagen.codegen.cfmt import assert_valid_prefix, c_array, c_int
 from seagen.codegen.summary import buffer_width, summary_lines
+from seagen.codegen.targets import kernel_context
 from seagen.ir import QMLP, QSF, QLayer, QModel
 from seagen.quant import features as F
 from seagen.quant.primitives import linkage_table_q16
@@ -169,10 +170,13 @@ def context(qm: QModel, prefix: str) -> dict[str, Any]:
     }
 
 
-def render(qm: QModel, prefix: str) -> dict[str, str]:
-    """{NAME.h, NAME.c} rendered from templates/ (the runtime files are added by the exporter)."""
+def render(qm: QModel, prefix: str, target: str = "portable") -> dict[str, str]:
+    """{NAME.h, NAME.c} rendered from templates/ (the runtime files are added by the exporter); a target
+    other than portable replaces the weight tables and NAME_infer by its kernel (codegen/targets.py)."""
     env = environment()
     ctx = context(qm, prefix)
+    kctx = kernel_context(qm, target)
+    ctx["kernel"] = env.get_template(kctx["template"]).render({**ctx, **kctx}) if kctx else None
     return {
         f"{prefix}.h": env.get_template("model.h.j2").render(ctx),
         f"{prefix}.c": env.get_template("model.c.j2").render(ctx),

@@ -45,7 +45,7 @@ def summary_lines(qm: QModel) -> list[str]:
             )
     else:
         lines.append(
-            f"surface fit: {len(qm.horner)} Horner steps on {qm.n_regs} int32 registers, int64 products"
+            f"surface fit: {len(qm.horner)} Horner steps on {qm.n_regs} int32 registers, floor shifts"
         )
     m = memory(qm)
     lines.append(f"flash (const data) {m['flash_data_bytes']} B, RAM {m['ram_bytes']} B")

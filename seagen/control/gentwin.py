@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from functools import cache
 
 import numpy as np
@@ -10,6 +11,7 @@ import pandas as pd
 from seagen.control.controller import FORCE_FRAC
 from seagen.data.features import derive
 from seagen.defaults import DEFAULT_PREFIX, GENERATED
+from seagen.ir import FloatModel, QModel
 from seagen.quant import features as F
 from seagen.quant import kernels as K
 from seagen.quant import primitives as P
@@ -18,12 +20,22 @@ from seagen.reference import float_ref, numpy_ref
 MODEL_FILES = {prefix: f"{name}.pt" for name, prefix in DEFAULT_PREFIX.items()}  # prefix -> model file
 
 
-@cache
-def export(prefix: str):
-    """The in-memory export (float model, quantized IR) of the default control model `prefix`."""
-    from seagen.export import prepare
+@dataclass(frozen=True)
+class DefaultModel:
+    """The float and quantized IR of one default control model."""
 
-    return prepare(str(GENERATED / "models" / MODEL_FILES[prefix]), prefix=prefix)
+    float_model: FloatModel
+    qmodel: QModel
+
+
+@cache
+def export(prefix: str) -> DefaultModel:
+    """The float model and quantized IR of the default control model `prefix` (what its export holds)."""
+    from seagen.frontends.load import load_float_model
+    from seagen.quant.model import quantize
+
+    fm = load_float_model(str(GENERATED / "models" / MODEL_FILES[prefix]))
+    return DefaultModel(fm, quantize(fm))
 
 
 class StepTwin:

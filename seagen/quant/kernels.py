@@ -38,10 +38,11 @@ def table_s16(y: np.ndarray, table: np.ndarray, in_shift: int, offset: int) -> n
 
 
 def horner_s32(x: np.ndarray, t: np.ndarray, add: np.ndarray | int, align: int, shift: int) -> np.ndarray:
-    """sea_horner_s32: sat32(rshift_rne(x * t + add * 2^align, shift))."""
-    return sat32(
-        rshift_rne(np.asarray(x) * t + np.asarray(add, dtype=np.int64) * (np.int64(1) << align), shift)
-    )
+    """sea_horner_s32: sat32(floor(x * t / 2^shift) + A), A = add * 2^align or floor(add / 2^-align)."""
+    p = (np.asarray(x, dtype=np.int64) * np.asarray(t, dtype=np.int64)) >> np.int64(shift)
+    a = np.asarray(add, dtype=np.int64)
+    a = a * (np.int64(1) << np.int64(align)) if align >= 0 else a >> np.int64(-align)
+    return sat32(p + a)
 
 
 def to_s16(v: np.ndarray, from_frac: int, to_frac: int) -> np.ndarray:

@@ -53,6 +53,13 @@ class _Graph:
         up = self.op("Or", self.op("Greater", r, half), self.op("And", self.op("Equal", r, half), odd))
         return self.op("Add", q, self.op("Cast", up, to=TensorProto.INT64))
 
+    def rshift_floor(self, v: str, s: int) -> str:
+        """floor(v / 2^s), exact on int64 (the floor steps of the surface-fit Horner program)."""
+        if s <= 0:
+            return v
+        d = self.const(1 << s, "pow2")
+        return self.op("Div", self.op("Sub", v, self.op("Mod", v, d, fmod=0)), d)
+
     def clip(self, v: str, lo: object, hi: object) -> str:
         """Saturate v to [lo, hi] (int64 Clip)."""
         return self.op("Clip", v, self.const(lo, "lo"), self.const(hi, "hi"))
@@ -87,10 +94,12 @@ def _sf(g: _Graph, qm: QSF, x: str) -> str:
             regs[op.dst] = g.op("Add", regs[op.dst], g.const(op.coef_q, "k"))
             continue
         add = regs[op.add_reg] if op.add_reg >= 0 else g.const(op.coef_q, "k")
-        acc = g.op(
-            "Add", g.op("Mul", cols[op.var], regs[op.src]), g.op("Mul", add, g.const(1 << op.align, "al"))
-        )
-        regs[op.dst] = g.clip(g.rshift_rne(acc, op.shift), -(2**31), 2**31 - 1)
+        if op.align >= 0:
+            add = g.op("Mul", add, g.const(1 << op.align, "al"))
+        else:
+            add = g.rshift_floor(add, -op.align)
+        prod = g.rshift_floor(g.op("Mul", cols[op.var], regs[op.src]), op.shift)
+        regs[op.dst] = g.clip(g.op("Add", prod, add), -(2**31), 2**31 - 1)
     return g.clip(g.rshift_rne(regs[qm.horner[-1].dst], qm.out_shift), -(2**15), 2**15 - 1)
 
 

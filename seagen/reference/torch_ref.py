@@ -62,6 +62,6 @@ def _sf(qm: QSF, x: torch.Tensor) -> torch.Tensor:
             regs[op.dst] = torch.full((x.shape[0],), op.coef_q, dtype=torch.int64)
             continue
         add = regs[op.add_reg] if op.add_reg >= 0 else torch.tensor(op.coef_q, dtype=torch.int64)
-        acc = x[:, op.var] * regs[op.src] + add * (1 << op.align)
-        regs[op.dst] = rshift_rne(acc, op.shift).clamp(I32_MIN, I32_MAX)
+        add = add * (1 << op.align) if op.align >= 0 else add >> -op.align
+        regs[op.dst] = (((x[:, op.var] * regs[op.src]) >> op.shift) + add).clamp(I32_MIN, I32_MAX)
     return rshift_rne(regs[qm.horner[-1].dst], qm.out_shift).clamp(I16_MIN, I16_MAX)

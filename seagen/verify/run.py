@@ -36,6 +36,7 @@ def rebuild(man: Manifest, model: Path, features: str | None, allow_pickle: bool
             features,
             True,
             controller=bool(opts.get("controller")),
+            target=opts.get("target", "portable"),
             ranges=ranges,
         )
 

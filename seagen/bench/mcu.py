@@ -1,6 +1,6 @@
 """Instructions per inference and flash of the default models on emulated Cortex-M4 and M0+ cores.
 
-`python -m seagen.build.bench_mcu [--json]`. For each model in generated/models: the generated fixed-point C
+`python -m seagen.bench.mcu [--json]`. For each model in generated/models: the generated fixed-point C
 (NAME_infer, unicorn UC_HOOK_CODE counts, mean over inputs drawn across the calibrated box), and, on the same
 emulator, a plain float C loop of the same float network (M4: -mfloat-abi=hard -mfpu=fpv4-sp-d16; M0+: soft
 float through libgcc). Nothing here is optimised: it measures what the generator emits today.
@@ -178,7 +178,7 @@ def table(rows: list[dict]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the benchmark over the default models; print a table or JSON."""
-    ap = argparse.ArgumentParser(prog="python -m seagen.build.bench_mcu", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m seagen.bench.mcu", description=__doc__.splitlines()[0])
     ap.add_argument("--json", action="store_true", help="print the rows as JSON")
     ap.add_argument("-n", type=int, default=50, help="inputs per model (default 50)")
     args = ap.parse_args(argv)

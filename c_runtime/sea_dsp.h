@@ -1,0 +1,193 @@
+/* sea_dsp.h -- helpers of the Cortex-M target kernels (`seagen export --target cortex-m4|cortex-m0plus`).
+ *
+ * Header-only (static inline). Each helper is an exact re-expression of a primitive of the numeric contract
+ * (c_runtime/README.md): the dual multiply-accumulate is the exact integer sum of two products, the folded
+ * rounding shift equals sea_rshift_rne (Python twin seagen.quant.primitives.rshift_rne) once 2^(s-1) has
+ * been added to the accumulator, and the saturations equal sea_sat16 / max(0, sea_sat16). Tested bit for
+ * bit against those twins by tests/test_target_kernels.py (the portable fallbacks, through cffi).
+ *
+ * With __ARM_FEATURE_SIMD32 (Cortex-M4/M7/M33) the ACLE intrinsics of <arm_acle.h> are used (SMLAD,
+ * SMLALD, USAT, SSAT); elsewhere portable C gives identical results. Packed words hold two int16 values,
+ * the first in the low half (int16x2_t of the ACLE is int32_t).
+ */
+#ifndef SEA_DSP_H
+#define SEA_DSP_H
+
+#include <stdint.h>
+
+#if defined(__ARM_FEATURE_SIMD32)
+#include <arm_acle.h>
+#endif
+
+/* SEA_OPAQUE(p): makes the compiler forget what pointer p holds (an empty asm on gcc/clang), so loads
+ * through it are not hoisted out of a loop: on the M0+ the hoisted inputs would live in high registers,
+ * which Thumb-1 arithmetic cannot use directly. No effect on the results. */
+#if defined(__GNUC__)
+#define SEA_OPAQUE(p) __asm__("" : "+r"(p))
+#else
+#define SEA_OPAQUE(p) ((void)0)
+#endif
+
+/* Low (first) int16 of a packed word, as int32; exact, no implementation-defined conversion. */
+static inline int32_t sea_lo16(int32_t w)
+{
+    return (int32_t)(((uint32_t)w & 0xFFFFu) ^ 0x8000u) - 0x8000;
+}
+
+/* High (second) int16 of a packed word, as int32. */
+static inline int32_t sea_hi16(int32_t w)
+{
+    return (int32_t)(((uint32_t)w >> 16) ^ 0x8000u) - 0x8000;
+}
+
+/* Pack two int16 values (lo first) into one word: hi * 2^16 + (lo mod 2^16), never overflows. */
+static inline int32_t sea_pack16x2(int32_t lo, int32_t hi)
+{
+    return hi * 65536 + (int32_t)((uint32_t)lo & 0xFFFFu);
+}
+
+#if defined(__ARM_FEATURE_SIMD32)
+/* acc + lo(x)*lo(w) + hi(x)*hi(w): one SMLAD. The generator proves |acc| + the products stay < 2^31. */
+static inline int32_t sea_smlad(int32_t x, int32_t w, int32_t acc)
+{
+    return __smlad(x, w, acc);
+}
+
+/* Same into a 64-bit accumulator: one SMLALD. */
+static inline int64_t sea_smlald(int32_t x, int32_t w, int64_t acc)
+{
+    return __smlald(x, w, acc);
+}
+#else
+/* Portable SMLAD: the same exact sum (the generator's bound rules out any overflow). */
+static inline int32_t sea_smlad(int32_t x, int32_t w, int32_t acc)
+{
+    return acc + sea_lo16(x) * sea_lo16(w) + sea_hi16(x) * sea_hi16(w);
+}
+
+/* Portable SMLALD. */
+static inline int64_t sea_smlald(int32_t x, int32_t w, int64_t acc)
+{
+    return acc + (int64_t)(sea_lo16(x) * sea_lo16(w)) + (int64_t)(sea_hi16(x) * sea_hi16(w));
+}
+#endif
+
+/* Round-half-to-even shift of v = acc + 2^(s-1) (the half already folded into the bias), 1 <= s <= 31:
+ * floor(v / 2^s), made even when v's low s bits are 0 (the tie). Equals sea_rshift_rne_s32(acc, s). */
+static inline int32_t sea_rne_folded_s32(int32_t v, int s)
+{
+    int32_t q = v >> s;
+    if (((uint32_t)v << (32 - s)) == 0u) {
+        q &= ~1;
+    }
+    return q;
+}
+
+/* The same for a 64-bit accumulator, 1 <= s <= 62. */
+static inline int64_t sea_rne_folded_s64(int64_t v, int s)
+{
+    int64_t q = v >> s;
+    if (((uint64_t)v << (64 - s)) == 0u) {
+        q &= ~(int64_t)1;
+    }
+    return q;
+}
+
+/* ReLU then saturation to int16: clamp(q, 0, 32767) (USAT #15 where available). */
+static inline int32_t sea_relu_sat16(int32_t q)
+{
+#if defined(__ARM_FEATURE_SAT)
+    return (int32_t)__usat(q, 15);
+#else
+    return q < 0 ? 0 : (q > 32767 ? 32767 : q);
+#endif
+}
+
+/* Saturation to int16 of an int32 value (gcc emits SSAT #16 for this on cores that have it). */
+static inline int32_t sea_sat16_s32(int32_t q)
+{
+    return q < -32768 ? -32768 : (q > 32767 ? 32767 : q);
+}
+
+/* Saturation to int16 of an int64 value. */
+static inline int32_t sea_sat16_s64(int64_t q)
+{
+    return q < -32768 ? -32768 : (q > 32767 ? 32767 : (int32_t)q);
+}
+
+/* ReLU then saturation to int16 of an int64 value. */
+static inline int32_t sea_relu_sat16_s64(int64_t q)
+{
+    return q < 0 ? 0 : (q > 32767 ? 32767 : (int32_t)q);
+}
+
+/* Narrowing of a value the generator proved to lie in int16 (the layer's output format was chosen so that
+ * nothing saturates inside the calibrated box, c_runtime/README.md item 5): sea_sat16 would not act. */
+static inline int32_t sea_proven16_s32(int32_t q)
+{
+    return q;
+}
+
+/* The same for a 64-bit accumulator's shifted value. */
+static inline int32_t sea_proven16_s64(int64_t q)
+{
+    return (int32_t)q;
+}
+
+/* ReLU of a value proven to be at most INT16_MAX (the upper saturation would not act): max(q, 0). */
+static inline int32_t sea_relu_proven_s32(int32_t q)
+{
+    return q < 0 ? 0 : q;
+}
+
+/* The same for a 64-bit accumulator's shifted value. */
+static inline int32_t sea_relu_proven_s64(int64_t q)
+{
+    return q < 0 ? 0 : (int32_t)q;
+}
+
+/* Clamp an input to its calibrated box [lo, hi] (sea_clamp_s16 on one value). */
+static inline int32_t sea_clamp_s32(int32_t v, int32_t lo, int32_t hi)
+{
+    return v < lo ? lo : (v > hi ? hi : v);
+}
+
+/* floor(x * r / 2^s) for an int16 x and int32 r, 16 <= s <= 46 (the surface-fit planner's MIN_SHIFT), by a
+ * 16x32 split: r = rh * 2^16 + rl with 0 <= rl < 2^16, so floor(x * r / 2^16) = x * rh + floor(x * rl / 2^16),
+ * both products exact in int32 (ARMv6-M has no 32x32->64 multiply). Exact for every such x, r. */
+static inline int32_t sea_mulshr_split_s32(int32_t x, int32_t r, int s)
+{
+    const int32_t rh = r >> 16;
+    const int32_t rl = (int32_t)((uint32_t)r & 0xFFFFu);
+    return (x * rh + ((x * rl) >> 16)) >> (s - 16);
+}
+
+/* The same through a 64-bit product: for s <= 32 the high word of (x * 2^(32 - s)) * r (one SMMUL, or SMMLA
+ * with the addend, on ARMv7E-M; x * 2^(32 - s) fits int32 as |x| <= 2^15). The result must fit int32. */
+static inline int32_t sea_mulshr_wide_s32(int32_t x, int32_t r, int s)
+{
+    if (s <= 32) {
+        return (int32_t)(((int64_t)(x * (1 << (32 - s))) * r) >> 32);
+    }
+    return (int32_t)(((int64_t)x * r) >> s);
+}
+
+/* floor(x * r / 2^s): the Horner step's product (c_runtime/README.md, item 7); identical integers on every
+ * core, the split form where the core lacks a long multiply (ARMv6-M: Cortex-M0/M0+). */
+static inline int32_t sea_mulshr_s32(int32_t x, int32_t r, int s)
+{
+#if defined(__ARM_ARCH_6M__)
+    return sea_mulshr_split_s32(x, r, s);
+#else
+    return sea_mulshr_wide_s32(x, r, s);
+#endif
+}
+
+/* Modular uint32 -> int32 (two's complement reinterpretation) without implementation-defined conversion;
+ * compiles to nothing. Used by the M0+ kernel, whose accumulators are uint32 sums proven to end in int32. */
+static inline int32_t sea_u32_to_s32(uint32_t u)
+{
+    return u <= 0x7FFFFFFFu ? (int32_t)u : (int32_t)(u - 0x80000000u) - 0x7FFFFFFF - 1;
+}
+
+#endif

@@ -1,0 +1,284 @@
+"""`seagen bench DIR`: per entry point of an export, on emulated Cortex-M cores, what firmware pays for it.
+
+For every model NAME in DIR (a header declaring NAME_infer) and each core: executed instructions of
+NAME_infer (inputs drawn across the calibrated box), NAME_step (a synthetic raw enc/pot run after NAME_reset)
+and, for a control predictor (NAME_predict_q16), one controller tick (sea_control_step with the predictor
+and the tuned PID, templates/bench_tick.c.j2); a cycle estimate (seagen/build/mcu_trace.py); flash (.text +
+.rodata of an image linked from that entry point alone, library helpers included) and RAM (.data + .bss);
+the stack: static worst case from -fstack-usage over the call graph, and the deepest stack measured; every
+library helper linked (float ones must be none) and an ISA check of every executed instruction.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import tempfile
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from seagen import __version__
+from seagen.build import cortexm as cm
+from seagen.build.elfinfo import library_helpers, stack_usage, static_stack
+from seagen.build.host import compile_objects
+from seagen.build.mcu_trace import Trace, disassemble, traced_call
+from seagen.errors import UserError
+
+FLOAT_HELPER = re.compile(  # soft-float helpers of libgcc (AEABI and GCC names); integer helpers do not match
+    r"^__(aeabi_([fd][a-z0-9]+|u?[il]2[fd])|(add|sub|mul|div|neg)[sdt]f3|(eq|ne|lt|le|gt|ge|un|cmp)[sdt]f2"
+    r"|fix\w*|float\w*|extend\w*|trunc\w*)$"
+)
+CONTROL_FILES = ("sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c")
+N_CALLS = 40
+
+
+@dataclass
+class Entry:
+    """The measurements of one entry point on one core."""
+
+    model: str
+    cpu: str
+    entry: str
+    instr_mean: float
+    instr_min: int
+    instr_max: int
+    cycles_mean: float
+    flash: int
+    ram: int
+    stack_static: int | None
+    stack_measured: int
+    helpers: list[str]
+    float_helpers: list[str]
+    isa_violations: list[str]
+
+
+def find_models(d: Path) -> list[str]:
+    """Prefixes NAME of the headers in d that declare NAME_infer."""
+    names = []
+    for h in sorted(d.glob("*.h")):
+        if re.search(rf"\bvoid {re.escape(h.stem)}_infer\(", h.read_text()):
+            names.append(h.stem)
+    if not names:
+        raise UserError(f"{d}: no exported model (no NAME.h declaring NAME_infer)")
+    return names
+
+
+def _box(c_text: str, prefix: str) -> tuple[np.ndarray, np.ndarray]:
+    """The calibrated input box, read from NAME_in_lo / NAME_in_hi in NAME.c."""
+    out = []
+    for side in ("lo", "hi"):
+        m = re.search(rf"{prefix}_in_{side}\[\d+\] = \{{([^}}]*)\}}", c_text)
+        if m is None:
+            raise UserError(f"{prefix}.c: no {prefix}_in_{side} table")
+        out.append(np.array([int(v) for v in m.group(1).split(",")]))
+    return out[0], out[1]
+
+
+def _link(work: Path, objs: list[Path], flags: tuple[str, ...], roots: tuple[str, ...], name: str) -> Path:
+    """Link objs (+ libgcc) with --gc-sections keeping `roots`; returns the ELF."""
+    elf = work / f"{name}.elf"
+    undef = [f"-Wl,--undefined={r}" for r in roots]
+    cmd = [cm.GCC, *flags, "-nostdlib", "-T", str(work / "link.ld"), "-Wl,--gc-sections", *undef]
+    cm._run([*cmd, *map(str, objs), "-lgcc", "-o", str(elf)], f"linking {name}")
+    return elf
+
+
+def _machine(work: Path, elf: Path, cpu: str) -> cm.Machine:
+    """An emulator loaded with the ELF's flat .text."""
+    bin_path = elf.with_suffix(".bin")
+    cm._run(["arm-none-eabi-objcopy", "-O", "binary", "-j", ".text", str(elf), str(bin_path)], "objcopy")
+    sections = cm._sections(elf)
+    if sections.get(".data", 0) or sections.get(".bss", 0):
+        raise UserError(f"{elf.name}: .data/.bss present; the emulator runs no start-up code")
+    image = cm.Image(bin_path.read_bytes(), cm._symbols(elf), {}, sections)
+    return cm.Machine(image, cpu)
+
+
+def _trajectory(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A raw enc/pot run: a push of 1,500 counts with pot wandering around mid-range (100 Hz samples)."""
+    k = np.arange(n)
+    enc = np.rint(1500 * np.sin(np.pi * k / n) ** 2).astype(np.int64)
+    pot = np.rint(1800 + 40 * np.sin(k / 7.0) + 3 * np.cos(k * 1.7)).astype(np.int64)
+    return enc, pot
+
+
+def _tick_driver(prefix: str) -> dict[str, str]:
+    """The controller-tick driver of a control predictor with the tuned PID (templates/bench_tick.c.j2)."""
+    from seagen.codegen.render import environment
+    from seagen.control.controller import ControlConfig
+    from seagen.control.experiment import MLP_PRED_AVG
+
+    c = ControlConfig()
+    text = (
+        environment()
+        .get_template("bench_tick.c.j2")
+        .render(
+            P=prefix,
+            version=__version__,
+            pid=c.pid.as_tuple(),
+            pred_avg=MLP_PRED_AVG,
+            force_min=c.force_min,
+            force_max=c.force_max,
+        )
+    )
+    return {f"{prefix}_bench.c": text}
+
+
+def _calls(prefix: str, entry: str, header: str, box: tuple[np.ndarray, np.ndarray]) -> tuple[list, list]:
+    """(symbol, args) of the measured calls of one entry point, after the set-up calls (symbol, args)."""
+    rng = np.random.default_rng(0)
+    sig = re.search(rf"int16_t {prefix}_step\(([^)]*)\)", header)
+    if sig is None:
+        raise UserError(f"{prefix}.h declares no {prefix}_step")
+    n_ext = len(sig.group(1).split(",")) - 3
+    enc, pot = _trajectory(N_CALLS)
+    if entry == "infer":
+        rows = rng.integers(box[0], box[1] + 1, (N_CALLS, len(box[0])))
+        return [], [(f"{prefix}_infer", [r.astype(np.int16), np.zeros(1, np.int16)]) for r in rows]
+    if entry == "step":
+        ext = [6000] * n_ext  # e.g. a desired force around 6 N in the predictor's Q10
+        setup: list[tuple[str, list]] = [(f"{prefix}_reset", ["state"])]
+        return setup, [
+            (f"{prefix}_step", ["state", int(e), int(p), *ext]) for e, p in zip(enc, pot, strict=True)
+        ]
+    force = 8 << 16  # 8 N desired, Q16
+    setup = [(f"{prefix}_bench_init", ["state", int(enc[0]), int(pot[0])])]
+    return setup, [
+        (f"{prefix}_bench_tick", ["state", int(e), int(p), force]) for e, p in zip(enc, pot, strict=True)
+    ]
+
+
+def _run(machine, code, setup, calls) -> list[Trace]:
+    """Run the set-up calls, then trace each measured call; 'state' is one RAM block carried through."""
+    state = np.zeros(1024, np.uint8)  # first argument everywhere: it stays at the same RAM address
+
+    def args(a: list) -> list:
+        return [state if isinstance(x, str) else x for x in a]
+
+    for sym, a in setup:
+        back, _ = machine.call(sym, *args(a))
+        if a and isinstance(a[0], str):
+            state = back[0].copy()
+    traces = []
+    for sym, a in calls:
+        back, t = traced_call(machine, code, sym, *args(a))
+        if isinstance(a[0], str):
+            state = back[0].copy()
+        traces.append(t)
+    return traces
+
+
+def _sources(d: Path, prefix: str) -> tuple[dict[str, str], list[str]]:
+    """The export's C files, plus the tick driver and sea_pid/sea_control for a control predictor."""
+    src = {p.name: p.read_text() for p in sorted(d.iterdir()) if p.suffix in (".c", ".h")}
+    other = [
+        f for f in src if f.endswith(".c") and f.startswith(tuple(find_models(d))) and f != f"{prefix}.c"
+    ]
+    for f in other:  # other models' files are not part of this model's image
+        del src[f]
+    entries = ["infer", "step"]
+    if re.search(rf"\b{prefix}_predict_q16\(", src[f"{prefix}.h"]):
+        from seagen.build.runtime import runtime_sources
+
+        src = {**runtime_sources(*CONTROL_FILES), **src, **_tick_driver(prefix)}
+        entries.append("tick")
+    return src, entries
+
+
+ROOTS = {
+    "infer": ("{p}_infer",),
+    "step": ("{p}_reset", "{p}_step"),
+    "tick": ("{p}_bench_init", "{p}_bench_tick"),
+}
+
+
+def bench_model(d: Path, prefix: str, cpu: str) -> list[Entry]:
+    """Measure every entry point of model `prefix` in export folder d on `cpu`."""
+    if msg := cm.toolchain_missing():
+        raise UserError(msg)
+    sources, entries = _sources(d, prefix)
+    flags = cm.cpu_flags(cpu)
+    work = Path(tempfile.mkdtemp(prefix="seagen-bench."))
+    try:
+        objs = compile_objects(
+            sources, work, (*flags, *cm.FREESTANDING, "-fstack-usage"), cc=cm.GCC, pic=False
+        )
+        (work / "link.ld").write_text(cm.LINKER_SCRIPT)
+        roots = tuple(r.format(p=prefix) for e in entries for r in ROOTS[e])
+        elf = _link(work, objs, flags, roots, "all")
+        machine, code, usage = _machine(work, elf, cpu), disassemble(elf), stack_usage(work)
+        box = _box(sources[f"{prefix}.c"], prefix)
+        out = []
+        for e in entries:
+            measured = ROOTS[e][-1].format(p=prefix)
+            keep = (ROOTS[e][0].format(p=prefix), measured) if e == "tick" else (measured,)
+            alone = _link(work, objs, flags, keep, e)
+            setup, calls = _calls(prefix, e, sources[f"{prefix}.h"], box)
+            traces = _run(machine, code, setup, calls)
+            n = np.array([t.instructions for t in traces])
+            sections = cm._sections(alone)
+            helpers = library_helpers(alone, objs)
+            out.append(
+                Entry(
+                    prefix,
+                    cpu,
+                    measured,
+                    float(n.mean()),
+                    int(n.min()),
+                    int(n.max()),
+                    float(np.mean([t.cycles for t in traces])),
+                    sections.get(".text", 0),
+                    sections.get(".data", 0) + sections.get(".bss", 0),
+                    static_stack(alone, usage, measured),
+                    max(t.stack for t in traces),
+                    helpers,
+                    [h for h in helpers if FLOAT_HELPER.match(h)],
+                    sorted(set().union(*(t.violations for t in traces))),
+                )
+            )
+        return out
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def bench_dir(d: Path, cpus: tuple[str, ...]) -> list[Entry]:
+    """Every model of the export folder on every named core."""
+    if not d.is_dir():
+        raise UserError(f"{d}: not a directory")
+    return [e for prefix in find_models(d) for cpu in cpus for e in bench_model(d, prefix, cpu)]
+
+
+def table(rows: list[Entry]) -> str:
+    """A plain-text table of the measurements."""
+    head = (
+        f"{'entry point':24} {'core':14} {'instr':>7} {'min-max':>11} {'cycles':>7} {'flash B':>8} "
+        f"{'RAM B':>6} {'stack B':>11} {'float helpers':>13} {'ISA':>4}"
+    )
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        stack = f"{r.stack_static if r.stack_static is not None else '?'}/{r.stack_measured}"
+        lines.append(
+            f"{r.entry:24} {r.cpu:14} {r.instr_mean:7.0f} {f'{r.instr_min}-{r.instr_max}':>11} "
+            f"{r.cycles_mean:7.0f} {r.flash:8d} {r.ram:6d} {stack:>11} "
+            f"{', '.join(r.float_helpers) or 'none':>13} {'ok' if not r.isa_violations else 'BAD':>4}"
+        )
+    lines.append("stack: static worst case (-fstack-usage over the call graph) / deepest measured")
+    helpers = sorted({h for r in rows for h in r.helpers})
+    lines.append(f"library helpers linked: {', '.join(helpers) or 'none'}")
+    return "\n".join(lines)
+
+
+def failures(rows: list[Entry]) -> list[str]:
+    """What makes the bench fail: float helpers linked, instructions the named core lacks."""
+    out = [
+        f"{r.entry} on {r.cpu}: float helpers {', '.join(r.float_helpers)}" for r in rows if r.float_helpers
+    ]
+    out += [f"{r.entry} on {r.cpu}: {'; '.join(r.isa_violations)}" for r in rows if r.isa_violations]
+    return out
+
+
+def as_json(rows: list[Entry]) -> list[dict]:
+    """The rows as plain dicts."""
+    return [asdict(r) for r in rows]

@@ -1,0 +1,234 @@
+"""Per-target MLP kernels: weight packing and template context for Cortex-M4 (SMLAD) and M0+ (offset uint16).
+
+The integer semantics are the portable kernel's (QLayer: acc = b + W x, y = act(sat16(rshift_rne(acc, s))));
+only the evaluation order of the exact integer sum and the representation of the tables change:
+- cortex-m4: per neuron one int32 word b + 2^(s-1) then the weights as int16 pairs (low half first), read
+  by one pointer; inputs and hidden outputs are int16 pairs; SMLAD (or SMLALD for a 64-bit layer).
+- cortex-m0plus: weights stored as uint16 w + 32768 for single `ldrh` loads, two neurons per pass, each
+  accumulator starting from b + 2^(s-1) - 32768 * sum(x) in uint32 (modular) arithmetic; a single-output
+  last layer is folded into the loop of the layer before it.
+Every width decision below is proven here over the calibrated box (exact integers).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from seagen.codegen.cfmt import c_int
+from seagen.errors import UserError
+from seagen.ir import QMLP, QSF, QHorner, QModel
+from seagen.quant.primitives import rshift_rne
+
+TARGETS = ("portable", "cortex-m0plus", "cortex-m4")
+TEMPLATES = {"cortex-m4": "mlp_cortex_m4.c.j2", "cortex-m0plus": "mlp_cortex_m0plus.c.j2"}
+RUNTIME = {"portable": (), "cortex-m4": ("sea_dsp.h",), "cortex-m0plus": ("sea_dsp.h",)}
+FUSED = ("relu", "linear")
+INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
+
+
+def check_target(target: str) -> str:
+    """The target name, or a UserError listing the valid ones."""
+    if target not in TARGETS:
+        raise UserError(f"--target must be one of {', '.join(TARGETS)}, not {target!r}")
+    return target
+
+
+def _in_bounds(qm: QMLP) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Proven [lo, hi] of each layer's int16 inputs: the clamp box, then each layer's output interval."""
+    out = [(np.array([i.lo_q for i in qm.inputs]), np.array([i.hi_q for i in qm.inputs]))]
+    for q in qm.layers[:-1]:
+        out.append((np.asarray(q.y_lo), np.asarray(q.y_hi)))
+    return [(lo.astype(object), hi.astype(object)) for lo, hi in out]
+
+
+def _half(shift: int) -> int:
+    return 1 << (shift - 1) if shift > 0 else 0
+
+
+def _acc_interval(w: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[list, list, list]:
+    """Exact per-neuron [min, max] of b + W x and the worst partial sum |b| + sum |w| max|x| (Python ints)."""
+    w = w.astype(object)
+    a, c = w * lo[None, :], w * hi[None, :]
+    bo = b.astype(object)
+    mn = list(np.minimum(a, c).sum(axis=1) + bo)
+    mx = list(np.maximum(a, c).sum(axis=1) + bo)
+    worst = list((abs(w) * np.maximum(abs(lo), abs(hi))[None, :]).sum(axis=1) + abs(bo))
+    return mn, mx, worst
+
+
+def _check_layers(qm: QModel, target: str) -> None:
+    """Target kernels fuse ReLU/linear only, int16 outputs, a single model output, shifts >= 1."""
+    if not isinstance(qm, QMLP):
+        return
+    for k, q in enumerate(qm.layers):
+        if q.activation not in FUSED:
+            raise UserError(
+                f"--target {target}: layer {k} has {q.activation}; the target kernels fuse "
+                f"{' and '.join(FUSED)} only (use --target portable)"
+            )
+        if q.shift < 1:
+            raise UserError(f"--target {target}: layer {k} has no rounding shift (use --target portable)")
+    if qm.layers[-1].w_q.shape[0] != 1:
+        raise UserError(f"--target {target}: the last layer must have one output")
+
+
+def _proven16(mn: list, mx: list, shift: int) -> bool:
+    """Every neuron's shifted accumulator lies in int16 over the box (saturation would never act)."""
+    lo, hi = int(rshift_rne(int(min(mn)), shift)), int(rshift_rne(int(max(mx)), shift))
+    return lo >= -(2**15) and hi <= 2**15 - 1
+
+
+def _helpers(acc: int, act: str, proven: bool = False, usat: bool = True) -> dict[str, str]:
+    """Names of the sea_dsp.h helpers (accumulator type, rounding shift, fused activation) for a layer.
+
+    proven: the shifted accumulator is proven to lie in int16, so no upper saturation is needed (ReLU is then
+    max(q, 0); on the M4 USAT does ReLU and saturation in one instruction anyway, usat=True keeps it)."""
+    w = "s32" if acc == 32 else "s64"
+    if act == "relu":
+        sat = (
+            f"sea_relu_proven_{w}"
+            if proven and not usat
+            else ("sea_relu_sat16" if w == "s32" else "sea_relu_sat16_s64")
+        )
+    else:
+        sat = f"sea_proven16_{w}" if proven else f"sea_sat16_{w}"
+    if acc == 32:
+        return {"acc_t": "int32_t", "mac": "sea_smlad", "rne": "sea_rne_folded_s32", "sat": sat}
+    return {"acc_t": "int64_t", "mac": "sea_smlald", "rne": "sea_rne_folded_s64", "sat": sat}
+
+
+def _words(row: np.ndarray) -> list[int]:
+    """int16 weights -> int32 words (low half first, an odd count padded with 0), as signed ints."""
+    w = [int(v) for v in row] + ([0] if len(row) % 2 else [])
+    return [
+        int(np.int32(np.uint32(((w[i + 1] & 0xFFFF) << 16) | (w[i] & 0xFFFF)))) for i in range(0, len(w), 2)
+    ]
+
+
+def m4_layers(qm: QMLP) -> list[dict[str, Any]]:
+    """Cortex-M4 layer context: packed tables and the accumulator width proven with the folded half."""
+    out = []
+    for k, (q, (lo, hi)) in enumerate(zip(qm.layers, _in_bounds(qm), strict=True)):
+        n_out, n_in = q.w_q.shape
+        half = _half(q.shift)
+        mn, mx, worst = _acc_interval(q.w_q, q.b_q, lo, hi)
+        acc = 32 if max(worst) + half <= INT32_MAX else 64
+        unroll = 4 if len(_words(q.w_q[0])) % 4 == 0 else (2 if len(_words(q.w_q[0])) % 2 == 0 else 1)
+        bias = [int(b) + half for b in q.b_q]
+        rows = [_words(q.w_q[j]) for j in range(n_out)]
+        table = [v for j in range(n_out) for v in ([bias[j]] if acc == 32 else []) + rows[j]]
+        out.append(
+            {
+                "k": k,
+                "n_in": n_in,
+                "n_out": n_out,
+                "n_words": (n_in + 1) // 2,
+                "stride": len(rows[0]) + (1 if acc == 32 else 0),
+                "acc": acc,
+                "shift": q.shift,
+                "act": q.activation,
+                "table": table,
+                "bias64": bias if acc == 64 else None,
+                "last": k == len(qm.layers) - 1,
+                "unroll": unroll,
+                **_helpers(acc, q.activation, _proven16(mn, mx, q.shift)),
+            }
+        )
+    return out
+
+
+def _m0_acc(mn: list, mx: list, bias: list) -> int:
+    """32 when every neuron's b + 2^(s-1) and final b + W x + 2^(s-1) are int32 (the uint32 sum is exact)."""
+    fits = min(mn) >= INT32_MIN and max(mx) <= INT32_MAX
+    return 32 if fits and min(bias) >= INT32_MIN and max(bias) <= INT32_MAX else 64
+
+
+def m0plus_layers(qm: QMLP) -> list[dict[str, Any]]:
+    """Cortex-M0+ layer context: offset-uint16 weights by neuron pairs, biases with the folded half."""
+    out = []
+    for k, (q, (lo, hi)) in enumerate(zip(qm.layers, _in_bounds(qm), strict=True)):
+        n_out, n_in = q.w_q.shape
+        half = _half(q.shift)
+        mn, mx, _ = _acc_interval(q.w_q, q.b_q + half, lo, hi)
+        bias = [int(b) + half for b in q.b_q]
+        acc = _m0_acc(mn, mx, bias)
+        proven = _proven16(*_acc_interval(q.w_q, q.b_q, lo, hi)[:2], q.shift)
+        u = (q.w_q.astype(np.int64) + 32768).tolist()
+        order = [j for p in range(0, n_out - 1, 2) for j in (p, p + 1)] + ([n_out - 1] if n_out % 2 else [])
+        out.append(
+            {
+                "k": k,
+                "n_in": n_in,
+                "n_out": n_out,
+                "n_pairs": n_out // 2,
+                "odd": n_out % 2 == 1,
+                "acc": acc,
+                "shift": q.shift,
+                "act": q.activation,
+                "u": [v for j in order for v in u[j]],
+                "w": [int(v) for v in q.w_q.ravel()],
+                "bias": bias,
+                "fold": None,
+                "folded": False,
+                "last": k == len(qm.layers) - 1,
+                **_helpers(acc, q.activation, proven, usat=False),
+            }
+        )
+    if len(out) >= 2:
+        out[-2]["fold"] = out[-1]
+        out[-1]["folded"] = True
+    return out
+
+
+def _addend(op: QHorner) -> str:
+    """C expression of a Horner step's addend: the constant, or a register aligned to the new format."""
+    if op.add_reg < 0:
+        return c_int(op.coef_q)
+    if op.align > 0:
+        return f"r{op.add_reg} * {1 << op.align}"
+    return f"r{op.add_reg}" if op.align == 0 else f"(r{op.add_reg} >> {-op.align})"
+
+
+def sf_steps(qm: QSF) -> dict[str, Any]:
+    """Surface-fit kernel context: one C statement per Horner step, and the rounding of the output."""
+    steps = []
+    for op in qm.horner:
+        if op.var < 0:
+            steps.append({"dst": op.dst, "load": c_int(op.coef_q)})
+        else:
+            steps.append(
+                {
+                    "dst": op.dst,
+                    "load": None,
+                    "var": op.var,
+                    "src": op.src,
+                    "shift": op.shift,
+                    "add": _addend(op),
+                }
+            )
+    last = qm.horner[-1]
+    # |r| < 2^30 + its proven error (QHorner planning), so r + 2^(s-1) cannot overflow int32 for s <= 30
+    if not 0 <= qm.out_shift <= 30:
+        raise UserError(f"surface fit: output shift {qm.out_shift} outside 0..30")
+    return {
+        "steps": steps,
+        "n_regs": qm.n_regs,
+        "final": last.dst,
+        "out_shift": qm.out_shift,
+        "out_half": _half(qm.out_shift),
+        "template": "sf_horner.c.j2",
+    }
+
+
+def kernel_context(qm: QModel, target: str) -> dict[str, Any]:
+    """Extra template context of a target kernel ({} for the portable one)."""
+    check_target(target)
+    if target == "portable":
+        return {}
+    if isinstance(qm, QSF):
+        return {"target": target, **sf_steps(qm)}
+    _check_layers(qm, target)
+    layers = m4_layers(qm) if target == "cortex-m4" else m0plus_layers(qm)
+    return {"target": target, "tlayers": layers, "template": TEMPLATES[target]}

@@ -1,0 +1,252 @@
+"""Target MLP kernels (--target cortex-m4 / cortex-m0plus) are bit-exact with the numpy reference: each on its
+own emulated core, and on the host (the M4 kernel through its portable SMLAD fallback, also under UBSan+ASan).
+
+About 35 s with -n 2 (cross-compiling and emulating dominate)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from seagen.codegen.export import prepare
+
+from seagen.build.equivalence import edge_inputs, first_mismatch, random_inputs
+from seagen.build.model import CModel, sanitized_infer
+from seagen.codegen.render import render
+from seagen.codegen.targets import kernel_context
+from seagen.data.schema import load_split
+from seagen.demo import DEFAULT_PREFIX, GENERATED
+from seagen.errors import UserError
+from seagen.ir import FloatLayer, FloatMLP, Signal
+from seagen.quant.features import external_inputs, step_features
+from seagen.quant.mlp import quantize_mlp
+from seagen.quant.primitives import linkage_table_q16, rshift_rne
+from seagen.reference import numpy_ref
+
+MODELS = sorted(DEFAULT_PREFIX)  # both MLPs and both surface fits
+TARGETS = ("cortex-m4", "cortex-m0plus")
+KEYS = [(m, t) for m in MODELS for t in TARGETS]
+IDS = [f"{m}-{t}" for m, t in KEYS]
+
+
+@pytest.fixture(scope="module")
+def exports():
+    """Every default model exported for each target kernel, keyed by (model, target)."""
+    return {
+        (m, t): prepare(str(GENERATED / "models" / f"{m}.pt"), prefix=DEFAULT_PREFIX[m], target=t)
+        for m, t in KEYS
+    }
+
+
+def _cases(qm) -> np.ndarray:
+    return np.vstack([random_inputs(qm, 400, 11), edge_inputs(len(qm.inputs))])
+
+
+def _recorded(qm, data_dir):
+    """enc, pot, trial and external inputs of the test split, and the reference NAME_step outputs."""
+    df = load_split(data_dir, "test")
+    ext = None
+    if names := external_inputs(qm):
+        fr = {i.signal.name: i.frac for i in qm.inputs}
+        cols = [np.rint(df[n].to_numpy() * 2.0 ** fr[n]) for n in names]
+        ext = np.clip(np.stack(cols, axis=1), -(2**15), 2**15 - 1).astype(np.int64)
+    want = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), df.enc, df.pot, df.trial, ext))
+    return df, ext, want
+
+
+@pytest.mark.parametrize("key", KEYS, ids=IDS)
+def test_host_build_bit_exact(exports, key, data_dir):
+    """On the host (no SIMD32: the portable fallbacks), NAME_infer and NAME_step equal the numpy reference."""
+    ex = exports[key]
+    qm = ex.qmodel
+    c = CModel(ex.files, ex.prefix, len(external_inputs(qm)))
+    x = _cases(qm)
+    assert first_mismatch(c.infer(x), numpy_ref.infer(qm, x), x) is None
+    df, ext, want = _recorded(qm, data_dir)
+    got = c.step(df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy(), ext)
+    assert first_mismatch(got, want, df[["trial", "enc", "pot"]].to_numpy()) is None
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_m4_fallback_sanitized(exports, model):
+    """The M4 kernel's portable fallback is clean under UBSan+ASan on random and edge inputs, same output."""
+    ex = exports[(model, "cortex-m4")]
+    x = _cases(ex.qmodel)
+    got = sanitized_infer(ex.files, ex.prefix, x, len(external_inputs(ex.qmodel)))
+    assert first_mismatch(got, numpy_ref.infer(ex.qmodel, x), x) is None
+
+
+@pytest.mark.parametrize("key", KEYS, ids=IDS)
+def test_on_own_core_bit_exact(exports, key, data_dir):
+    """Each kernel cross-compiled for its own core equals numpy on random/edge inputs and recorded trials."""
+    pytest.importorskip("unicorn", reason="unicorn (the Cortex-M emulator) is not installed")
+    from seagen.build.cortexm import CortexM, toolchain_missing
+
+    if msg := toolchain_missing():
+        pytest.skip(msg)
+    ex = exports[key]
+    qm = ex.qmodel
+    mcu = CortexM(ex.files, ex.prefix, key[1])
+    x = _cases(qm)
+    assert first_mismatch(mcu.infer(x), numpy_ref.infer(qm, x), x) is None
+    df, ext, want = _recorded(qm, data_dir)
+    got = mcu.step(df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy(), ext)
+    assert first_mismatch(got, want, df[["trial", "enc", "pot"]].to_numpy()) is None
+
+
+def _odd_mlp(sizes: tuple[int, ...], scale: float, seed: int) -> FloatMLP:
+    """A random ReLU MLP on wide-ranging inputs (odd sizes; large weights force 64-bit accumulators)."""
+    rng = np.random.default_rng(seed)
+    names = ("pot", "d_pot", "dd_pot", "enc", "compression_mm", "d_enc", "dd_enc", "d_compression_mm")
+    inputs = tuple(Signal(names[i], "1", -100.0 * (i + 1), 80.0 * (i + 1)) for i in range(sizes[0]))
+    layers = tuple(
+        FloatLayer(
+            rng.normal(0, scale, (b, a)), rng.normal(0, scale, b), "relu" if k < len(sizes) - 2 else "linear"
+        )
+        for k, (a, b) in enumerate(zip(sizes[:-1], sizes[1:], strict=True))
+    )
+    return FloatMLP(inputs, Signal("y", "1", -1e3, 1e3), layers)
+
+
+SMALL = [((3, 5, 7, 1), 1.0, 3), ((8, 16, 8, 1), 10.0, 0), ((8, 16, 1), 10.0, 3), ((5, 1), 1.0, 3)]
+SMALL_IDS = ["3-5-7-1", "8-16-8-1-wide", "8-16-1-wide", "5-1"]
+
+
+@pytest.mark.parametrize("case", SMALL, ids=SMALL_IDS)
+@pytest.mark.parametrize("target", TARGETS)
+def test_odd_sizes_and_wide_accumulators_on_host(case, target):
+    """Odd widths, single-layer nets and 64-bit accumulators: target kernels (host fallbacks) equal numpy."""
+    qm = quantize_mlp(_odd_mlp(*case))
+    files = {**render(qm, "odd", target), **prepare_runtime(target)}
+    c = CModel(files, "odd", 0)
+    x = _cases(qm)
+    assert first_mismatch(c.infer(x), numpy_ref.infer(qm, x), x) is None
+
+
+def test_wide_cases_exercise_64_bit_paths():
+    """The wide cases above take each kernel's 64-bit path in a hidden layer and in the last layer."""
+    for t in TARGETS:
+        layers = [L for case in SMALL for L in kernel_context(quantize_mlp(_odd_mlp(*case)), t)["tlayers"]]
+        assert any(L["acc"] == 64 and not L["last"] for L in layers), t
+        assert any(L["acc"] == 64 and L["last"] for L in layers), t
+
+
+def prepare_runtime(target: str) -> dict[str, str]:
+    """The runtime files an export for `target` ships."""
+    from seagen.build.runtime import runtime_sources
+
+    from seagen.codegen.render import RUNTIME
+    from seagen.codegen.targets import RUNTIME as EXTRA
+
+    return runtime_sources(*RUNTIME, *EXTRA[target])
+
+
+def test_dsp_helpers_match_python_twins():
+    """sea_dsp.h fallbacks: folded rounding == rshift_rne, SMLAD == exact sum, pack/unpack round-trip, and
+    both forms of the Horner product equal floor(x * r / 2^s) where the planner allows them."""
+    from seagen.build.runtime import runtime_sources
+
+    from seagen.build.host import build
+
+    cdef = (
+        "int32_t t_rne32(int32_t v, int s); int64_t t_rne64(int64_t v, int s);"
+        "int32_t t_smlad(int32_t x, int32_t w, int32_t a); int32_t t_pack(int32_t lo, int32_t hi);"
+        "int32_t t_lo(int32_t w); int32_t t_hi(int32_t w); int32_t t_u2s(uint32_t u);"
+        "int32_t t_split(int32_t x, int32_t r, int s); int32_t t_wide(int32_t x, int32_t r, int s);"
+    )
+    body = (
+        '#include "sea_dsp.h"\n#include "t_dsp.h"\n'
+        "int32_t t_rne32(int32_t v, int s) { return sea_rne_folded_s32(v, s); }\n"
+        "int64_t t_rne64(int64_t v, int s) { return sea_rne_folded_s64(v, s); }\n"
+        "int32_t t_smlad(int32_t x, int32_t w, int32_t a) { return sea_smlad(x, w, a); }\n"
+        "int32_t t_pack(int32_t lo, int32_t hi) { return sea_pack16x2(lo, hi); }\n"
+        "int32_t t_lo(int32_t w) { return sea_lo16(w); }\nint32_t t_hi(int32_t w) { return sea_hi16(w); }\n"
+        "int32_t t_u2s(uint32_t u) { return sea_u32_to_s32(u); }\n"
+        "int32_t t_split(int32_t x, int32_t r, int s) { return sea_mulshr_split_s32(x, r, s); }\n"
+        "int32_t t_wide(int32_t x, int32_t r, int s) { return sea_mulshr_wide_s32(x, r, s); }\n"
+    )
+    header = "#include <stdint.h>\n" + cdef.replace(";", ";\n")
+    lib = build(cdef, {**runtime_sources("sea_dsp.h"), "t_dsp.h": header, "t_dsp.c": body}, name="tdsp").lib
+    rng = np.random.default_rng(5)
+    for s in (1, 2, 7, 14, 16, 17, 30):
+        half = 1 << (s - 1)
+        vals = [*rng.integers(-(2**30), 2**30, 300).tolist(), -(2**30), 2**30 - 1, 0, 1, -1]
+        vals += [k * (1 << s) + sign * half for k in (-3, -2, -1, 0, 1, 2) for sign in (1, -1)]
+        for v in (v for v in vals if -(2**31) <= v + half < 2**31):
+            assert lib.t_rne32(v + half, s) == int(rshift_rne(v, s)), (v, s)
+            assert lib.t_rne64((v << 20) + (half << 20), s + 20) == int(rshift_rne(v << 20, s + 20)), (v, s)
+    pairs = rng.integers(-(2**15), 2**15, (500, 4)).tolist() + [[-(2**15)] * 4, [2**15 - 1] * 4]
+    for a, b, c, d in pairs:
+        x, w = lib.t_pack(a, b), lib.t_pack(c, d)
+        assert (lib.t_lo(x), lib.t_hi(x)) == (a, b)
+        assert lib.t_smlad(x, w, -12345) == -12345 + a * c + b * d  # within the proven bound
+    for u in (0, 1, 2**31 - 1, 2**31, 2**32 - 1):
+        assert lib.t_u2s(u) == (u - 2**32 if u >= 2**31 else u)
+    xs = [*rng.integers(-(2**15), 2**15, 200).tolist(), -(2**15), 2**15 - 1, 0, -1]
+    rs = [*rng.integers(-(2**31), 2**31, 200).tolist(), -(2**31), 2**31 - 1, 0, -1, 65535, -65536]
+    for x, r in zip(xs * 2, rs * 2, strict=False):
+        for s in range(16, 47):  # the planner's MIN_SHIFT = 16
+            want = (x * r) >> s  # Python ints: exact floor
+            assert lib.t_split(x, r, s) == want, (x, r, s)
+            if -(2**31) <= want < 2**31:
+                assert lib.t_wide(x, r, s) == want, (x, r, s)
+
+
+def test_bad_target_and_unsupported_activation_are_clear_errors():
+    """An unknown --target, or a tanh layer on a target kernel, is a UserError naming the fix."""
+    qm = quantize_mlp(_odd_mlp((3, 4, 1), 0.5, 1))
+    with pytest.raises(UserError, match="cortex-m0plus"):
+        render(qm, "m", "cortex-m7")
+    fm = _odd_mlp((3, 4, 1), 0.5, 1)
+    tanh = FloatMLP(
+        fm.inputs, fm.output, (FloatLayer(fm.layers[0].weight, fm.layers[0].bias, "tanh"), fm.layers[1])
+    )
+    with pytest.raises(UserError, match="portable"):
+        render(quantize_mlp(tanh), "m", "cortex-m4")
+
+
+def test_32_bit_paths_of_sea_fixed_match_twins():
+    """sea_rshift_rne_s64's int32 fast path, sea_div_rne_s32's unsigned 32-bit division and sea_to_s16's
+    saturation decided before scaling equal the Python twins at the limits, on ties and on random values."""
+    from seagen.build.runtime import FIXED, runtime_sources
+
+    from seagen.build.host import build
+    from seagen.quant.kernels import to_s16
+    from seagen.quant.primitives import div_rne
+
+    cdef = (
+        "int64_t sea_rshift_rne_s64(int64_t v, int s); int32_t sea_div_rne_s32(int32_t num, int32_t den);"
+        "int16_t sea_to_s16(int64_t v, int from_frac, int to_frac);"
+    )
+    lib = build(cdef, runtime_sources(*FIXED, "sea_nn.h", "sea_nn.c"), name="fixed32").lib
+    rng = np.random.default_rng(9)
+    edges = [-(2**31) - 1, -(2**31), -(2**31) + 1, -1, 0, 1, 2**31 - 2, 2**31 - 1, 2**31]
+    for s in (1, 2, 13, 29, 30, 31):
+        vals = (
+            edges
+            + rng.integers(-(2**32), 2**32, 300).tolist()
+            + [k * (1 << s) + (1 << (s - 1)) for k in range(-4, 4)]
+        )
+        for v in vals:
+            assert lib.sea_rshift_rne_s64(v, s) == int(rshift_rne(v, s)), (v, s)
+    nums = [
+        -(2**31),
+        -(2**31) + 1,
+        -7,
+        -5,
+        -1,
+        0,
+        1,
+        5,
+        7,
+        2**31 - 1,
+        *rng.integers(-(2**31), 2**31, 300).tolist(),
+    ]
+    dens = [1, 2, 3, 9, 10, 2**31 - 1, *rng.integers(1, 2**31, 20).tolist(), 0, -3]
+    for n in nums:
+        for d in dens:
+            assert lib.sea_div_rne_s32(n, d) == int(div_rne(n, d)), (n, d)
+    vs = [-(2**40), -(2**31), -32769, -32768, -4097, -4096, -1, 0, 1, 4095, 4096, 32767, 32768, 2**31, 2**40]
+    vs += rng.integers(-(2**33), 2**33, 200).tolist() + rng.integers(-40000, 40000, 200).tolist()
+    for v in vs:
+        for frm, to in ((0, 0), (0, 3), (0, 10), (16, 11), (0, 15), (0, 16), (0, 20), (24, 10)):
+            assert lib.sea_to_s16(v, frm, to) == int(to_s16(v, frm, to)), (v, frm, to)
