@@ -10,7 +10,7 @@ import pytest
 from seagen.bench.run import FLOAT_HELPER
 from seagen.build.mcu_trace import Insn, cycles, isa_violation
 from seagen.cli import main
-from seagen.demo import GENERATED
+from seagen.defaults import GENERATED
 
 
 def test_cycle_model_follows_the_documented_table():

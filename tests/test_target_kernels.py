@@ -7,15 +7,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from seagen.codegen.export import prepare
 
 from seagen.build.equivalence import edge_inputs, first_mismatch, random_inputs
 from seagen.build.model import CModel, sanitized_infer
 from seagen.codegen.render import render
 from seagen.codegen.targets import kernel_context
 from seagen.data.schema import load_split
-from seagen.demo import DEFAULT_PREFIX, GENERATED
+from seagen.defaults import DEFAULT_PREFIX, GENERATED
 from seagen.errors import UserError
+from seagen.export import prepare
 from seagen.ir import FloatLayer, FloatMLP, Signal
 from seagen.quant.features import external_inputs, step_features
 from seagen.quant.mlp import quantize_mlp
@@ -58,7 +58,7 @@ def test_host_build_bit_exact(exports, key, data_dir):
     """On the host (no SIMD32: the portable fallbacks), NAME_infer and NAME_step equal the numpy reference."""
     ex = exports[key]
     qm = ex.qmodel
-    c = CModel(ex.files, ex.prefix, len(external_inputs(qm)))
+    c = CModel(ex.files, ex.prefix, qm)
     x = _cases(qm)
     assert first_mismatch(c.infer(x), numpy_ref.infer(qm, x), x) is None
     df, ext, want = _recorded(qm, data_dir)
@@ -71,7 +71,7 @@ def test_m4_fallback_sanitized(exports, model):
     """The M4 kernel's portable fallback is clean under UBSan+ASan on random and edge inputs, same output."""
     ex = exports[(model, "cortex-m4")]
     x = _cases(ex.qmodel)
-    got = sanitized_infer(ex.files, ex.prefix, x, len(external_inputs(ex.qmodel)))
+    got = sanitized_infer(ex.files, ex.prefix, ex.qmodel, x)
     assert first_mismatch(got, numpy_ref.infer(ex.qmodel, x), x) is None
 
 
@@ -85,7 +85,7 @@ def test_on_own_core_bit_exact(exports, key, data_dir):
         pytest.skip(msg)
     ex = exports[key]
     qm = ex.qmodel
-    mcu = CortexM(ex.files, ex.prefix, key[1])
+    mcu = CortexM(ex.files, ex.prefix, ex.qmodel, key[1])
     x = _cases(qm)
     assert first_mismatch(mcu.infer(x), numpy_ref.infer(qm, x), x) is None
     df, ext, want = _recorded(qm, data_dir)
@@ -117,7 +117,7 @@ def test_odd_sizes_and_wide_accumulators_on_host(case, target):
     """Odd widths, single-layer nets and 64-bit accumulators: target kernels (host fallbacks) equal numpy."""
     qm = quantize_mlp(_odd_mlp(*case))
     files = {**render(qm, "odd", target), **prepare_runtime(target)}
-    c = CModel(files, "odd", 0)
+    c = CModel(files, "odd", qm)
     x = _cases(qm)
     assert first_mismatch(c.infer(x), numpy_ref.infer(qm, x), x) is None
 
@@ -132,9 +132,8 @@ def test_wide_cases_exercise_64_bit_paths():
 
 def prepare_runtime(target: str) -> dict[str, str]:
     """The runtime files an export for `target` ships."""
-    from seagen.build.runtime import runtime_sources
-
     from seagen.codegen.render import RUNTIME
+    from seagen.codegen.runtime import runtime_sources
     from seagen.codegen.targets import RUNTIME as EXTRA
 
     return runtime_sources(*RUNTIME, *EXTRA[target])
@@ -143,9 +142,8 @@ def prepare_runtime(target: str) -> dict[str, str]:
 def test_dsp_helpers_match_python_twins():
     """sea_dsp.h fallbacks: folded rounding == rshift_rne, SMLAD == exact sum, pack/unpack round-trip, and
     both forms of the Horner product equal floor(x * r / 2^s) where the planner allows them."""
-    from seagen.build.runtime import runtime_sources
-
     from seagen.build.host import build
+    from seagen.codegen.runtime import runtime_sources
 
     cdef = (
         "int32_t t_rne32(int32_t v, int s); int64_t t_rne64(int64_t v, int s);"
@@ -207,9 +205,8 @@ def test_bad_target_and_unsupported_activation_are_clear_errors():
 def test_32_bit_paths_of_sea_fixed_match_twins():
     """sea_rshift_rne_s64's int32 fast path, sea_div_rne_s32's unsigned 32-bit division and sea_to_s16's
     saturation decided before scaling equal the Python twins at the limits, on ties and on random values."""
-    from seagen.build.runtime import FIXED, runtime_sources
-
     from seagen.build.host import build
+    from seagen.codegen.runtime import FIXED, runtime_sources
     from seagen.quant.kernels import to_s16
     from seagen.quant.primitives import div_rne
 

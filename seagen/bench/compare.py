@@ -138,7 +138,7 @@ def _measure(
 def bench_model(name: str) -> list[dict]:
     """Every implementation of one default model on both cores."""
     from seagen.bench.mcu import _inputs
-    from seagen.codegen.export import prepare
+    from seagen.export import prepare
     from seagen.reference import float_ref
 
     rows = []
@@ -207,7 +207,7 @@ def table(rows: list[dict]) -> str:
 
 def firmware_rows() -> list[B.Entry]:
     """`seagen bench` of the four default models exported for each core's target kernel."""
-    from seagen.codegen.export import prepare, write
+    from seagen.export import prepare, write
 
     rows = []
     for cpu in cm.CPUS:

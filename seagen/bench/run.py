@@ -180,7 +180,7 @@ def _sources(d: Path, prefix: str) -> tuple[dict[str, str], list[str]]:
         del src[f]
     entries = ["infer", "step"]
     if re.search(rf"\b{prefix}_predict_q16\(", src[f"{prefix}.h"]):
-        from seagen.build.runtime import runtime_sources
+        from seagen.codegen.runtime import runtime_sources
 
         src = {**runtime_sources(*CONTROL_FILES), **src, **_tick_driver(prefix)}
         entries.append("tick")
