@@ -12,7 +12,8 @@ from seagen.data.protocol import PUSH_MOVES, Move, run_trials
 from seagen.discrepancy.replay import ParamSet, Runs, runs_from_frames, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS, noise_sigma, zscores
 from seagen.discrepancy.workflow import Result, identify
-from seagen.plant import EFFECT_NAMES, PlantConfig
+from seagen.plant import PlantConfig
+from seagen.plant.config import CATALOGUE
 
 # Ranges the hidden parameters are drawn from (realistic for the paper's actuator).
 TRUTH: dict[str, dict[str, tuple[float, float]]] = {
@@ -28,7 +29,7 @@ TRUTH: dict[str, dict[str, tuple[float, float]]] = {
     "load_cell_offset": {"offset_n": (0.3, 1.0)},
     "transport_delay": {"delay_s": (0.01, 0.06)},
 }
-HIDEABLE = tuple(e for e in EFFECT_NAMES if e != "pot_noise")
+HIDEABLE = CATALOGUE
 HARD_PAIRS = (
     ("viscous_friction", "pot_voltage_drop"),
     ("viscous_friction", "transport_delay"),
@@ -66,15 +67,15 @@ def case_moves(moves: tuple[tuple[float, float, float], ...] = PUSH_MOVES) -> li
     return [Move(a, *moves[(i + k) % n]) for i, a in enumerate(CASE_ANGLES) for k in (0, 1)]
 
 
-def case_frames(cfg: PlantConfig, seed: int, fast: bool = False) -> list[pd.DataFrame]:
+def case_frames(cfg: PlantConfig, seed: int, fast: bool = False, plant_cls=None) -> list[pd.DataFrame]:
     """The case_moves trials of the plant cfg (FAST_MOVES if `fast`), each frame with its trial number."""
     moves = case_moves(FAST_MOVES if fast else PUSH_MOVES)
-    return [df.assign(trial=i) for i, df in enumerate(run_trials(cfg, moves, seed=seed))]
+    return [df.assign(trial=i) for i, df in enumerate(run_trials(cfg, moves, seed=seed, plant_cls=plant_cls))]
 
 
-def measure(cfg: PlantConfig, seed: int, fast: bool = False) -> Runs:
+def measure(cfg: PlantConfig, seed: int, fast: bool = False, plant_cls=None) -> Runs:
     """A reduced data set (two trials at each of six angles, paper protocol) from the plant cfg."""
-    return runs_from_frames([("sim", df) for df in case_frames(cfg, seed, fast)])
+    return runs_from_frames([("sim", df) for df in case_frames(cfg, seed, fast, plant_cls)])
 
 
 def make_case(
@@ -109,6 +110,7 @@ def run_case(kind: str, effects: tuple[str, ...], seed: int) -> dict:
         "hidden": "+".join(effects) or "-",
         "seed": seed,
         "named": "+".join(names) or "-",
+        "recalibrated": "+".join(n.name for n in res.recalibrated) or "-",
         "verdict": res.verdict,
         "first_correct": bool(effects) and bool(names) and names[0] in effects,
         "all_found": set(effects) <= set(names),
