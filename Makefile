@@ -33,10 +33,10 @@ demo: venv
 	$(VENV)/bin/seagen demo --out $(DEMO)
 
 test: venv
-	$(PY) -m pytest -n $(JOBS) --dist worksteal -q
+	$(PY) -m pytest -n $(JOBS) --dist worksteal -q --durations=15
 
 test-slow: venv
-	$(PY) -m pytest -n $(JOBS) --dist worksteal -q -m slow
+	$(PY) -m pytest -n $(JOBS) --dist worksteal -q -m slow --durations=15
 
 check: venv
 	$(VENV)/bin/ruff check .

@@ -35,7 +35,7 @@ def _quiet(cfg: PlantConfig) -> PlantConfig:
 def test_replay_reproduces_the_plant(effect: str | None, params: dict) -> None:
     """Replaying the recorded command through the same plant gives every signal back up to rounding."""
     cfg = _quiet(PlantConfig() if effect is None else PlantConfig().with_effect(effect, True, **params))
-    runs = measure(cfg, seed=1).take([0, 5, 11])
+    runs = measure(cfg, seed=1, fast=True).take([0, 5, 11])
     sim = simulate(cfg, [{}], runs)
     for c, tol in (("enc", 0.5 + 1e-6), ("pot", 0.5 + 1e-6), ("load_cell_n", 1e-9), ("force_n", 1e-9)):
         err = np.abs(runs.meas[c] - sim[c][0])[runs.mask]
@@ -58,22 +58,23 @@ def test_plant_structure_law_accepts_per_element_parameters() -> None:
 
 
 def _write(case_runs_cfg: PlantConfig, path, seed: int = 3) -> None:
-    """A measured CSV from the plant `cfg` (two trials at six angles)."""
-    save_csv(pd.concat(case_frames(case_runs_cfg, seed), ignore_index=True), path)
+    """A measured CSV from the plant `cfg` (two quick trials at six angles)."""
+    save_csv(pd.concat(case_frames(case_runs_cfg, seed, fast=True), ignore_index=True), path)
 
 
 def test_cli_names_adds_and_reports(tmp_path, capsys) -> None:
-    """The command names a hidden offset, writes plant.toml with it on, the report, maps, and JSON."""
-    _write(PlantConfig().with_effect("load_cell_offset", True, offset_n=0.8), tmp_path / "m.csv")
+    """The command names a hidden spring preload, writes plant.toml with it on, the report, maps, JSON
+    (also the fast suite's case of spring_preload named; ~10 s)."""
+    _write(PlantConfig().with_effect("spring_preload", True, force_n=1.2), tmp_path / "m.csv")
     out = tmp_path / "rep"
     assert main(["discrepancy", "--measured", str(tmp_path), "--out", str(out), "--json"]) == 0
     s = json.loads(capsys.readouterr().out)
     assert {"effects", "rms_before", "rms_after", "noise_floor", "verdict"} <= set(s)
-    assert [e["name"] for e in s["effects"]] == ["load_cell_offset"]
-    assert s["effects"][0]["params"]["offset_n"] == pytest.approx(0.8, abs=0.08)
+    assert [e["name"] for e in s["effects"]] == ["spring_preload"]
+    assert s["effects"][0]["params"]["force_n"] == pytest.approx(1.2, abs=0.12)
     assert s["rms_after"] < 0.5 * s["rms_before"] and s["rms_after"] <= 1.2 * s["noise_floor"]
     cfg = load_config(out / "plant.toml")
-    assert cfg.on("load_cell_offset")
+    assert cfg.on("spring_preload")
     for f in ("report.md", "residual_maps.png", "regions_before.csv", "gap_by_region.csv"):
         assert (out / f).stat().st_size > 0
 
@@ -119,7 +120,7 @@ def test_bad_base_exits_2(tmp_path, capsys) -> None:
 
 def test_case_hides_only_the_named_effects() -> None:
     """A hidden-effect case: the base lacks exactly the hidden effects, which have parameters in range."""
-    case = make_case(("viscous_friction", "backlash"), seed=4)
+    case = make_case(("viscous_friction", "backlash"), seed=4, fast=True)
     assert not case.base.on("viscous_friction") and not case.base.on("backlash")
     assert case.base.on("actuator_friction") and set(case.hidden) == {"viscous_friction", "backlash"}
     assert len(case.runs.angle) == 12

@@ -76,6 +76,8 @@ EFFECT_CASES = {
     "pot_noise": ({}, "pot_jitter", +1, {}),
     "load_cell_offset": ({}, "load_cell_at_rest", +1, {}),
     "transport_delay": ({"delay_s": 0.05}, "time_to_3n", +1, {}),
+    # a fitted correction, not physics (issue 14): a constant +0.5 N on the load cell
+    "learned_residual": ({"channel": "load_cell_n", "coef": [0.5]}, "load_cell_at_rest", +1, {}),
 }
 
 
@@ -144,6 +146,8 @@ def test_config_toml_round_trip(tmp_path):
         ("[effects.backlash]\nenabled = 3\n", "effects.backlash.enabled"),
         ("[motor]\nstall_force_n = 'x'\n", "motor.stall_force_n"),
         ("motor = [1", "not valid TOML"),
+        ("[effects.learned_residual]\nenabled = true\ninputs = ['torque']\n", "unknown input 'torque'"),
+        ("[effects.learned_residual]\ncoef = ['a']\n", "effects.learned_residual.coef"),
     ],
 )
 def test_bad_config_names_file_and_key(tmp_path, text, where):

@@ -1,4 +1,4 @@
-"""`seagen data generate` and `seagen data summary`."""
+"""`seagen data generate`, `seagen data import` and `seagen data summary`."""
 
 from __future__ import annotations
 
@@ -20,6 +20,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     g.add_argument("--config", help="plant config TOML (default: the paper's actuator)")
     g.set_defaults(func=cmd_generate)
+    i = dsub.add_parser(
+        "import",
+        help="a rig's log -> train/test/validation CSVs (column map TOML with units; resampled to 100 Hz)",
+    )
+    i.add_argument("log", help="the rig's log (CSV with a header row)")
+    i.add_argument("--map", required=True, help="column map TOML: log columns and units -> seagen's schema")
+    i.add_argument("--out", required=True, help="output directory (created; the three files written whole)")
+    i.set_defaults(func=cmd_import)
     s = dsub.add_parser("summary", help="rows per split, naive kinematics error, friction by angle")
     s.add_argument("dir", help="data directory holding train.csv, test.csv, validation.csv")
     s.add_argument("--json", action="store_true", help="print one JSON object")
@@ -31,7 +39,6 @@ def cmd_generate(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from seagen.data.protocol import generate
-    from seagen.data.schema import save_csv
     from seagen.plant import PlantConfig, load_config
 
     cfg = load_config(args.config) if args.config else PlantConfig()
@@ -44,8 +51,16 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
         splits = generate(cfg, seed=args.seed, progress=step)
         bar.update(1)
+    _write_splits(out, splits)
+    return 0
+
+
+def _write_splits(out: Path, splits: dict) -> None:
+    """Write every split into a staging folder inside `out`, then rename each into place."""
+    from seagen.data.schema import save_csv
+
     out.mkdir(parents=True, exist_ok=True)
-    staged = tempfile.mkdtemp(dir=out, prefix=".generate.")
+    staged = tempfile.mkdtemp(dir=out, prefix=".staged.")
     try:
         for name, df in splits.items():
             save_csv(df, Path(staged) / f"{name}.csv")
@@ -56,6 +71,14 @@ def cmd_generate(args: argparse.Namespace) -> int:
             f.unlink()
         os.rmdir(staged)
     print(f"wrote {out}/: " + ", ".join(f"{k}.csv ({len(v)} rows)" for k, v in splits.items()))
+
+
+def cmd_import(args: argparse.Namespace) -> int:
+    """Convert a rig's log with a column map; nothing is written unless every row converts."""
+    from seagen.data.logimport import import_log, load_map, split_trials
+
+    splits = split_trials(import_log(args.log, load_map(args.map)))
+    _write_splits(Path(args.out), splits)
     return 0
 
 

@@ -18,7 +18,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--measured", help="a CSV or a directory of CSVs (the data schema)")
     p.add_argument("--base", help="plant config TOML to start from (default: the paper's actuator)")
     p.add_argument("--out", help="report directory (written whole, or not at all)")
-    p.add_argument("--seeds", type=int, default=3, help="bench: seeds (cases per seed: 14)")
+    p.add_argument("--seeds", type=int, default=3, help="bench: seeds (cases per seed: 14; --families: 8)")
+    p.add_argument(
+        "--families",
+        action="store_true",
+        help="bench: the independent families (forms outside the catalogue, mis-set bases, control)",
+    )
+    p.add_argument("--quick", action="store_true", help="bench --families: quick moves (about half the time)")
     p.add_argument("--jobs", type=int, default=2, help="bench: worker processes")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_discrepancy)
@@ -61,6 +67,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     if args.seeds < 1:
         raise UserError(f"--seeds must be >= 1, got {args.seeds}")
+    if args.families:
+        return _print_families(args)
     out = bench(args.seeds, jobs=max(1, args.jobs))
     if args.json:
         print(json.dumps(out, indent=2))
@@ -73,5 +81,31 @@ def cmd_bench(args: argparse.Namespace) -> int:
             f"{row['kind']:8s} hidden={row['hidden']:40s} named={row['named']:40s} {row['verdict']:11s} "
             f"e/n={row['effect_to_noise']:7.2f} rms {row['rms_before']:7.2f} -> {row['rms_after']:5.2f} "
             f"({row['seconds']:.0f} s)"
+        )
+    return 0
+
+
+def _print_families(args: argparse.Namespace) -> int:
+    """Run the family benchmark and print its per-family table and goal numbers."""
+    from seagen.discrepancy.famibench import bench_families
+
+    out = bench_families(args.seeds, jobs=max(1, args.jobs), fast=args.quick)
+    if args.json:
+        print(json.dumps(out, indent=2, default=str))
+        return 0
+    for k, v in out.items():
+        if k not in ("cases", "per_family"):
+            print(f"{k}: {v:.3f}" if isinstance(v, float) else f"{k}: {v}")
+    print("family            cases first_ok spurious recovered gap_cut (physics) s/dataset")
+    for r in out["per_family"]:
+        print(
+            f"{r['family']:17s} {r['cases']:5d} {r['first_ok']:8.2f} {r['spurious']:8.2f} "
+            f"{r['recovered']:9.2f} {r['gap_cut']:7.2f} ({r['gap_cut_physics']:.2f}) {r['seconds']:9.0f}"
+        )
+    for r in out["cases"]:
+        print(
+            f"{r['family']:17s} seed={r['seed']:4d} expected={r['expected']:20s} first={r['first']:20s} "
+            f"added={r['added']:30s} recal={r['recalibrated']:30s} gap_cut={r['gap_cut']:.2f} "
+            f"({r['seconds']:.0f} s)"
         )
     return 0

@@ -61,9 +61,13 @@ def _stairs(moves: list[Move], dt_s: float) -> Callable[[int, np.ndarray, np.nda
     return volts
 
 
-def run_trials(cfg: PlantConfig, moves: list[Move], seed: int, max_s: float = 8.0) -> list[pd.DataFrame]:
-    """Simulate a batch of trials at once; each returns its 100 Hz raw rows until the force is off again."""
-    plant = Plant(cfg, np.array([m.angle_deg for m in moves]), seed=seed)
+def run_trials(
+    cfg: PlantConfig, moves: list[Move], seed: int, max_s: float = 8.0, plant_cls: type[Plant] | None = None
+) -> list[pd.DataFrame]:
+    """Simulate a batch of trials at once; each returns its 100 Hz raw rows until the force is off again.
+
+    `plant_cls` replaces the simulator (a Plant subclass, e.g. a discrepancy benchmark family)."""
+    plant = (plant_cls or Plant)(cfg, np.array([m.angle_deg for m in moves]), seed=seed)
     push = np.array([m.push_v for m in moves])
     peak = np.array([m.peak_n for m in moves])
     back = np.array([m.retract_v for m in moves])

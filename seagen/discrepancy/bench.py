@@ -12,7 +12,8 @@ from seagen.data.protocol import PUSH_MOVES, Move, run_trials
 from seagen.discrepancy.replay import ParamSet, Runs, runs_from_frames, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS, noise_sigma, zscores
 from seagen.discrepancy.workflow import Result, identify
-from seagen.plant import EFFECT_NAMES, PlantConfig
+from seagen.plant import PlantConfig
+from seagen.plant.config import CATALOGUE
 
 # Ranges the hidden parameters are drawn from (realistic for the paper's actuator).
 TRUTH: dict[str, dict[str, tuple[float, float]]] = {
@@ -28,7 +29,7 @@ TRUTH: dict[str, dict[str, tuple[float, float]]] = {
     "load_cell_offset": {"offset_n": (0.3, 1.0)},
     "transport_delay": {"delay_s": (0.01, 0.06)},
 }
-HIDEABLE = tuple(e for e in EFFECT_NAMES if e != "pot_noise")
+HIDEABLE = CATALOGUE
 HARD_PAIRS = (
     ("viscous_friction", "pot_voltage_drop"),
     ("viscous_friction", "transport_delay"),
@@ -38,6 +39,9 @@ HARD_PAIRS = (
     ("actuator_friction", "load_cell_offset"),
 )
 CASE_ANGLES = (6.0, 10.0, 14.0, 18.0, 22.0, 26.0)
+# Quick test data: two brisk moves to high force (longest trial ~190 samples instead of ~345; the replay
+# costs the same per step whatever the batch, so a data set's cost is its longest trial).
+FAST_MOVES = ((4.0, 17.0, -7.0), (5.0, 12.0, -8.0))
 
 
 @dataclass
@@ -57,23 +61,26 @@ def draw(effect: str, rng: np.random.Generator) -> dict[str, float]:
     return p
 
 
-def case_moves() -> list[Move]:
-    """The reduced protocol: two trials at each of the six CASE_ANGLES, cycling through PUSH_MOVES."""
-    n = len(PUSH_MOVES)
-    return [Move(a, *PUSH_MOVES[(i + k) % n]) for i, a in enumerate(CASE_ANGLES) for k in (0, 1)]
+def case_moves(moves: tuple[tuple[float, float, float], ...] = PUSH_MOVES) -> list[Move]:
+    """The reduced protocol: two trials at each of the six CASE_ANGLES, cycling through `moves`."""
+    n = len(moves)
+    return [Move(a, *moves[(i + k) % n]) for i, a in enumerate(CASE_ANGLES) for k in (0, 1)]
 
 
-def case_frames(cfg: PlantConfig, seed: int) -> list[pd.DataFrame]:
-    """The case_moves trials of the plant cfg, each frame with its trial number."""
-    return [df.assign(trial=i) for i, df in enumerate(run_trials(cfg, case_moves(), seed=seed))]
+def case_frames(cfg: PlantConfig, seed: int, fast: bool = False, plant_cls=None) -> list[pd.DataFrame]:
+    """The case_moves trials of the plant cfg (FAST_MOVES if `fast`), each frame with its trial number."""
+    moves = case_moves(FAST_MOVES if fast else PUSH_MOVES)
+    return [df.assign(trial=i) for i, df in enumerate(run_trials(cfg, moves, seed=seed, plant_cls=plant_cls))]
 
 
-def measure(cfg: PlantConfig, seed: int) -> Runs:
+def measure(cfg: PlantConfig, seed: int, fast: bool = False, plant_cls=None) -> Runs:
     """A reduced data set (two trials at each of six angles, paper protocol) from the plant cfg."""
-    return runs_from_frames([("sim", df) for df in case_frames(cfg, seed)])
+    return runs_from_frames([("sim", df) for df in case_frames(cfg, seed, fast, plant_cls)])
 
 
-def make_case(effects: tuple[str, ...], seed: int, default: PlantConfig | None = None) -> Case:
+def make_case(
+    effects: tuple[str, ...], seed: int, default: PlantConfig | None = None, fast: bool = False
+) -> Case:
     """Hide `effects` (random parameters) in the default plant; the base has them switched off."""
     rng = np.random.default_rng(seed)
     default = default or PlantConfig()
@@ -81,7 +88,7 @@ def make_case(effects: tuple[str, ...], seed: int, default: PlantConfig | None =
     truth, base = default, default
     for e, p in hidden.items():
         truth, base = truth.with_effect(e, True, **p), base.with_effect(e, False)
-    return Case(measure(truth, seed=int(rng.integers(1 << 30))), base, hidden)
+    return Case(measure(truth, seed=int(rng.integers(1 << 30)), fast=fast), base, hidden)
 
 
 def effect_to_noise(case: Case) -> float:
@@ -103,6 +110,7 @@ def run_case(kind: str, effects: tuple[str, ...], seed: int) -> dict:
         "hidden": "+".join(effects) or "-",
         "seed": seed,
         "named": "+".join(names) or "-",
+        "recalibrated": "+".join(n.name for n in res.recalibrated) or "-",
         "verdict": res.verdict,
         "first_correct": bool(effects) and bool(names) and names[0] in effects,
         "all_found": set(effects) <= set(names),

@@ -10,7 +10,8 @@ from scipy.optimize import least_squares
 
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS, chi2_per_trial, zscores
-from seagen.plant import EFFECT_NAMES, PlantConfig
+from seagen.plant import PlantConfig
+from seagen.plant.config import CATALOGUE
 
 # Fit box per effect parameter: (low, high, log-scaled). Realistic for a compact SEA; wide on purpose.
 SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
@@ -60,7 +61,27 @@ class Candidate:
 
 def missing_effects(cfg: PlantConfig) -> list[str]:
     """Catalogue effects switched off in cfg (pot_noise is a noise model, not a candidate)."""
-    return [e for e in EFFECT_NAMES if e != "pot_noise" and not cfg.on(e)]
+    return [e for e in CATALOGUE if not cfg.on(e)]
+
+
+def present_effects(cfg: PlantConfig) -> list[str]:
+    """Catalogue effects switched on in cfg whose parameters can be recalibrated (not pot_noise)."""
+    return [e for e in CATALOGUE if cfg.on(e)]
+
+
+def to_unit(effect: str, param: str, value: float) -> float:
+    """Inverse of the unit-box mapping of SPACE (clipped to the box)."""
+    lo, hi, log = SPACE[effect][param]
+    x = np.log(max(value, 1e-12) / lo) / np.log(hi / lo) if log else (value - lo) / (hi - lo)
+    return float(np.clip(x, 0, 1))
+
+
+def start(cfg: PlantConfig, effect: str) -> Candidate:
+    """A single-effect candidate: at cfg's values when the effect is on (recalibration), else mid-box."""
+    if not cfg.on(effect):
+        return Candidate((effect,), np.full(len(SPACE[effect]), 0.5))
+    eff = cfg.effect(effect)
+    return Candidate((effect,), np.array([to_unit(effect, p, float(getattr(eff, p))) for p in SPACE[effect]]))
 
 
 def objective(cfg: PlantConfig, sets: list[ParamSet], runs: Runs, sigma: dict) -> np.ndarray:

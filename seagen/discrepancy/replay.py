@@ -12,7 +12,9 @@ import pandas as pd
 
 from seagen import geometry as g
 from seagen.data.protocol import SAMPLE_EVERY
-from seagen.plant import EFFECT_NAMES, Plant, PlantConfig
+from seagen.plant import Plant, PlantConfig
+from seagen.plant.config import CATALOGUE, LEARNED_INPUTS
+from seagen.plant.sim import learned_correction
 
 CHANNELS = ("enc", "pot", "load_cell_n", "force_n")
 # Sensor-side effects: they do not change the motion, so the replay loop applies them per element.
@@ -95,10 +97,10 @@ def _per_element(values: list[float], n: int) -> np.ndarray | float:
 def union_config(base: PlantConfig, sets: list[ParamSet], n: int) -> tuple[PlantConfig, dict]:
     """A config whose effect parameters are arrays over sets x trials, and the sensor-side arrays."""
     used = {e for s in sets for e in s}
-    cfg = base.with_effect("pot_noise", False)
+    cfg = base.with_effect("pot_noise", False).with_effect("learned_residual", False)
     post: dict[str, dict[str, Any]] = {}
-    for e in EFFECT_NAMES:
-        if e == "pot_noise" or (e not in used and not base.on(e)):
+    for e in CATALOGUE:
+        if e not in used and not base.on(e):
             continue
         params = [f.name for f in dataclasses.fields(base.effect(e)) if f.name != "enabled"]
         arrays = {p: _per_element([_value(base, s, e, p) for s in sets], n) for p in params}
@@ -110,8 +112,13 @@ def union_config(base: PlantConfig, sets: list[ParamSet], n: int) -> tuple[Plant
     return cfg, post
 
 
-def simulate(base: PlantConfig, sets: list[ParamSet], runs: Runs) -> dict[str, np.ndarray]:
-    """Noise-free twins of every channel, shape (len(sets), n_trials, T), driven by the measured command."""
+def simulate(
+    base: PlantConfig, sets: list[ParamSet], runs: Runs, inputs: dict[str, np.ndarray] | None = None
+) -> dict[str, np.ndarray]:
+    """Noise-free twins of every channel, shape (len(sets), n_trials, T), driven by the measured command.
+
+    The base's learned residual (if on) is added to its channel; `inputs`, if given, is filled with the
+    plant signals a learned residual reads (LEARNED_INPUTS), same shape."""
     n, t = runs.volts.shape
     e_n = n * len(sets)
     cfg, post = union_config(base, sets, n)
@@ -128,12 +135,16 @@ def simulate(base: PlantConfig, sets: list[ParamSet], runs: Runs) -> dict[str, n
     i0 = np.floor(delay).astype(int)
     frac = delay - i0
     out = {c: np.empty((e_n, t)) for c in CHANNELS}
+    lr = base.effects.learned_residual
+    rec = {k: np.empty((e_n, t)) for k in LEARNED_INPUTS} if inputs is not None or lr.enabled else {}
     for j in range(t):
         f = (1 - frac) * ring[(ptr - i0) % size, rows] + frac * ring[(ptr - i0 - 1) % size, rows]
         angle = g.angle_from_shaft(np.minimum(plant.shaft_mm, plant.y_contact))
         out["enc"][:, j] = plant.motor_mm / g.MM_PER_COUNT - 0.5  # expected value of the floored count
         out["pot"][:, j] = np.clip(g.pot_from_angle(angle) + drop, 0, g.ADC_MAX)
         out["load_cell_n"][:, j] = f * plant.ratio + offset
+        for k, v in plant.learned_inputs().items() if rec else ():
+            rec[k][:, j] = v
         out["force_n"][:, j] = out["load_cell_n"][:, j] / plant.ratio
         if j == t - 1:
             break
@@ -143,6 +154,11 @@ def simulate(base: PlantConfig, sets: list[ParamSet], runs: Runs) -> dict[str, n
                 drop += (kappa * np.abs(plant.current) - drop) * alpha
             ptr = (ptr + 1) % size
             ring[ptr] = plant.shaft_force
+    if lr.enabled:
+        out[lr.channel] += learned_correction(lr, rec)
+        out["force_n"] = out["load_cell_n"] / plant.ratio[:, None]
+    if inputs is not None:
+        inputs.update({k: v.reshape(len(sets), n, t) for k, v in rec.items()})
     return {c: v.reshape(len(sets), n, t) for c, v in out.items()}
 
 

@@ -10,13 +10,17 @@ import pandas as pd
 
 from seagen.discrepancy.candidates import (
     POLISH_NFEV,
-    SPACE,
     Candidate,
     missing_effects,
     objective,
     polish,
+    present_effects,
     screen,
+    start,
+    to_unit,
 )
+from seagen.discrepancy.learned import Learned, fit_learned, with_learned
+from seagen.discrepancy.recalibrate import uncertainty
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
 from seagen.discrepancy.residuals import (
     n_scored,
@@ -27,6 +31,7 @@ from seagen.discrepancy.residuals import (
     rms,
     zscores,
 )
+from seagen.discrepancy.signature import describe, features, profile, rank
 from seagen.errors import UserError
 from seagen.plant import PlantConfig
 
@@ -48,13 +53,15 @@ class Named:
     name: str
     params: dict[str, float]
     confidence: float
+    before: dict[str, float] | None = None  # the base's values when this is a recalibration
+    sigma: dict[str, float] = field(default_factory=dict)  # 1-sigma uncertainty of each parameter
 
 
 @dataclass
 class Result:
     """Everything the report needs."""
 
-    effects: list[Named]
+    effects: list[Named]  # effects added (off in the base)
     verdict: str
     config: PlantConfig
     held: Runs
@@ -64,6 +71,17 @@ class Result:
     rounds: list[pd.DataFrame] = field(default_factory=list)
     seconds: float = 0.0
     labels: dict[str, np.ndarray] = field(default_factory=dict)  # region_labels(held)
+    recalibrated: list[Named] = field(default_factory=list)  # effects of the base with re-fitted parameters
+    signature: list[str] = field(default_factory=list)  # the base's residual in words, before fitting
+    ranking: list[tuple[str, float]] = field(default_factory=list)  # catalogue effects by signature likeness
+    remainder: list[str] = field(default_factory=list)  # what the final residual still depends on
+    learned: Learned | None = None  # the learned remainder (in config), when the catalogue ran out
+    order: list[str] = field(default_factory=list)  # effects changed (added or recalibrated), first first
+
+    @property
+    def rms_learned(self) -> float:
+        """Held-out residual RMS with the learned remainder too (= rms_after without one)."""
+        return rms(self.learned.z) if self.learned else self.rms_after
 
     @property
     def rms_before(self) -> float:
@@ -120,6 +138,8 @@ def _score(cfg, cands, held, sig_h, rng) -> tuple[pd.DataFrame, np.ndarray]:
     table = pd.DataFrame(
         {
             "candidate": ["(none)"] + [c.label for c in cands],
+            "change": ["-"]
+            + ["+".join("recalibrate" if cfg.on(e) else "add" for e in c.names) for c in cands],
             "k": k,
             "chi2_fit": [np.nan] + [c.chi2_fit if np.isfinite(c.chi2_fit) else np.nan for c in cands],
             "bic_held_out": bic,
@@ -145,8 +165,9 @@ def _deep_fit(cfg: PlantConfig, cands: list[Candidate], fit: Runs, sig_f, search
 
 
 def best_addition(cfg: PlantConfig, fit: Runs, held: Runs, sig_f, sig_h, rng, noise: float):
-    """Fit every missing effect alone and the best one in pairs; the held-out BIC winner or None."""
-    singles = [Candidate((e,), np.full(len(SPACE[e]), 0.5)) for e in missing_effects(cfg)]
+    """Fit every missing effect and every present effect's parameters (a recalibration) alone, the best
+    one in pairs with the others; all compete in one held-out BIC selection: the winner or None."""
+    singles = [start(cfg, e) for e in missing_effects(cfg) + present_effects(cfg)]
     if not singles:
         return None, None
     screen(cfg, singles, fit, sig_f)
@@ -187,18 +208,20 @@ def _structured(held: Runs, z: dict[str, np.ndarray], labels: dict[str, np.ndarr
 def _refit(base: PlantConfig, named: list[Named], fit: Runs, sig_f, nfev: int = POLISH_NFEV) -> list[Named]:
     """Polish all named effects together from the original base (undoes bias of the first fits)."""
     cand = Candidate(tuple(n.name for n in named), np.zeros(0))
-    cand.u = np.array([_to_unit(e, p, n.params[p]) for n in named for e, p in cand.keys if e == n.name])
+    cand.u = np.array([to_unit(e, p, n.params[p]) for n in named for e, p in cand.keys if e == n.name])
     cand.chi2_fit = float(objective(base, [cand.params()], fit, sig_f).sum())
     polish(base, cand, fit, sig_f, nfev=nfev)
     fitted = cand.params()
-    return [Named(n.name, fitted[n.name], n.confidence) for n in named]
+    return [Named(n.name, fitted[n.name], n.confidence, n.before) for n in named]
 
 
-def _to_unit(effect: str, param: str, value: float) -> float:
-    """Inverse of the unit-box mapping of SPACE."""
-    lo, hi, log = SPACE[effect][param]
-    x = np.log(value / lo) / np.log(hi / lo) if log else (value - lo) / (hi - lo)
-    return float(np.clip(x, 0, 1))
+def _merge(base: PlantConfig, named: list[Named], params: ParamSet, conf: dict[str, float]) -> list[Named]:
+    """named with the winner's effects updated or appended (a recalibration keeps the base's values)."""
+    out = {n.name: n for n in named}
+    for e, p in params.items():
+        before = {k: float(getattr(base.effect(e), k)) for k in p} if base.on(e) else None
+        out[e] = Named(e, p, conf[e], before)
+    return list(out.values())
 
 
 def _residual(cfg: PlantConfig, runs: Runs, sig) -> dict[str, np.ndarray]:
@@ -219,6 +242,9 @@ def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) 
     cfg, rounds, verdict = base, [], "none"
     z0 = z1 = _residual(base, held, sig_h)
     floor = noise_floor(held, sig_h)
+    feats = features(held)
+    words = describe(profile(z0, held, feats))
+    ranking = rank(base, held, sig_h, z0, feats) if _structured(held, z0, labels) else []
     for _ in range(max_rounds):
         if named and _structured(held, z1, labels):  # first try to fit the named effects better
             named = _refit(base, named, fit, sig_f, nfev=3 * POLISH_NFEV)
@@ -234,13 +260,23 @@ def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) 
             verdict = "unexplained"
             break
         winner, conf = found
-        named += [Named(e, p, conf[e]) for e, p in winner.params().items()]
+        named = _merge(base, named, winner.params(), conf)
         if len(named) > len(winner.names):
             named = _refit(base, named, fit, sig_f)
         cfg = _apply(base, {n.name: n.params for n in named})
         z1 = _residual(cfg, held, sig_h)
     else:
         verdict = "unexplained"
-    res = Result(named, verdict, cfg, held, z0, z1, floor, rounds, labels=labels)
+    sig_p = uncertainty(base, {n.name: n.params for n in named}, fit, sig_f) if named else {}
+    for n in named:
+        n.sigma = sig_p[n.name]
+    added = [n for n in named if n.before is None]
+    res = Result(added, verdict, cfg, held, z0, z1, floor, rounds, labels=labels)
+    res.recalibrated = [n for n in named if n.before is not None]
+    res.signature, res.ranking, res.order = words, ranking, [n.name for n in named]
+    res.remainder = describe(profile(z1, held, feats)) if verdict == "unexplained" else []
+    if verdict == "unexplained" and not base.on("learned_residual"):
+        res.learned = fit_learned(cfg, fit, held, sig_f, sig_h)
+        res.config = with_learned(cfg, res.learned) if res.learned else cfg
     res.seconds = time.perf_counter() - t0
     return res

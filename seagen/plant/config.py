@@ -141,6 +141,37 @@ class TransportDelay(Effect):
     delay_s: float = 0.03
 
 
+LEARNED_INPUTS = ("force_n", "speed_mm_s", "current", "contact_deg")  # plant signals a learned residual reads
+LEARNED_CHANNELS = ("load_cell_n", "pot")  # measured channels it may correct
+LEARNED_TERMS = 5  # basis functions per input (see sim.learned_basis)
+
+
+@dataclass
+class LearnedResidual(Effect):
+    """A fitted smooth correction added to one measured channel (not physics: what the catalogue lacks).
+
+    Written by `seagen discrepancy` when no catalogue effect explains a region: value = coef[0] +
+    sum over inputs of coef . basis(input / scale), see sim.learned_basis. Off by default."""
+
+    channel: str = "load_cell_n"
+    inputs: list[str] = field(default_factory=list)
+    scales: list[float] = field(default_factory=list)
+    coef: list[float] = field(default_factory=list)
+
+    def problem(self) -> str | None:
+        """Why this correction cannot be evaluated, or None."""
+        if self.channel not in LEARNED_CHANNELS:
+            return f"channel must be one of {', '.join(LEARNED_CHANNELS)}, got {self.channel!r}"
+        bad = [i for i in self.inputs if i not in LEARNED_INPUTS]
+        if bad:
+            return f"unknown input {bad[0]!r} (known: {', '.join(LEARNED_INPUTS)})"
+        if len(self.scales) != len(self.inputs) or any(s <= 0 for s in self.scales):
+            return "scales must hold one positive number per input"
+        if len(self.coef) != 1 + LEARNED_TERMS * len(self.inputs):
+            return f"coef must hold 1 + {LEARNED_TERMS} x len(inputs) numbers"
+        return None
+
+
 @dataclass
 class Effects:
     """The catalogue of DESIGN.md §3: exactly these names."""
@@ -157,9 +188,12 @@ class Effects:
     pot_noise: PotNoise = field(default_factory=PotNoise)
     load_cell_offset: LoadCellOffset = field(default_factory=LoadCellOffset)
     transport_delay: TransportDelay = field(default_factory=TransportDelay)
+    learned_residual: LearnedResidual = field(default_factory=LearnedResidual)
 
 
 EFFECT_NAMES: tuple[str, ...] = tuple(f.name for f in fields(Effects))
+# The physical catalogue a discrepancy search names from (pot_noise is a noise model, learned_residual a fit).
+CATALOGUE: tuple[str, ...] = tuple(e for e in EFFECT_NAMES if e not in ("pot_noise", "learned_residual"))
 
 
 @dataclass
@@ -181,7 +215,7 @@ class PlantConfig:
         """Whether the effect called `name` is enabled."""
         return self.effect(name).enabled
 
-    def with_effect(self, name: str, enabled: bool = True, **params: float) -> PlantConfig:
+    def with_effect(self, name: str, enabled: bool = True, **params: Any) -> PlantConfig:
         """A copy with one effect switched and its parameters replaced."""
         new = dataclasses.replace(self, effects=dataclasses.replace(self.effects))
         eff = dataclasses.replace(self.effect(name), enabled=enabled, **params)
@@ -205,6 +239,12 @@ def _fill(cls: type, data: dict[str, Any], where: str, path: str) -> Any:
             if not isinstance(value, dict):
                 raise ConfigError(f"{where}: '{path}{key}' must be a table")
             kwargs[key] = _fill(type(default), value, where, f"{path}{key}.")
+        elif isinstance(default, str):
+            if not isinstance(value, str):
+                raise ConfigError(f"{where}: '{path}{key}' must be a string, got {value!r}")
+            kwargs[key] = value
+        elif isinstance(default, list):
+            kwargs[key] = _list(value, "str" in str(known[key].type), where, f"{path}{key}")
         elif isinstance(default, bool):
             if not isinstance(value, bool):
                 raise ConfigError(f"{where}: '{path}{key}' must be true or false, got {value!r}")
@@ -213,7 +253,22 @@ def _fill(cls: type, data: dict[str, Any], where: str, path: str) -> Any:
             if isinstance(value, bool) or not isinstance(value, int | float):
                 raise ConfigError(f"{where}: '{path}{key}' must be a number, got {value!r}")
             kwargs[key] = type(default)(value)
-    return cls(**kwargs)
+    obj = cls(**kwargs)
+    problem = obj.problem() if hasattr(obj, "problem") and obj.enabled else None
+    if problem:
+        raise ConfigError(f"{where}: '{path.rstrip('.')}': {problem}")
+    return obj
+
+
+def _list(value: Any, strings: bool, where: str, key: str) -> list:
+    """A TOML array of strings or of numbers."""
+    ok = isinstance(value, list) and all(
+        isinstance(v, str) if strings else isinstance(v, int | float) and not isinstance(v, bool)
+        for v in value
+    )
+    if not ok:
+        raise ConfigError(f"{where}: '{key}' must be an array of {'strings' if strings else 'numbers'}")
+    return [v if strings else float(v) for v in value]
 
 
 def config_from_dict(data: dict[str, Any], where: str = "<dict>") -> PlantConfig:

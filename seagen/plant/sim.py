@@ -27,6 +27,22 @@ class Sensors:
     motor_current: np.ndarray  # motor current, normalised to stall at the supply voltage
 
 
+def learned_basis(inputs: list[str], scales: list[float], values: dict[str, np.ndarray]) -> np.ndarray:
+    """Basis of a learned residual, shape (..., 1 + 5 len(inputs)): 1, then per input u = x / scale:
+    u, u^2, u^3, tanh(4 u) (a smoothed sign) and exp(-4 u^2) (a bump at zero)."""
+    shape = np.broadcast_shapes(*(np.shape(values[k]) for k in inputs)) if inputs else ()
+    cols = [np.ones(shape)]
+    for k, sc in zip(inputs, scales, strict=True):
+        u = np.broadcast_to(np.asarray(values[k], float), shape) / sc
+        cols += [u, u * u, u**3, np.tanh(4 * u), np.exp(-4 * u * u)]
+    return np.stack(cols, axis=-1)
+
+
+def learned_correction(eff, values: dict[str, np.ndarray]) -> np.ndarray:
+    """The learned residual's value (in its channel's unit) for plant signals `values` (LEARNED_INPUTS)."""
+    return learned_basis(eff.inputs, eff.scales, values) @ np.asarray(eff.coef, float)
+
+
 class Plant:
     """A batch of simulated SEAs, one per contact angle, stepped at cfg.dt_s; deterministic for a seed."""
 
@@ -187,6 +203,15 @@ class Plant:
         return np.where(moving, y, y0)
 
     # --- sensors ----------------------------------------------------------------------------------
+    def learned_inputs(self) -> dict[str, np.ndarray]:
+        """The signals a learned residual may read (config.LEARNED_INPUTS), now."""
+        return {
+            "force_n": self.shaft_force,
+            "speed_mm_s": self.v_shaft,
+            "current": self.current,
+            "contact_deg": self.contact_deg,
+        }
+
     def read(self) -> Sensors:
         """Sample every sensor now (draws the noise of this sample)."""
         cfg, e, n = self.cfg, self.cfg.effects, self.nut_mm.size
@@ -198,6 +223,10 @@ class Plant:
             pot = pot + self.pot_drop
         if e.pot_noise.enabled:
             pot = pot + e.pot_noise.sigma_counts * self.rng.standard_normal(n)
+        lr = e.learned_residual
+        extra = learned_correction(lr, self.learned_inputs()) if lr.enabled else 0.0
+        if lr.enabled and lr.channel == "pot":
+            pot = pot + extra
         pot_i = np.clip(np.rint(pot), 0, g.ADC_MAX).astype(np.int64)
         shaft_force = self._history[self._delay_n]
         tip = shaft_force * self.ratio
@@ -209,6 +238,8 @@ class Plant:
         load_cell = tip + sigma * self.rng.standard_normal(n)
         if e.load_cell_offset.enabled:
             load_cell = load_cell + e.load_cell_offset.offset_n
+        if lr.enabled and lr.channel == "load_cell_n":
+            load_cell = load_cell + extra
         true_force = self.structure_force(self.shaft_mm)[0]
         return Sensors(
             enc=enc,

@@ -1,0 +1,197 @@
+"""A rig's log -> seagen's CSV schema: a TOML column map with units, trials, resampling to 100 Hz.
+
+The map (see README "Reading a rig's logs"):
+
+    [columns.t_s]            column = "time_ms", unit = "ms"      # required: time, any sample rate
+    [columns.trial]          column = "run"                        # optional
+    [columns.angle_set_deg]  column = "contact", unit = "rad"      # or: value = 14.0
+    [columns.motor_v]        column = "cmd_mV", unit = "mV"
+    [columns.enc]            column = "enc", unit = "counts"
+    [columns.pot]            column = "pot_mV", unit = "mV", full_scale = 3300.0
+    [columns.load_cell_n]    column = "tip_kgf", unit = "kgf"
+    [columns.force_n]        column = "shaft_lbf", unit = "lbf"
+    [trials]                 gap_s = 1.0    # without a trial column: a new trial where time jumps or resets
+
+Every mapped value is read as `raw * scale + offset` (both optional) in the given unit, then converted.
+Resampling (documented rule): each trial is put on the pipeline's 100 Hz grid from its first sample;
+measured channels are interpolated linearly (counts rounded to the nearest integer), the motor command is
+held from the last logged value at or before each grid time (it is a command, not a signal).
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from seagen import geometry as g
+from seagen.data.features import SAMPLE_RATE_HZ
+from seagen.data.schema import RAW_COLUMNS, DataError
+
+_LBF_N = 4.4482216152605
+_KGF_N = 9.80665
+# Per schema column: accepted units and the factor to seagen's unit (pot 'mV'/'V' need full_scale).
+UNITS: dict[str, dict[str, float]] = {
+    "t_s": {"s": 1.0, "ms": 1e-3, "us": 1e-6},
+    "trial": {"": 1.0},
+    "angle_set_deg": {"deg": 1.0, "rad": 180.0 / np.pi},
+    "motor_v": {"V": 1.0, "mV": 1e-3},
+    "enc": {"counts": 1.0},
+    "pot": {"counts": 1.0, "mV": np.nan, "V": np.nan},
+    "load_cell_n": {"N": 1.0, "kgf": _KGF_N, "gf": _KGF_N * 1e-3, "lbf": _LBF_N},
+    "force_n": {"N": 1.0, "kgf": _KGF_N, "gf": _KGF_N * 1e-3, "lbf": _LBF_N},
+}
+ENTRY_KEYS = {"column", "value", "unit", "scale", "offset", "full_scale"}
+HOLD = ("motor_v",)  # zero-order hold when resampling
+DEFAULT_GAP_S = 1.0
+
+
+def load_map(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """Read and check a column map; errors name the map file and the key."""
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text())
+    except FileNotFoundError:
+        raise DataError(f"{p}: no such file") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise DataError(f"{p}: not valid TOML: {e}") from None
+    unknown = set(data) - {"columns", "trials"}
+    if unknown:
+        raise DataError(f"{p}: unknown table '{sorted(unknown)[0]}' (known: columns, trials)")
+    cols = data.get("columns", {})
+    for name, entry in cols.items():
+        _check_entry(p, name, entry)
+    need = [c for c in RAW_COLUMNS if c != "trial" and c not in cols]
+    if need:
+        raise DataError(f"{p}: columns.{need[0]} is not mapped (need {', '.join(RAW_COLUMNS)})")
+    gap = data.get("trials", {}).get("gap_s", DEFAULT_GAP_S)
+    if isinstance(gap, bool) or not isinstance(gap, int | float) or gap <= 0:
+        raise DataError(f"{p}: trials.gap_s must be a positive number, got {gap!r}")
+    return {"columns": cols, "gap_s": float(gap), "path": p}
+
+
+def _check_entry(p: Path, name: str, entry: Any) -> None:
+    """One columns.<name> table: known schema column, a column or a constant value, a known unit."""
+    where = f"{p}: columns.{name}"
+    if name not in UNITS:
+        raise DataError(f"{where}: not a schema column (known: {', '.join(RAW_COLUMNS)})")
+    if not isinstance(entry, dict):
+        raise DataError(f"{where} must be a table")
+    bad = set(entry) - ENTRY_KEYS
+    if bad:
+        raise DataError(f"{where}: unknown key '{sorted(bad)[0]}' (known: {', '.join(sorted(ENTRY_KEYS))})")
+    if ("column" in entry) == ("value" in entry):
+        raise DataError(f"{where}: give exactly one of 'column' or 'value'")
+    if name == "t_s" and "column" not in entry:
+        raise DataError(f"{where}: time must come from a column")
+    unit = entry.get("unit", next(iter(UNITS[name])))
+    if unit not in UNITS[name]:
+        raise DataError(f"{where}.unit: unknown unit {unit!r} (known: {', '.join(UNITS[name])})")
+    if name == "pot" and unit != "counts" and not isinstance(entry.get("full_scale"), int | float):
+        raise DataError(f"{where}.full_scale: the {unit} reading at ADC count {g.ADC_MAX} is required")
+    for k in ("scale", "offset", "full_scale"):
+        if k in entry and (isinstance(entry[k], bool) or not isinstance(entry[k], int | float)):
+            raise DataError(f"{where}.{k} must be a number, got {entry[k]!r}")
+
+
+def _numbers(path: Path, df: pd.DataFrame, col: str, target: str) -> np.ndarray:
+    """A log column as floats; errors name the log file, its row (header = line 1) and column."""
+    if col not in df.columns:
+        raise DataError(
+            f"{path}: column '{col}' (mapped to {target}) not in the log (has: {', '.join(df.columns)})"
+        )
+    num = pd.to_numeric(df[col].str.strip(), errors="coerce").to_numpy(dtype=float)
+    bad = ~np.isfinite(num)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise DataError(f"{path}, row {i + 2}, column '{col}': not a finite number: {df[col].iloc[i]!r}")
+    return num
+
+
+def _convert(path: Path, df: pd.DataFrame, name: str, entry: dict[str, Any]) -> np.ndarray:
+    """One schema column in seagen's unit."""
+    raw = (
+        _numbers(path, df, entry["column"], name)
+        if "column" in entry
+        else np.full(len(df), float(entry["value"]))
+    )
+    x = raw * float(entry.get("scale", 1.0)) + float(entry.get("offset", 0.0))
+    unit = entry.get("unit", next(iter(UNITS[name])))
+    if name == "pot" and unit != "counts":
+        return x / float(entry["full_scale"]) * g.ADC_MAX
+    return x * UNITS[name][unit]
+
+
+def _trial_ids(path: Path, df: pd.DataFrame, cols: dict, t: np.ndarray, gap_s: float) -> np.ndarray:
+    """Trial number per row: the mapped column, else a new trial where time resets or jumps by > gap_s."""
+    if "trial" in cols:
+        trial = _convert(path, df, "trial", cols["trial"])
+        back = (trial[1:] == trial[:-1]) & (t[1:] < t[:-1])
+        if back.any():
+            i = int(np.argmax(back)) + 1
+            col = cols["t_s"]["column"]
+            raise DataError(f"{path}, row {i + 2}, column '{col}': time goes backwards inside a trial")
+        return trial
+    dt = np.diff(t)
+    return np.r_[0, np.cumsum((dt < 0) | (dt > gap_s))]
+
+
+def _resample(t: np.ndarray, x: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """One trial on the 100 Hz grid from its first sample (linear; the command held)."""
+    n = int(np.floor((t[-1] - t[0]) * SAMPLE_RATE_HZ + 1e-9)) + 1
+    grid = np.arange(n) / SAMPLE_RATE_HZ
+    rel = t - t[0]
+    out = {"t_s": grid}
+    for k, v in x.items():
+        if k in HOLD:
+            out[k] = v[np.clip(np.searchsorted(rel, grid + 1e-9, side="right") - 1, 0, len(v) - 1)]
+        else:
+            out[k] = np.interp(grid, rel, v)
+        if RAW_COLUMNS[k] == "int":
+            out[k] = np.rint(out[k]).astype(np.int64)
+    return out
+
+
+def import_log(log: str | os.PathLike[str], mapping: dict[str, Any]) -> pd.DataFrame:
+    """The log as one schema frame (trials renumbered 0..n-1, 100 Hz)."""
+    path = Path(log)
+    if not path.is_file():
+        raise DataError(f"{path}: no such file")
+    try:
+        df = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
+        raise DataError(f"{path}: not a readable CSV: {e}") from None
+    if len(df) == 0:
+        raise DataError(f"{path}: no data rows")
+    cols = mapping["columns"]
+    conv = {k: _convert(path, df, k, cols[k]) for k in RAW_COLUMNS if k not in ("trial",)}
+    trial = _trial_ids(path, df, cols, conv["t_s"], mapping["gap_s"])
+    parts = []
+    for i, key in enumerate(pd.unique(trial)):
+        sel = np.flatnonzero(trial == key)
+        if len(sel) < 3:
+            raise DataError(f"{path}, row {sel[0] + 2}: trial {key:g} has {len(sel)} samples (need >= 3)")
+        signals = {k: v[sel] for k, v in conv.items() if k != "t_s"}
+        frame = pd.DataFrame(_resample(conv["t_s"][sel], signals))
+        parts.append(frame.assign(trial=i))
+    return pd.concat(parts, ignore_index=True)[list(RAW_COLUMNS)]
+
+
+def split_trials(df: pd.DataFrame) -> dict[str, pd.DataFrame]:
+    """train / test / validation by trial: the last trial validates, every 4th other trial tests."""
+    ids = list(pd.unique(df["trial"]))
+    if len(ids) < 3:
+        raise DataError(f"the log holds {len(ids)} trial(s); train, test and validation need at least 3")
+    val, rest = ids[-1:], ids[:-1]
+    test = rest[3::4] or rest[-1:]
+    train = [i for i in rest if i not in test]
+    out = {}
+    for name, keep in (("train", train), ("test", test), ("validation", val)):
+        part = df[df["trial"].isin(keep)].copy()
+        part["trial"] = pd.factorize(part["trial"])[0]
+        out[name] = part.reset_index(drop=True)
+    return out

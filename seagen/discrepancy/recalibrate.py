@@ -1,0 +1,77 @@
+"""Recalibration of the base's own parameters: plausible ranges, 1-sigma uncertainty, change lines."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from seagen.discrepancy.candidates import SPACE, Candidate, _residual_vectors, to_unit
+from seagen.discrepancy.replay import ParamSet, Runs
+from seagen.plant import PlantConfig
+
+# Plausible values for a compact SEA like the paper's (documented in the README). The fit may move a
+# parameter anywhere in its wider SPACE box; a value outside these ranges is reported as implausible.
+PLAUSIBLE: dict[str, dict[str, tuple[float, float]]] = {
+    "actuator_friction": {"force_n": (0.5, 6.0), "reverse_ratio": (0.3, 1.0)},
+    "linkage_friction": {"c0_n": (-1.0, 1.5), "c1_n": (-2.5, 2.5), "c2_n": (-2.5, 2.5)},
+    "viscous_friction": {"b_n_s_per_mm": (0.01, 0.6)},
+    "stribeck_friction": {"extra_static_n": (0.2, 4.0), "v_s_mm_s": (0.1, 3.0)},
+    "series_compliance": {"k_n_per_mm": (8.0, 150.0), "beta_mm_per_n2": (0.0, 0.015)},
+    "backlash": {"half_width_mm": (0.01, 0.3)},
+    "spring_preload": {"force_n": (-3.0, 3.0)},
+    "spring_nonlinearity": {"k3_n_per_mm3": (0.005, 0.3)},
+    "pot_voltage_drop": {"counts_per_unit_current": (20.0, 400.0), "time_constant_s": (0.02, 0.5)},
+    "load_cell_offset": {"offset_n": (-3.0, 3.0)},
+    "transport_delay": {"delay_s": (0.002, 0.1)},
+}
+_UNIT_SUFFIX = (
+    ("_n_s_per_mm", "N s/mm"),
+    ("_n_per_mm3", "N/mm^3"),
+    ("_n_per_mm", "N/mm"),
+    ("_mm_per_n2", "mm/N^2"),
+    ("_mm_s", "mm/s"),
+    ("_mm", "mm"),
+    ("_n", "N"),
+    ("_s", "s"),
+)
+
+
+def unit_of(param: str) -> str:
+    """The unit a parameter's name carries ('' for a ratio or a count)."""
+    return next((u for suffix, u in _UNIT_SUFFIX if param.endswith(suffix)), "")
+
+
+def plausible(effect: str, param: str, value: float) -> bool:
+    """Whether value lies in the documented plausible range."""
+    lo, hi = PLAUSIBLE[effect][param]
+    return lo <= value <= hi
+
+
+def uncertainty(base: PlantConfig, params: ParamSet, fit: Runs, sigma: dict) -> dict[str, dict[str, float]]:
+    """1-sigma of every fitted parameter from the Gauss-Newton covariance of the fitting trials."""
+    cand = Candidate(tuple(params), np.zeros(0))
+    u = np.array([to_unit(e, p, params[e][p]) for e, p in cand.keys])
+    step = 1e-3
+    h = np.where(u + step <= 1, step, -step)
+    r = _residual_vectors(base, cand, [u] + [u + h[i] * np.eye(len(u))[i] for i in range(len(u))], fit, sigma)
+    jac = np.stack([(r[i + 1] - r[0]) / h[i] for i in range(len(u))], axis=1)
+    dof = max(len(r[0]) - len(u), 1)
+    scale = max(float(np.sum(r[0] ** 2)) / dof, 1.0)  # inflate when the fit leaves more than noise
+    sig_u = np.sqrt(np.clip(np.diag(np.linalg.pinv(jac.T @ jac)) * scale, 0, None))
+    out: dict[str, dict[str, float]] = {e: {} for e in params}
+    for (e, p), s in zip(cand.keys, sig_u, strict=True):
+        lo, hi, log = SPACE[e][p]
+        out[e][p] = float(s * (params[e][p] * np.log(hi / lo) if log else hi - lo))
+    return out
+
+
+def change_lines(effect: str, before: dict[str, float], after: dict[str, float], sig: dict) -> list[str]:
+    """'actuator_friction.force_n 3.60 -> 2.71 N, ±0.02' per parameter, flagged when implausible."""
+    out = []
+    for p, v in after.items():
+        u = unit_of(p)
+        line = f"{effect}.{p} {before[p]:.4g} -> {v:.4g}{' ' + u if u else ''}, ±{sig.get(p, np.nan):.2g}"
+        if not plausible(effect, p, v):
+            lo, hi = PLAUSIBLE[effect][p]
+            line += f" (OUTSIDE the plausible range {lo:g}..{hi:g})"
+        out.append(line)
+    return out

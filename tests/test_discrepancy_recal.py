@@ -1,0 +1,42 @@
+"""Recalibration (issue 14 item 2): a base with a wrong parameter is re-fitted, not patched with effects."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+import pytest
+
+from seagen.cli import main
+from seagen.data.schema import save_csv
+from seagen.discrepancy.bench import case_frames
+from seagen.discrepancy.recalibrate import change_lines
+from seagen.plant import PlantConfig, load_config, save_config
+
+
+def test_wrong_base_parameter_is_recalibrated_and_nothing_added(tmp_path, capsys) -> None:
+    """Data from the paper's actuator (friction 2.7 N), base saying 3.6 N: the report changes
+    actuator_friction.force_n to within 5 % of 2.7, adds no effect, and plant.toml carries it (~20 s)."""
+    save_csv(pd.concat(case_frames(PlantConfig(), seed=3, fast=True), ignore_index=True), tmp_path / "m.csv")
+    save_config(PlantConfig().with_effect("actuator_friction", True, force_n=3.6), tmp_path / "base.toml")
+    out = tmp_path / "rep"
+    args = ["discrepancy", "--measured", str(tmp_path / "m.csv"), "--base", str(tmp_path / "base.toml")]
+    assert main([*args, "--out", str(out), "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["effects"] == [] and s["verdict"] == "explained"
+    change = {(r["effect"], r["param"]): r for r in s["recalibrated"]}
+    force = change[("actuator_friction", "force_n")]
+    assert force["before"] == 3.6 and force["after"] == pytest.approx(2.7, rel=0.05) and force["plausible"]
+    assert force["confidence"] >= 0.9 and 0 < force["sigma"] < 0.1
+    assert s["rms_after"] <= 1.2 * s["noise_floor"] < s["rms_before"]
+    assert load_config(out / "plant.toml").effects.actuator_friction.force_n == pytest.approx(force["after"])
+    text = (out / "report.md").read_text()
+    assert "actuator_friction.force_n 3.6 -> 2.7" in text and "## Effects added\nnone" in text
+
+
+def test_change_lines_name_units_and_flag_implausible_values() -> None:
+    """A change line gives before -> after with unit and ±; a value outside its plausible range says so."""
+    ok = change_lines("actuator_friction", {"force_n": 3.6}, {"force_n": 2.71}, {"force_n": 0.02})
+    assert ok == ["actuator_friction.force_n 3.6 -> 2.71 N, ±0.02"]
+    bad = change_lines("series_compliance", {"k_n_per_mm": 30.0}, {"k_n_per_mm": 250.0}, {"k_n_per_mm": 5.0})
+    assert "OUTSIDE the plausible range 8..150" in bad[0]
