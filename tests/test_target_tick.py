@@ -8,7 +8,7 @@ import pytest
 
 from seagen.build.cortexm import toolchain_missing
 from seagen.build.targets import NAMES, build_target
-from seagen.control.controller import ControlConfig, control_reset, control_step, q16
+from seagen.control.controller import ControlConfig, control_run, q16
 from seagen.control.firmware import tick_config
 from seagen.control.gentwin import MODEL_FILES, StepTwin
 from seagen.defaults import GENERATED
@@ -30,13 +30,7 @@ def _sequence(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def _twin(prefix: str, cfg: ControlConfig, enc, pot, force) -> np.ndarray:
     """control_reset on the first sample, then control_step per sample, with the StepTwin predictor."""
-    c = ControlConfig(**{**cfg.__dict__, "predictor": StepTwin(prefix)})
-    s = control_reset(c, enc[:1], pot[:1])
-    out = []
-    for k in range(len(enc)):
-        s = control_step(c, s, enc[k : k + 1], pot[k : k + 1], force[k : k + 1])
-        out.append(int(s.out[0]))
-    return np.array(out)
+    return control_run(ControlConfig(**{**cfg.__dict__, "predictor": StepTwin(prefix)}), enc, pot, force)
 
 
 @pytest.mark.parametrize("target", NAMES)

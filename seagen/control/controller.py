@@ -181,3 +181,14 @@ def control_step(
 def set_desired(s: ControlState, desired_q16: np.ndarray | int) -> ControlState:
     """Twin of sea_control_set_desired."""
     return replace(s, desired=np.broadcast_to(np.asarray(desired_q16, np.int64), s.desired.shape).copy())
+
+
+def control_run(c: ControlConfig, enc: np.ndarray, pot: np.ndarray, force_q16: np.ndarray) -> np.ndarray:
+    """Twin of one actuator's life: control_reset on the first sample, then control_step per sample; the
+    motor commands (mV) as an int64 array."""
+    s = control_reset(c, enc[:1], pot[:1])
+    out = []
+    for k in range(len(enc)):
+        s = control_step(c, s, enc[k : k + 1], pot[k : k + 1], force_q16[k : k + 1])
+        out.append(int(s.out[0]))
+    return np.array(out, dtype=np.int64)

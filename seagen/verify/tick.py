@@ -42,18 +42,12 @@ def disk_ticks(folder: Path, man: Manifest, enc, pot, force) -> np.ndarray:
 
 def twin_ticks(qm, prefix: str, enc, pot, force) -> np.ndarray:
     """The Python controller twin with the shipped configuration and the per-tick predictor twin."""
-    from seagen.control.controller import ControlConfig, control_reset, control_step
+    from seagen.control.controller import ControlConfig, control_run
     from seagen.control.firmware import shipped_config
     from seagen.control.gentwin import StepTwin
 
     cfg = shipped_config(qm)
-    c = ControlConfig(**{**cfg.__dict__, "predictor": StepTwin(prefix, qm)})
-    s = control_reset(c, enc[:1], pot[:1])
-    out = []
-    for k in range(len(enc)):
-        s = control_step(c, s, enc[k : k + 1], pot[k : k + 1], force[k : k + 1])
-        out.append(int(s.out[0]))
-    return np.array(out)
+    return control_run(ControlConfig(**{**cfg.__dict__, "predictor": StepTwin(prefix, qm)}), enc, pot, force)
 
 
 def check_controller(v: Verdict, folder: Path, man: Manifest, qm) -> None:
