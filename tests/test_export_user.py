@@ -135,6 +135,7 @@ def test_bare_network_exports_infer_alone(files, tmp_path):
     h = ex.files["bare.h"]
     assert "bare_infer" in h and "bare_step" not in h and "bare_state_t" not in h
     assert "bare_step" not in ex.files["bare.c"]
+    assert any(line.startswith("NAME_infer only") and "x0, x1, x2" in line for line in ex.lines), ex.lines
     x = random_inputs(ex.qmodel, 2000, 0)
     assert np.array_equal(CModel(ex.files, "bare", ex.qmodel).infer(x), numpy_ref.infer(ex.qmodel, x))
 
