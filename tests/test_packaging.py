@@ -62,6 +62,8 @@ def test_wheel_carries_templates_runtime_and_defaults(wheel):
         "seagen/generated/models/mlp_calibration.pt",
     ):
         assert f in names, f
+    sources = {f"seagen/{p.relative_to(ROOT / 'seagen')}" for p in (ROOT / "seagen").rglob("*.py")}
+    assert not sources - set(names), f"modules missing from the wheel: {sorted(sources - set(names))}"
 
 
 def test_wheel_runs_simulate_export_and_generate(installed, tmp_path):
