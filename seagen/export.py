@@ -154,8 +154,9 @@ def check_out_dir(out_dir: str | os.PathLike[str]) -> Path:
 
 
 def write(ex: Export, out_dir: str | os.PathLike[str]) -> list[Path]:
-    """Write all files atomically: staged in a temporary folder, then renamed in. A NAME.onnx from an
-    earlier export that this one does not write is removed (it would describe another model)."""
+    """Write all files atomically: staged in a temporary folder, then renamed in. A NAME.onnx or
+    NAME_controller.{h,c} from an earlier export that this one does not write is removed (it would describe
+    another model or configuration)."""
     out = check_out_dir(out_dir)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -171,9 +172,10 @@ def write(ex: Export, out_dir: str | os.PathLike[str]) -> list[Path]:
         for f in sorted(stage.iterdir()):
             os.replace(f, out / f.name)
             written.append(out / f.name)
-        stale = out / f"{ex.prefix}.onnx"
-        if ex.onnx_bytes is None and stale.is_file():
-            stale.unlink()
+        own = (f"{ex.prefix}.onnx", f"{ex.prefix}_controller.h", f"{ex.prefix}_controller.c")
+        for name in own:  # files of an earlier export of NAME that this one does not write
+            if name not in ex.files and (name != f"{ex.prefix}.onnx" or ex.onnx_bytes is None):
+                (out / name).unlink(missing_ok=True)
         return written
     except OSError as e:
         raise UserError(f"{out}: cannot write the export: {e.strerror or e}") from None

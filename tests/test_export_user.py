@@ -32,6 +32,7 @@ def files(tmp_path_factory) -> dict[str, Path]:
         "badname": {"inputs": ["pot", "my input", "x2"]},
         "bare": {"inputs": ["x0", "x1", "x2"]},
         "typo": {"ouptut_std": 2.0},
+        "twice": {"inputs": ["x0", "x0", "x2"]},
     }.items():
         out[name] = d / f"{name}.json"
         out[name].write_text(json.dumps({**spec, **change}))
@@ -41,6 +42,8 @@ def files(tmp_path_factory) -> dict[str, Path]:
     sf["sf"]["coef"] = sf["sf"]["coef"][:-1]
     torch.save(sf, d / "sf_short.pt")
     out["sf_short"] = d / "sf_short.pt"
+    (d / "a_dir.pt").mkdir()
+    out["a_dir"] = d / "a_dir.pt"
     (d / "a_file").write_text("keep")
     out["a_file"] = d / "a_file"
     return out
@@ -60,6 +63,12 @@ BAD = {  # case: (arguments with {placeholders}, expected text, the file the mes
     "unparsable features": (["{seq}", "--features", "{broken}", *OUT], "cannot parse", "broken.json"),
     "unknown spec key": (["{seq}", "--features", "{typo}", *OUT], "unknown key(s) ouptut_std", "typo.json"),
     "no features": (["{seq}", *OUT], "needs --features", "seq.pt"),
+    "input named twice": (
+        ["{seq}", "--features", "{twice}", *OUT],
+        "names 'x0' more than once",
+        "twice.json",
+    ),
+    "model is a folder": (["{a_dir}", *OUT], "is a folder, not a model file", "a_dir"),
 }
 
 

@@ -155,3 +155,46 @@ def test_controller_export_ticks_checked(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "ctl_mlp_controller.c: edited since export" in text
     assert re.search(r"FAIL ctl_mlp_controller_tick .*: tick \d+ .*C -?\d+ vs twin -?\d+ mV", text), text
+
+
+def test_bare_network_export_verifies_without_step(tmp_path, capsys):
+    """An export with NAME_infer only (inputs the pipeline does not compute) verifies: infer and oracle
+    checks, no NAME_step check; on the M0+ core too."""
+    import torch
+
+    net = torch.nn.Sequential(torch.nn.Linear(3, 4), torch.nn.ReLU(), torch.nn.Linear(4, 1))
+    torch.save(net, tmp_path / "net.pt")
+    spec = tmp_path / "net.json"
+    spec.write_text(json.dumps({"inputs": ["x0", "x1", "x2"], "input_range": [[0, 1], [-1, 1], [0, 10]]}))
+    out = tmp_path / "fw"
+    assert main(["export", str(tmp_path / "net.pt"), "--features", str(spec), "--out", str(out)]) == 0
+    capsys.readouterr()
+    for core in ("host", "cortex-m0plus"):
+        if core != "host":
+            pytest.importorskip("unicorn")
+            from seagen.build.cortexm import toolchain_missing
+
+            if toolchain_missing():
+                continue
+        args = ["verify", str(out), "--model", str(tmp_path / "net.pt"), "--features", str(spec)]
+        assert main([*args, "--vectors", "300", "--core", core]) == 0
+        text = capsys.readouterr().out
+        assert f"({core})" in text and "net_step" not in text and "agrees" in text
+
+
+def test_reexport_without_controller_removes_its_files(tmp_path):
+    """Re-exporting NAME without --controller removes the NAME_controller files an earlier export wrote."""
+    model = str(default_model("mlp_control"))
+    assert main(["export", model, "--prefix", "ctl_mlp", "--controller", "--out", str(tmp_path)]) == 0
+    assert (tmp_path / "ctl_mlp_controller.c").is_file()
+    assert main(["export", model, "--prefix", "ctl_mlp", "--out", str(tmp_path)]) == 0
+    assert (
+        not (tmp_path / "ctl_mlp_controller.c").exists() and not (tmp_path / "ctl_mlp_controller.h").exists()
+    )
+
+
+def test_junit_to_a_bad_place_exits_2_before_checking(tmp_path):
+    """--junit into /proc or onto a folder: exit 2, one line, before any check runs."""
+    for bad in ("/proc/x/j.xml", str(tmp_path)):
+        code, out, err = run("verify", str(GENERATED), "--model", str(CAL), "--junit", bad)
+        assert code == 2 and "cannot write the JUnit report" in err and "Traceback" not in err and not out

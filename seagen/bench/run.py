@@ -129,16 +129,15 @@ def _tick_driver(prefix: str) -> dict[str, str]:
 def _calls(prefix: str, entry: str, header: str, box: tuple[np.ndarray, np.ndarray]) -> tuple[list, list]:
     """(symbol, args) of the measured calls of one entry point, after the set-up calls (symbol, args)."""
     rng = np.random.default_rng(0)
-    sig = re.search(rf"int16_t {prefix}_step\(([^)]*)\)", header)
-    if sig is None:
-        raise UserError(f"{prefix}.h declares no {prefix}_step")
-    n_ext = len(sig.group(1).split(",")) - 3
     enc, pot = _trajectory(N_CALLS)
     if entry == "infer":
         rows = rng.integers(box[0], box[1] + 1, (N_CALLS, len(box[0])))
         return [], [(f"{prefix}_infer", [r.astype(np.int16), np.zeros(1, np.int16)]) for r in rows]
     if entry == "step":
-        ext = [6000] * n_ext  # e.g. a desired force around 6 N in the predictor's Q10
+        sig = re.search(rf"int16_t {prefix}_step\(([^)]*)\)", header)
+        if sig is None:
+            raise UserError(f"{prefix}.h declares no {prefix}_step")
+        ext = [6000] * (len(sig.group(1).split(",")) - 3)  # a desired force ~6 N in the Q10 of a predictor
         setup: list[tuple[str, list]] = [(f"{prefix}_reset", ["state"])]
         return setup, [
             (f"{prefix}_step", ["state", int(e), int(p), *ext]) for e, p in zip(enc, pot, strict=True)
@@ -178,7 +177,7 @@ def _sources(d: Path, prefix: str) -> tuple[dict[str, str], list[str]]:
     ]
     for f in other:  # other models' files are not part of this model's image
         del src[f]
-    entries = ["infer", "step"]
+    entries = ["infer", *(["step"] if re.search(rf"\b{prefix}_step\(", src[f"{prefix}.h"]) else [])]
     if re.search(rf"\b{prefix}_predict_q16\(", src[f"{prefix}.h"]):
         from seagen.codegen.runtime import runtime_sources
 

@@ -47,6 +47,10 @@ def main(argv: list[str] | None = None) -> int:
     except CheckFailed as e:
         print(f"seagen: check failed: {e}", file=sys.stderr)
         return 1
+    except OSError as e:  # a path the user gave cannot be read or written (a folder for a file, /proc, ...)
+        where = e.filename if e.filename is not None else ""
+        print(f"seagen: error: {where}: {e.strerror or e}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("seagen: interrupted", file=sys.stderr)
         return 130

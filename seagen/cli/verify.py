@@ -47,8 +47,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def cmd_verify(args: argparse.Namespace) -> int:
     """Run every check, print the report, write the JUnit file; 0 agrees, 1 disagrees."""
+    from seagen.errors import UserError
     from seagen.verify.run import verify
 
+    if args.junit and (Path(args.junit).is_dir() or not _writable_parent(Path(args.junit))):
+        raise UserError(f"{args.junit}: cannot write the JUnit report there (a folder or no writable parent)")
     verdict = verify(
         args.dir,
         args.model,
@@ -64,3 +67,13 @@ def cmd_verify(args: argparse.Namespace) -> int:
         with atomic_path(Path(args.junit)) as tmp:
             Path(tmp).write_bytes(verdict.junit())
     return 0 if verdict.ok else 1
+
+
+def _writable_parent(path: Path) -> bool:
+    """Whether the nearest existing parent of `path` is a writable folder outside /proc and /sys."""
+    import os
+
+    probe = path.resolve().parent
+    while not probe.exists():
+        probe = probe.parent
+    return probe.is_dir() and os.access(probe, os.W_OK) and not str(probe).startswith(("/proc", "/sys"))

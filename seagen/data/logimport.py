@@ -31,6 +31,7 @@ import pandas as pd
 from seagen import geometry as g
 from seagen.data.features import SAMPLE_RATE_HZ
 from seagen.data.schema import RAW_COLUMNS, DataError
+from seagen.errors import not_a_file
 
 _LBF_N = 4.4482216152605
 _KGF_N = 9.80665
@@ -160,7 +161,7 @@ def import_log(log: str | os.PathLike[str], mapping: dict[str, Any]) -> pd.DataF
     """The log as one schema frame (trials renumbered 0..n-1, 100 Hz)."""
     path = Path(log)
     if not path.is_file():
-        raise DataError(f"{path}: no such file")
+        raise DataError(not_a_file(path, "log file"))
     try:
         df = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:

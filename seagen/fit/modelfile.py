@@ -73,6 +73,9 @@ class FeatureSpec:
         except (KeyError, TypeError, ValueError) as e:
             raise UserError(f"{where}: invalid feature specification: {e}") from None
         n = len(spec.inputs)
+        twice = sorted({x for x in spec.inputs if spec.inputs.count(x) > 1})
+        if twice:
+            raise UserError(f"{where}: 'inputs' names {', '.join(map(repr, twice))} more than once")
         for name, vals in (("mean", spec.mean), ("std", spec.std)):
             if len(vals) != n:
                 raise UserError(f"{where}: '{name}' has {len(vals)} values for {n} inputs")

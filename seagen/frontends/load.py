@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from seagen.errors import UserError
+from seagen.errors import UserError, not_a_file
 from seagen.fit.modelfile import FORMAT, FeatureSpec
 from seagen.frontends import Network, read_module, read_onnx
 from seagen.frontends.margin import float32_margin
@@ -168,7 +168,7 @@ def read_features_file(path: str | None) -> dict[str, Any]:
         return {}
     p = Path(path)
     if not p.is_file():
-        raise UserError(f"{p}: no such feature specification file")
+        raise UserError(not_a_file(p, "feature specification file"))
     try:
         raw = tomllib.loads(p.read_text()) if p.suffix == ".toml" else json.loads(p.read_text())
     except (json.JSONDecodeError, tomllib.TOMLDecodeError) as e:
@@ -203,7 +203,7 @@ def load_with_original(
     """The float IR of a model file and its original run by its own runtime (for the oracle)."""
     p = Path(path)
     if not p.is_file():
-        raise UserError(f"{p}: no such model file")
+        raise UserError(not_a_file(p, "model file"))
     extra = read_features_file(features)
     if p.suffix == ".onnx":
         if not extra:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from seagen import __version__
 from seagen.codegen.manifest import Manifest, manifests_in, sha256_file
-from seagen.errors import UserError
+from seagen.errors import UserError, not_a_file
 from seagen.verify.result import Verdict
 
 
@@ -19,7 +19,7 @@ def select(folder: Path, model: Path, prefix: str | None) -> tuple[Manifest, boo
     if not folder.is_dir():
         raise UserError(f"{folder}: no such export folder")
     if not model.is_file():
-        raise UserError(f"{model}: no such model file")
+        raise UserError(not_a_file(model, "model file"))
     found = manifests_in(folder)
     if not found:
         raise UserError(f"{folder}: no export manifest (*.seagen.json); re-export with seagen export")

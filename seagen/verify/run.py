@@ -52,8 +52,7 @@ def disk_target(folder: Path, man: Manifest, core: str, qm):
 
     if msg := toolchain_missing():
         raise UserError(f"--core {core}: {msg}")
-    cpu = {"cortex-m0plus": "cortex-m0", "cortex-m4": "cortex-m4"}[core]
-    return files, CortexM(files, man.prefix, qm, cpu)
+    return files, CortexM(files, man.prefix, qm, core)
 
 
 def synthetic_trials(qm, n_trials: int = 4, n: int = 400, seed: int = 0):
@@ -133,6 +132,7 @@ def verify(
 ) -> Verdict:
     """Every check of `seagen verify`, in order: drift first, then numbers (see the README, "Use in CI")."""
     from seagen.codegen.render import model_hash
+    from seagen.quant.features import has_pipeline
 
     if core not in CORES:
         raise UserError(f"--core must be one of {', '.join(CORES)}, not {core!r}")
@@ -176,7 +176,10 @@ def verify(
         None,
         ex.oracle.line(),
     )
-    check_steps(v, ex, target, data)
+    if has_pipeline(qm):
+        check_steps(v, ex, target, data)
+    elif data is not None:
+        v.warnings.append(f"{man.prefix} has NAME_infer only (no feature pipeline): --data rows not used")
     if man.data["options"].get("controller"):
         from seagen.verify.tick import check_controller
 
