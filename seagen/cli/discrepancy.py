@@ -52,7 +52,10 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
         print(json.dumps(s, indent=2))
     else:
         named = ", ".join(f"{e['name']} ({e['confidence']:.0%})" for e in s["effects"]) or "nothing"
-        print(f"verdict: {s['verdict']}; named: {named}")
+        recal = ", ".join(
+            f"{r['effect']}.{r['param']} {r['before']:.4g} -> {r['after']:.4g}" for r in s["recalibrated"]
+        )
+        print(f"verdict: {s['verdict']}; added: {named}; recalibrated: {recal or 'nothing'}")
         print(
             f"held-out residual RMS {s['rms_before']:.3g} -> {s['rms_after']:.3g} noise sigmas "
             f"(noise floor {s['noise_floor']:.3g}); report in {args.out}/report.md"

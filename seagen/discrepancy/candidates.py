@@ -38,6 +38,7 @@ class Candidate:
     names: tuple[str, ...]
     u: np.ndarray
     chi2_fit: float = np.inf
+    tag: str = ""  # appended to the label (e.g. ' (joint recalibration)')
 
     @property
     def keys(self) -> list[tuple[str, str]]:
@@ -55,8 +56,8 @@ class Candidate:
 
     @property
     def label(self) -> str:
-        """Human name: effects joined by '+'."""
-        return "+".join(self.names)
+        """Human name: effects joined by '+', then the tag."""
+        return "+".join(self.names) + self.tag
 
 
 def missing_effects(cfg: PlantConfig) -> list[str]:
@@ -74,6 +75,20 @@ def to_unit(effect: str, param: str, value: float) -> float:
     lo, hi, log = SPACE[effect][param]
     x = np.log(max(value, 1e-12) / lo) / np.log(hi / lo) if log else (value - lo) / (hi - lo)
     return float(np.clip(x, 0, 1))
+
+
+def joint_recalibration(cfg: PlantConfig, fit: Runs, sigma: dict, nfev: int) -> Candidate | None:
+    """Every present effect's parameters re-fitted together from cfg's values (least squares only: too
+    many dimensions for a grid); None with fewer than two present effects."""
+    present = present_effects(cfg)
+    if len(present) < 2:
+        return None
+    c = Candidate(
+        tuple(present), np.concatenate([start(cfg, e).u for e in present]), tag=" (joint recalibration)"
+    )
+    c.chi2_fit = float(objective(cfg, [c.params()], fit, sigma).sum())
+    polish(cfg, c, fit, sigma, nfev=nfev)
+    return c
 
 
 def start(cfg: PlantConfig, effect: str) -> Candidate:

@@ -55,6 +55,7 @@ def run_family(name: str, seed: int, fast: bool = False) -> dict:
         "first_ok": bool(res.order) and res.order[0] in expected,
         "added": "+".join(added) or "-",
         "recalibrated": "+".join(n.name for n in res.recalibrated) or "-",
+        "misset": {k: {"base": b, "truth": t, "fitted": recal.get(k, b)} for k, (b, t) in wrong.items()},
         "spurious": len([a for a in added if a not in expected or name == "misset"]),
         "recovered": bool(wrong)
         and all(abs(recal.get(k, b) - t) <= RECOVERED * abs(t) for k, (b, t) in wrong.items()),

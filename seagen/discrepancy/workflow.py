@@ -11,6 +11,7 @@ import pandas as pd
 from seagen.discrepancy.candidates import (
     POLISH_NFEV,
     Candidate,
+    joint_recalibration,
     missing_effects,
     objective,
     polish,
@@ -154,6 +155,7 @@ DEEP_TOP = 2  # singles that get the multi-start search after the first screen
 DEEP = {"rounds": 8, "beam": 4}  # multi-start zoom of the best singles (narrow valleys, stick-slip steps)
 PAIR_DEEP = {"rounds": 6, "beam": 3}  # the same for the pairs with the best single
 PAIR_NFEV = 12  # least-squares evaluations for the best pair
+JOINT_NFEV = 10  # least-squares evaluations for the joint recalibration of every present effect
 
 
 def _deep_fit(cfg: PlantConfig, cands: list[Candidate], fit: Runs, sig_f, search: dict, nfev: int) -> None:
@@ -180,6 +182,8 @@ def best_addition(cfg: PlantConfig, fit: Runs, held: Runs, sig_f, sig_h, rng, no
     if best_single > PAIR_RMS * noise:  # one effect is clearly not enough: search the pairs with the best
         pairs = [Candidate(ranked[0].names + o.names, np.concatenate([ranked[0].u, o.u])) for o in ranked[1:]]
         _deep_fit(cfg, pairs, fit, sig_f, PAIR_DEEP, PAIR_NFEV)
+        joint = joint_recalibration(cfg, fit, sig_f, JOINT_NFEV)  # several base parameters may be off
+        pairs += [joint] if joint else []
     cands = singles + pairs
     table, wins = _score(cfg, cands, held, sig_h, rng)
     table = table.sort_values("bic_held_out").reset_index(drop=True)
