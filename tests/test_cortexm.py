@@ -6,13 +6,11 @@ import numpy as np
 import pytest
 
 from seagen.build.cortexm import CPUS, CortexM, build_image, toolchain_missing
-from seagen.build.equivalence import edge_inputs, first_mismatch, random_inputs
+from seagen.build.equivalence import edge_inputs, first_mismatch, random_inputs, recorded, step_problem
 from seagen.data.schema import load_split
 from seagen.defaults import DEFAULT_PREFIX, GENERATED
 from seagen.errors import UserError
 from seagen.export import prepare
-from seagen.quant.features import external_inputs, step_features
-from seagen.quant.primitives import linkage_table_q16
 from seagen.reference import numpy_ref
 
 pytest.importorskip("unicorn", reason="unicorn (the Cortex-M emulator) is not installed: pip install unicorn")
@@ -50,15 +48,7 @@ def test_step_bit_exact_over_recorded_trials(built, key, data_dir):
     """NAME_step on raw enc/pot (reset at trial starts) equals step_features + numpy_ref.infer exactly."""
     ex, mcu = built[key]
     qm = ex.qmodel
-    df = load_split(data_dir, "test")
-    ext = None
-    if names := external_inputs(qm):
-        fr = {i.signal.name: i.frac for i in qm.inputs}
-        cols = [np.rint(df[n].to_numpy() * 2.0 ** fr[n]) for n in names]
-        ext = np.clip(np.stack(cols, axis=1), -(2**15), 2**15 - 1).astype(np.int64)
-    want = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), df.enc, df.pot, df.trial, ext))
-    got = mcu.step(df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy(), ext)
-    bad = first_mismatch(got, want, df[["trial", "enc", "pot"]].to_numpy())
+    bad = step_problem(qm, mcu, *recorded(qm, load_split(data_dir, "test")))
     assert bad is None, f"{key} NAME_step on {key[1]} vs numpy pipeline: {bad}"
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from seagen.build.equivalence import edge_inputs, first_mismatch, random_inputs
+from seagen.build.equivalence import edge_inputs, first_mismatch, random_inputs, recorded, step_problem
 from seagen.build.model import CModel, sanitized_infer
 from seagen.codegen.render import render
 from seagen.codegen.targets import kernel_context
@@ -17,9 +17,8 @@ from seagen.defaults import DEFAULT_PREFIX, GENERATED
 from seagen.errors import UserError
 from seagen.export import prepare
 from seagen.ir import FloatLayer, FloatMLP, Signal
-from seagen.quant.features import external_inputs, step_features
 from seagen.quant.mlp import quantize_mlp
-from seagen.quant.primitives import linkage_table_q16, rshift_rne
+from seagen.quant.primitives import rshift_rne
 from seagen.reference import numpy_ref
 
 MODELS = sorted(DEFAULT_PREFIX)  # both MLPs and both surface fits
@@ -41,18 +40,6 @@ def _cases(qm) -> np.ndarray:
     return np.vstack([random_inputs(qm, 400, 11), edge_inputs(len(qm.inputs))])
 
 
-def _recorded(qm, data_dir):
-    """enc, pot, trial and external inputs of the test split, and the reference NAME_step outputs."""
-    df = load_split(data_dir, "test")
-    ext = None
-    if names := external_inputs(qm):
-        fr = {i.signal.name: i.frac for i in qm.inputs}
-        cols = [np.rint(df[n].to_numpy() * 2.0 ** fr[n]) for n in names]
-        ext = np.clip(np.stack(cols, axis=1), -(2**15), 2**15 - 1).astype(np.int64)
-    want = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), df.enc, df.pot, df.trial, ext))
-    return df, ext, want
-
-
 @pytest.mark.parametrize("key", KEYS, ids=IDS)
 def test_host_build_bit_exact(exports, key, data_dir):
     """On the host (no SIMD32: the portable fallbacks), NAME_infer and NAME_step equal the numpy reference."""
@@ -61,9 +48,7 @@ def test_host_build_bit_exact(exports, key, data_dir):
     c = CModel(ex.files, ex.prefix, qm)
     x = _cases(qm)
     assert first_mismatch(c.infer(x), numpy_ref.infer(qm, x), x) is None
-    df, ext, want = _recorded(qm, data_dir)
-    got = c.step(df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy(), ext)
-    assert first_mismatch(got, want, df[["trial", "enc", "pot"]].to_numpy()) is None
+    assert step_problem(qm, c, *recorded(qm, load_split(data_dir, "test"))) is None
 
 
 @pytest.mark.parametrize("model", MODELS)
@@ -88,9 +73,7 @@ def test_on_own_core_bit_exact(exports, key, data_dir):
     mcu = CortexM(ex.files, ex.prefix, ex.qmodel, key[1])
     x = _cases(qm)
     assert first_mismatch(mcu.infer(x), numpy_ref.infer(qm, x), x) is None
-    df, ext, want = _recorded(qm, data_dir)
-    got = mcu.step(df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy(), ext)
-    assert first_mismatch(got, want, df[["trial", "enc", "pot"]].to_numpy()) is None
+    assert step_problem(qm, mcu, *recorded(qm, load_split(data_dir, "test"))) is None
 
 
 def _odd_mlp(sizes: tuple[int, ...], scale: float, seed: int) -> FloatMLP:

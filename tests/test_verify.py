@@ -198,3 +198,13 @@ def test_junit_to_a_bad_place_exits_2_before_checking(tmp_path):
     for bad in ("/proc/x/j.xml", str(tmp_path)):
         code, out, err = run("verify", str(GENERATED), "--model", str(CAL), "--junit", bad)
         assert code == 2 and "cannot write the JUnit report" in err and "Traceback" not in err and not out
+
+
+@pytest.mark.parametrize("name", ["mlp_calibration", "mlp_control"])
+def test_data_rows_and_recorded_trials(name, data_dir, capsys):
+    """--data: NAME_step on the recorded test/validation trials and NAME_infer on their rows, bit for bit."""
+    assert main(["verify", str(GENERATED), "--model", str(default_model(name)), "--data", str(data_dir)]) == 0
+    text = capsys.readouterr().out
+    for split in ("test", "validation"):
+        assert re.search(rf"ok   \w+_step on {split} trials \(\d+ rows\)", text), text
+        assert re.search(rf"ok   \w+_infer on {split} rows", text), text

@@ -107,19 +107,40 @@ class DataReport:
         return "\n".join(lines)
 
 
+def recorded(qm, df) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """enc, pot, trial of recorded (derived) rows, and the quantized external inputs NAME_step takes
+    (N, n_ext)."""
+    from seagen.quant.features import external_inputs
+    from seagen.reference.float_ref import quantize_columns
+
+    by_name = {q.signal.name: q for q in qm.inputs}
+    qins = [by_name[n] for n in external_inputs(qm)]
+    ext = quantize_columns(qins, df[[q.signal.name for q in qins]].to_numpy().reshape(len(df), len(qins)))
+    return df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy(), ext
+
+
+def step_problem(qm, target, enc, pot, trial, ext: np.ndarray) -> str | None:
+    """NAME_step of a target over whole sequences (reset at each trial start) vs the numpy feature pipeline
+    and reference: the first mismatch with its (trial, enc, pot), or None."""
+    from seagen.quant.features import step_features
+    from seagen.quant.primitives import linkage_table_q16
+
+    e = ext if ext.shape[1] else None
+    ref = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), enc, pot, trial, e))
+    return first_mismatch(target.step(enc, pot, trial, e), ref, np.column_stack([trial, enc, pot]))
+
+
 def check_data_dir(ex, data_dir: str) -> DataReport:
     """NAME_infer on the test and validation features, NAME_step on whole recorded trials, and |C - float|."""
     from seagen.data.features import derive
     from seagen.data.schema import load_split
     from seagen.errors import UserError
-    from seagen.quant.features import external_inputs, has_pipeline, step_features
-    from seagen.quant.primitives import linkage_table_q16
+    from seagen.quant.features import has_pipeline
     from seagen.reference.float_ref import predict, quantize_features
 
     qm = ex.qmodel
     names = [i.signal.name for i in qm.inputs]
     step = has_pipeline(qm)
-    ext_names = external_inputs(qm) if step else []
     c = CModel(ex.files, ex.prefix, qm)
     onnx_model = (
         onnx.load_model_from_string(ex.onnx_bytes) if ex.onnx_bytes is not None else onnx_ref.build_onnx(qm)
@@ -143,10 +164,7 @@ def check_data_dir(ex, data_dir: str) -> DataReport:
             max_err = float(np.max(np.abs(fixed - predict(ex.float_model, df[names].to_numpy()))))
         if not step:
             continue
-        ext = xq[:, [names.index(n) for n in ext_names]]
-        ref = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), df.enc, df.pot, df.trial, ext))
-        got = c.step(df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy(), ext if ext_names else None)
-        bad = first_mismatch(got, ref, df[["trial", "enc", "pot"]].to_numpy())
+        bad = step_problem(qm, c, *recorded(qm, df))
         checks.append(
             Check(
                 f"{ex.prefix}_step on {split} trials",

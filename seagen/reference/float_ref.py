@@ -35,5 +35,10 @@ def predict(model: FloatModel, x: np.ndarray) -> np.ndarray:
 
 def quantize_features(qm, x: np.ndarray) -> np.ndarray:
     """Physical features (N, n_in) -> int16 model inputs: round(x * 2^frac), saturated to int16."""
-    fr = np.array([2.0**i.frac for i in qm.inputs])
+    return quantize_columns(qm.inputs, x)
+
+
+def quantize_columns(qins, x: np.ndarray) -> np.ndarray:
+    """Physical columns (N, len(qins)) -> int16 values of those QInputs: round(x * 2^frac), saturated."""
+    fr = np.array([2.0**i.frac for i in qins])
     return np.clip(np.rint(np.asarray(x, dtype=float) * fr[None, :]), -(2**15), 2**15 - 1).astype(np.int64)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from seagen.build.equivalence import compare, edge_inputs, first_mismatch, random_inputs
+from seagen.build.equivalence import compare, edge_inputs, random_inputs, recorded, step_problem
 from seagen.codegen.manifest import Manifest
 from seagen.errors import CheckFailed, UserError
 from seagen.verify.drift import check_drift, select
@@ -71,17 +71,6 @@ def synthetic_trials(qm, n_trials: int = 4, n: int = 400, seed: int = 0):
     return np.concatenate(enc).astype(np.int64), np.concatenate(pot).astype(np.int64), trial
 
 
-def step_problem(qm, target, enc, pot, trial, ext) -> str | None:
-    """NAME_step of the target over whole sequences vs the numpy feature pipeline + reference."""
-    from seagen.quant.features import step_features
-    from seagen.quant.primitives import linkage_table_q16
-    from seagen.reference import numpy_ref
-
-    ref = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), enc, pot, trial, ext))
-    got = target.step(enc, pot, trial, ext if ext.shape[1] else None)
-    return first_mismatch(got, ref, np.column_stack([trial, enc, pot]))
-
-
 def check_steps(v: Verdict, ex, target, data: str | None) -> None:
     """NAME_step on the recorded trials of DATA (test, validation), or on synthetic sequences in the box."""
     from seagen.quant.features import external_inputs
@@ -108,9 +97,7 @@ def check_steps(v: Verdict, ex, target, data: str | None) -> None:
     for split in ("test", "validation"):
         df = derive(load_split(data, split))
         xq = quantize_features(qm, df[names].to_numpy())
-        ext = xq[:, [names.index(n) for n in ext_names]]
-        enc, pot, trial = df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy()
-        v.add(f"{p}_step on {split} trials ({len(df)} rows)", step_problem(qm, target, enc, pot, trial, ext))
+        v.add(f"{p}_step on {split} trials ({len(df)} rows)", step_problem(qm, target, *recorded(qm, df)))
         chk = compare(f"{p}_infer on {split}", qm, target, xq, None)
         v.add(f"{p}_infer on {split} rows ({len(df)}): C == numpy == torch == onnxruntime", _problem(chk))
 
