@@ -101,9 +101,11 @@ int64_t sea_clamp_s64(int64_t v, int64_t lo, int64_t hi)
     return v;
 }
 
+#if !defined(__ARM_FEATURE_IDIV)
 /* floor(a / d) for 1 <= d <= 16 without a division helper (a Cortex-M0+ has no divide instruction): the
  * high word of a * floor((2^32 - 1) / d) is at most the quotient and at most 2 below it; the remainder loop
- * corrects it, so the result is exact for every uint32 a. Four 16 x 16 multiplies (Hacker's Delight mulhu). */
+ * corrects it, so the result is exact for every uint32 a. Four 16 x 16 multiplies (Hacker's Delight's
+ * mulhu). */
 static uint32_t sea_udiv_small(uint32_t a, uint32_t d)
 {
     static const uint32_t recip[17] = {
@@ -123,12 +125,14 @@ static uint32_t sea_udiv_small(uint32_t a, uint32_t d)
     }
     return q;
 }
+#endif
 
 int32_t sea_div_rne_s32(int32_t num, int32_t den)
 {
     /* Floor quotient and remainder from unsigned 32-bit division of |num| (no 64-bit division: a Cortex-M0+
-     * would call __aeabi_ldivmod; small divisors, e.g. the controller's averages, without any division
-     * helper), then round half to even. |num| of INT32_MIN is 2^31 as uint32. */
+     * would call __aeabi_ldivmod; on a core without a divide instruction, divisors 1..16, e.g. the
+     * controller's averages, need no division helper), then round half to even. |num| of INT32_MIN is 2^31
+     * as uint32. */
     uint32_t d, a, qa, ra, r;
     int64_t q;
     if (den <= 0) {
@@ -136,7 +140,11 @@ int32_t sea_div_rne_s32(int32_t num, int32_t den)
     }
     d = (uint32_t)den;
     a = num < 0 ? 0u - (uint32_t)num : (uint32_t)num;
+#if defined(__ARM_FEATURE_IDIV) /* a divide instruction (ACLE): faster than the reciprocal */
+    qa = a / d;
+#else
     qa = d <= 16u ? sea_udiv_small(a, d) : a / d;
+#endif
     ra = a - qa * d;
     if (num >= 0) {
         q = (int64_t)qa;

@@ -5,16 +5,16 @@
 #define SEA_PID_ONE_MV ((int64_t)1 << SEA_PID_OUT_FRAC)
 
 /* round(a b / 2^s), half to even, for any int32 a, b and 1 <= s <= 31: the same integer as
- * sea_rshift_rne_s64((int64_t)a * b, s), with a b formed from four 16 x 16 -> 32-bit products (a = ah 2^16 + al,
- * ah signed, al unsigned) and the shift done on the words, so that a core without a long multiply (ARMv6-M:
- * __aeabi_lmul) calls no helper. Inline: s is a constant at every call. */
+ * sea_rshift_rne_s64((int64_t)a * b, s), with a b formed from four 16 x 16 -> 32-bit products
+ * (a = ah 2^16 + al, ah signed, al unsigned), so that a core without a long multiply (ARMv6-M: __aeabi_lmul)
+ * calls no helper. Inline: s is a constant at every call. */
 static inline int64_t sea_pid_mul_rne(int32_t a, int32_t b, int s)
 {
     const int32_t ah = a >> 16, bh = b >> 16; /* arithmetic shift: checked in sea_fixed.h */
     const uint32_t al = (uint32_t)a & 0xFFFFu, bl = (uint32_t)b & 0xFFFFu;
     /* |ah bl|, |al bh| < 2^31; |ah bh| <= 2^30; al bl < 2^32 */
-    const int64_t p = (int64_t)(ah * bh) * 4294967296 + ((int64_t)(ah * (int32_t)bl) + (int32_t)al * bh) * 65536 +
-                      (int64_t)(al * bl);
+    const int64_t mid = (int64_t)(ah * (int32_t)bl) + (int32_t)al * bh;
+    const int64_t p = (int64_t)(ah * bh) * 4294967296 + mid * 65536 + (int64_t)(al * bl);
     const int64_t q = p >> s; /* floor */
     const uint32_t r = (uint32_t)p & (((uint32_t)1 << s) - 1u), half = (uint32_t)1 << (s - 1);
     return (r > half || (r == half && (q & 1) != 0)) ? q + 1 : q;
