@@ -29,11 +29,11 @@ def want():
     return (enc, pot, force, *_twins(cal.qmodel, enc, pot, force))
 
 
-def _twins(cal_qm, enc, pot, force) -> tuple[np.ndarray, np.ndarray]:
-    """Motor commands (controller twin + StepTwin, the shipped configuration) and force estimates
+def _twins(cal_qm, enc, pot, force, ctl: str = "ctl_mlp") -> tuple[np.ndarray, np.ndarray]:
+    """Motor commands (controller twin + StepTwin of `ctl`, the shipped configuration) and force estimates
     (the feature pipeline's twin + numpy_ref) per tick, for the batch of actuators."""
-    cfg = shipped_config(default_ir("ctl_mlp").qmodel)
-    c = ControlConfig(**{**cfg.__dict__, "predictor": StepTwin("ctl_mlp")})
+    cfg = shipped_config(default_ir(ctl).qmodel)
+    c = ControlConfig(**{**cfg.__dict__, "predictor": StepTwin(ctl)})
     s, pipe = control_reset(c, enc[0], pot[0]), F.Pipeline(P.linkage_table_q16())
     motor, est = [], []
     for k in range(TICKS):
@@ -44,17 +44,10 @@ def _twins(cal_qm, enc, pot, force) -> tuple[np.ndarray, np.ndarray]:
     return np.array(motor), np.array(est)
 
 
-@pytest.mark.parametrize("target", ["core", "portable"])
-@pytest.mark.parametrize("cpu", CPUS)
-def test_glove_tick_on_core(want, cpu, target):
-    """The example built from the README's exports (with `--target` the core's kernels, or portable):
-    glove_init + TICKS glove_tick calls on the emulated core == the Python twins; prints the instructions
-    of one tick of seven actuators."""
-    if msg := toolchain_missing():
-        pytest.skip(msg)
-    files = glove_files(cpu if target == "core" else "portable")
+def _run(files: dict[str, str], cpu: str, enc, pot, force) -> tuple[np.ndarray, np.ndarray, int]:
+    """glove_init + TICKS glove_tick calls on the emulated core: motor commands, force estimates and the
+    instructions of one tick (the larger of ticks 60 and 61)."""
     m = Machine(build_image(files, cpu, ("glove_init", "glove_tick"), name="glove"), cpu)
-    enc, pot, force, want_motor, want_est = want
     i32 = np.int32
     g = m.call("glove_init", np.zeros(16384, np.uint8), enc[0].astype(i32), pot[0].astype(i32))[0][0]
     motor, est, counts = [], [], []
@@ -66,10 +59,38 @@ def test_glove_tick_on_core(want, cpu, target):
         motor.append(back[4])
         est.append(back[5])
         counts += [n] if n else []
-    assert np.array_equal(np.array(est), want_est), "force estimates differ"
-    assert np.array_equal(np.array(motor), want_motor), "motor commands differ"
+    return np.array(motor), np.array(est), max(counts)
+
+
+@pytest.mark.parametrize("target", ["core", "portable"])
+@pytest.mark.parametrize("cpu", CPUS)
+def test_glove_tick_on_core(want, cpu, target):
+    """The example built from the README's exports (with `--target` the core's kernels, or portable):
+    glove_init + TICKS glove_tick calls on the emulated core == the Python twins; prints the instructions
+    of one tick of seven actuators."""
+    if msg := toolchain_missing():
+        pytest.skip(msg)
+    enc, pot, force, want_motor, want_est = want
+    motor, est, n = _run(glove_files(cpu if target == "core" else "portable"), cpu, enc, pot, force)
+    assert np.array_equal(est, want_est), "force estimates differ"
+    assert np.array_equal(motor, want_motor), "motor commands differ"
     assert np.abs(want_motor).max() > 0
-    print(f"{cpu} ({target} kernels): one glove tick = {max(counts)} instructions")
+    print(f"{cpu} ({target} kernels): one glove tick = {n} instructions")
+
+
+def test_glove_with_sf_predictor_on_m0plus(want):
+    """The example with ctl_mlp renamed ctl_sf (the bench's SF-predictor glove, M0+ kernels) == the twins
+    with the SF predictor in its shipped configuration (~3 s)."""
+    if msg := toolchain_missing():
+        pytest.skip(msg)
+    enc, pot, force, _, want_est = want
+    cal = prepare(str(GENERATED / "models" / "mlp_calibration.pt"), prefix="cal_mlp")
+    want_motor, _ = _twins(cal.qmodel, enc, pot, force, ctl="ctl_sf")
+    files = glove_files("cortex-m0plus", "cal_mlp", "ctl_sf")
+    motor, est, _ = _run(files, "cortex-m0plus", enc, pot, force)
+    assert np.array_equal(est, want_est), "force estimates differ"
+    assert np.array_equal(motor, want_motor), "motor commands differ"
+    assert np.abs(want_motor).max() > 0
 
 
 def test_cli_export_controller(tmp_path, capsys):
