@@ -56,6 +56,9 @@ int32_t sea_sat32(int64_t v)
     return (int32_t)v;
 }
 
+/* -2^k <= x < 2^k (0 <= k <= 30), in unsigned 32-bit arithmetic: no overflow for any int32 x. */
+#define SEA_ABS_BELOW(x, k) ((uint32_t)(x) + ((uint32_t)1 << (k)) < ((uint32_t)1 << ((k) + 1)))
+
 int32_t sea_linkage_q16(const int32_t table[SEA_LINK_TABLE_LEN], int32_t pot)
 {
     int32_t p = pot < 0 ? 0 : (pot > SEA_POT_MAX ? SEA_POT_MAX : pot);
@@ -63,13 +66,27 @@ int32_t sea_linkage_q16(const int32_t table[SEA_LINK_TABLE_LEN], int32_t pot)
     int32_t f = p - (i << SEA_LINK_TABLE_SHIFT);       /* p >= 0: no negative shifts */
     int64_t a = table[i];
     int64_t b = table[i + 1];
-    int64_t v = a * ((int64_t)1 << SEA_LINK_TABLE_SHIFT) + (b - a) * f;
+    int64_t v;
+    if (SEA_ABS_BELOW(table[i], 26) && SEA_ABS_BELOW(table[i + 1], 26)) {
+        /* the same integers in int32: |a 2^4 + (b - a) f| = |a (16 - f) + b f| < 2^4 2^26 */
+        const int32_t a32 = table[i], b32 = table[i + 1];
+        return sea_rshift_rne_s32(a32 * ((1 << SEA_LINK_TABLE_SHIFT) - f) + b32 * f, SEA_LINK_TABLE_SHIFT);
+    }
+    v = a * ((int64_t)1 << SEA_LINK_TABLE_SHIFT) + (b - a) * f;
     return (int32_t)sea_rshift_rne_s64(v, SEA_LINK_TABLE_SHIFT);
 }
 
+/* Encoder counts with enc * SEA_MM_PER_COUNT_Q24 inside int32: -2^14 <= enc < 2^14, 2^14 < 2^31 / 73584. */
+#define SEA_ENC_INT32_BITS 14
+
 int32_t sea_compression_q16(const int32_t table[SEA_LINK_TABLE_LEN], int32_t enc, int32_t pot)
 {
-    int64_t travel = sea_rshift_rne_s64((int64_t)enc * SEA_MM_PER_COUNT_Q24, 24 - SEA_COMP_FRAC_BITS);
+    int64_t travel;
+    if (SEA_ABS_BELOW(enc, SEA_ENC_INT32_BITS)) { /* the same integers in int32 (no 64-bit multiply) */
+        travel = sea_rshift_rne_s32(enc * SEA_MM_PER_COUNT_Q24, 24 - SEA_COMP_FRAC_BITS);
+    } else {
+        travel = sea_rshift_rne_s64((int64_t)enc * SEA_MM_PER_COUNT_Q24, 24 - SEA_COMP_FRAC_BITS);
+    }
     return sea_sat32((int64_t)sea_linkage_q16(table, pot) + travel);
 }
 
@@ -84,10 +101,38 @@ int64_t sea_clamp_s64(int64_t v, int64_t lo, int64_t hi)
     return v;
 }
 
+#if !defined(__ARM_FEATURE_IDIV)
+/* floor(a / d) for 1 <= d <= 16 without a division helper (a Cortex-M0+ has no divide instruction): the
+ * high word of a * floor((2^32 - 1) / d) is at most the quotient and at most 2 below it; the remainder loop
+ * corrects it, so the result is exact for every uint32 a. Four 16 x 16 multiplies (Hacker's Delight's
+ * mulhu). */
+static uint32_t sea_udiv_small(uint32_t a, uint32_t d)
+{
+    static const uint32_t recip[17] = {
+        0u, 0xFFFFFFFFu / 1u, 0xFFFFFFFFu / 2u, 0xFFFFFFFFu / 3u, 0xFFFFFFFFu / 4u, 0xFFFFFFFFu / 5u,
+        0xFFFFFFFFu / 6u, 0xFFFFFFFFu / 7u, 0xFFFFFFFFu / 8u, 0xFFFFFFFFu / 9u, 0xFFFFFFFFu / 10u,
+        0xFFFFFFFFu / 11u, 0xFFFFFFFFu / 12u, 0xFFFFFFFFu / 13u, 0xFFFFFFFFu / 14u, 0xFFFFFFFFu / 15u,
+        0xFFFFFFFFu / 16u};
+    const uint32_t m = recip[d];
+    const uint32_t al = a & 0xFFFFu, ah = a >> 16, ml = m & 0xFFFFu, mh = m >> 16;
+    const uint32_t t = ah * ml + ((al * ml) >> 16);
+    const uint32_t w = al * mh + (t & 0xFFFFu);
+    uint32_t q = ah * mh + (t >> 16) + (w >> 16); /* floor(a m / 2^32) */
+    uint32_t r = a - q * d;
+    while (r >= d) {
+        q += 1u;
+        r -= d;
+    }
+    return q;
+}
+#endif
+
 int32_t sea_div_rne_s32(int32_t num, int32_t den)
 {
     /* Floor quotient and remainder from unsigned 32-bit division of |num| (no 64-bit division: a Cortex-M0+
-     * would call __aeabi_ldivmod), then round half to even. |num| of INT32_MIN is 2^31 as uint32. */
+     * would call __aeabi_ldivmod; on a core without a divide instruction, divisors 1..16, e.g. the
+     * controller's averages, need no division helper), then round half to even. |num| of INT32_MIN is 2^31
+     * as uint32. */
     uint32_t d, a, qa, ra, r;
     int64_t q;
     if (den <= 0) {
@@ -95,7 +140,11 @@ int32_t sea_div_rne_s32(int32_t num, int32_t den)
     }
     d = (uint32_t)den;
     a = num < 0 ? 0u - (uint32_t)num : (uint32_t)num;
+#if defined(__ARM_FEATURE_IDIV) /* a divide instruction (ACLE): faster than the reciprocal */
     qa = a / d;
+#else
+    qa = d <= 16u ? sea_udiv_small(a, d) : a / d;
+#endif
     ra = a - qa * d;
     if (num >= 0) {
         q = (int64_t)qa;

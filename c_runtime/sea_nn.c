@@ -90,29 +90,3 @@ int32_t sea_horner_s32(int16_t x, int32_t t, int32_t add, int align, int shift)
     int64_t a = align >= 0 ? (int64_t)add * ((int64_t)1 << align) : (int64_t)add >> -align;
     return sea_sat32(p + a);
 }
-
-int16_t sea_to_s16(int64_t v, int from_frac, int to_frac)
-{
-    if (to_frac >= from_frac) { /* sat16(v * 2^k), decided before scaling: no 64-bit multiply */
-        const int k = to_frac - from_frac;
-        if (k > 15) {
-            return (int16_t)(v > 0 ? INT16_MAX : (v < 0 ? INT16_MIN : 0));
-        }
-        if (v > (INT16_MAX >> k)) {
-            return INT16_MAX;
-        }
-        if (v < -(32768 >> k)) {
-            return INT16_MIN;
-        }
-        return (int16_t)((int32_t)v * (1 << k));
-    }
-    return sea_sat16(sea_rshift_rne_s64(v, from_frac - to_frac));
-}
-
-int32_t sea_to_s32(int64_t v, int from_frac, int to_frac)
-{
-    if (to_frac >= from_frac) {
-        return sea_sat32(v * ((int64_t)1 << (to_frac - from_frac)));
-    }
-    return sea_sat32(sea_rshift_rne_s64(v, from_frac - to_frac));
-}

@@ -10,6 +10,8 @@
 
 #include <stdint.h>
 
+#include "sea_fixed.h"
+
 /* out[i] = min(max(x[i], lo[i]), hi[i]) for i < n. */
 void sea_clamp_s16(const int16_t *x, const int16_t *lo, const int16_t *hi, int n, int16_t *out);
 
@@ -37,10 +39,33 @@ void sea_table_s16(int16_t *y, int n, const int16_t *table, int32_t len, int in_
 int32_t sea_horner_s32(int16_t x, int32_t t, int32_t add, int align, int shift);
 
 /* A value in Q(from_frac) converted to an int16 in Q(to_frac): exact scaling up or rounding shift down,
- * then saturation. Scaling up needs |v| * 2^(to_frac - from_frac) < 2^63. */
-int16_t sea_to_s16(int64_t v, int from_frac, int to_frac);
+ * then saturation. Scaling up needs |v| * 2^(to_frac - from_frac) < 2^63. Inline: NAME_step calls it with
+ * constant formats, so each call folds to its own few instructions (no 64-bit call on a Cortex-M0+). */
+static inline int16_t sea_to_s16(int64_t v, int from_frac, int to_frac)
+{
+    if (to_frac >= from_frac) { /* sat16(v * 2^k), decided before scaling: no 64-bit multiply */
+        const int k = to_frac - from_frac;
+        if (k > 15) {
+            return (int16_t)(v > 0 ? INT16_MAX : (v < 0 ? INT16_MIN : 0));
+        }
+        if (v > (INT16_MAX >> k)) {
+            return INT16_MAX;
+        }
+        if (v < -(32768 >> k)) {
+            return INT16_MIN;
+        }
+        return (int16_t)((int32_t)v * (1 << k));
+    }
+    return sea_sat16(sea_rshift_rne_s64(v, from_frac - to_frac));
+}
 
 /* The same to an int32 (e.g. a model output scaled to the controller's Q16): saturated to int32. */
-int32_t sea_to_s32(int64_t v, int from_frac, int to_frac);
+static inline int32_t sea_to_s32(int64_t v, int from_frac, int to_frac)
+{
+    if (to_frac >= from_frac) {
+        return sea_sat32(v * ((int64_t)1 << (to_frac - from_frac)));
+    }
+    return sea_sat32(sea_rshift_rne_s64(v, from_frac - to_frac));
+}
 
 #endif

@@ -3,14 +3,13 @@ runs on the emulated cores equal to the Python twins bit for bit."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
+from seagen.bench.glove import N_SEA, TICKS, glove_files, sensors
 from seagen.build.cortexm import CPUS, Machine, build_image, toolchain_missing
-from seagen.control.controller import ControlConfig, control_reset, control_step, q16
-from seagen.control.firmware import controller_files, shipped_config
+from seagen.control.controller import ControlConfig, control_reset, control_step
+from seagen.control.firmware import shipped_config
 from seagen.control.gentwin import StepTwin
 from seagen.control.gentwin import export as default_ir
 from seagen.defaults import GENERATED
@@ -21,34 +20,20 @@ from seagen.reference import numpy_ref
 
 pytest.importorskip("unicorn", reason="unicorn (the Cortex-M emulator) is not installed: pip install unicorn")
 
-EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "firmware"
-N_SEA, TICKS = 7, 120
-
 
 @pytest.fixture(scope="module")
-def folder():
-    """What the README's two exports write into one folder, plus glove.c/.h; the calibration IR."""
+def want():
+    """The sensor sequence and what the Python twins make of it: (enc, pot, force, motor, force estimates)."""
     cal = prepare(str(GENERATED / "models" / "mlp_calibration.pt"), prefix="cal_mlp")
-    ctl = prepare(str(GENERATED / "models" / "mlp_control.pt"), prefix="ctl_mlp")
-    files = {**cal.files, **ctl.files, **controller_files("ctl_mlp", ctl.qmodel)}
-    files.update({f.name: f.read_text() for f in EXAMPLE.glob("glove.[ch]")})
-    return files, cal.qmodel
+    enc, pot, force = sensors(7)
+    return (enc, pot, force, *_twins(cal.qmodel, enc, pot, force))
 
 
-def _sensors(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(enc, pot, desired force Q16) per tick and actuator: random walks, forces stepping within range."""
-    rng = np.random.default_rng(seed)
-    enc = 300 + np.cumsum(rng.integers(-40, 41, (TICKS, N_SEA)), axis=0)
-    pot = np.clip(1200 + np.cumsum(rng.integers(-20, 21, (TICKS, N_SEA)), axis=0), 1, 4094)
-    force = np.repeat(rng.uniform(1.0, 15.0, (TICKS // 40 + 1, N_SEA)), 40, axis=0)[:TICKS]
-    return enc, pot, np.vectorize(q16)(force)
-
-
-def _twins(cal_qm, enc, pot, force) -> tuple[np.ndarray, np.ndarray]:
-    """Motor commands (controller twin + StepTwin, the shipped configuration) and force estimates
+def _twins(cal_qm, enc, pot, force, ctl: str = "ctl_mlp") -> tuple[np.ndarray, np.ndarray]:
+    """Motor commands (controller twin + StepTwin of `ctl`, the shipped configuration) and force estimates
     (the feature pipeline's twin + numpy_ref) per tick, for the batch of actuators."""
-    cfg = shipped_config(default_ir("ctl_mlp").qmodel)
-    c = ControlConfig(**{**cfg.__dict__, "predictor": StepTwin("ctl_mlp")})
+    cfg = shipped_config(default_ir(ctl).qmodel)
+    c = ControlConfig(**{**cfg.__dict__, "predictor": StepTwin(ctl)})
     s, pipe = control_reset(c, enc[0], pot[0]), F.Pipeline(P.linkage_table_q16())
     motor, est = [], []
     for k in range(TICKS):
@@ -59,15 +44,10 @@ def _twins(cal_qm, enc, pot, force) -> tuple[np.ndarray, np.ndarray]:
     return np.array(motor), np.array(est)
 
 
-@pytest.mark.parametrize("cpu", CPUS)
-def test_glove_tick_on_core(folder, cpu):
-    """glove_init + TICKS glove_tick calls on the emulated core == the Python twins; prints the
-    instructions of one tick of seven actuators."""
-    if msg := toolchain_missing():
-        pytest.skip(msg)
-    files, cal_qm = folder
+def _run(files: dict[str, str], cpu: str, enc, pot, force) -> tuple[np.ndarray, np.ndarray, int]:
+    """glove_init + TICKS glove_tick calls on the emulated core: motor commands, force estimates and the
+    instructions of one tick (the larger of ticks 60 and 61)."""
     m = Machine(build_image(files, cpu, ("glove_init", "glove_tick"), name="glove"), cpu)
-    enc, pot, force = _sensors(7)
     i32 = np.int32
     g = m.call("glove_init", np.zeros(16384, np.uint8), enc[0].astype(i32), pot[0].astype(i32))[0][0]
     motor, est, counts = [], [], []
@@ -79,11 +59,38 @@ def test_glove_tick_on_core(folder, cpu):
         motor.append(back[4])
         est.append(back[5])
         counts += [n] if n else []
-    want_motor, want_est = _twins(cal_qm, enc, pot, force)
-    assert np.array_equal(np.array(est), want_est), "force estimates differ"
-    assert np.array_equal(np.array(motor), want_motor), "motor commands differ"
+    return np.array(motor), np.array(est), max(counts)
+
+
+@pytest.mark.parametrize("target", ["core", "portable"])
+@pytest.mark.parametrize("cpu", CPUS)
+def test_glove_tick_on_core(want, cpu, target):
+    """The example built from the README's exports (with `--target` the core's kernels, or portable):
+    glove_init + TICKS glove_tick calls on the emulated core == the Python twins; prints the instructions
+    of one tick of seven actuators."""
+    if msg := toolchain_missing():
+        pytest.skip(msg)
+    enc, pot, force, want_motor, want_est = want
+    motor, est, n = _run(glove_files(cpu if target == "core" else "portable"), cpu, enc, pot, force)
+    assert np.array_equal(est, want_est), "force estimates differ"
+    assert np.array_equal(motor, want_motor), "motor commands differ"
     assert np.abs(want_motor).max() > 0
-    print(f"{cpu}: one glove tick (7 x cal_mlp_step + ctl_mlp controller tick) = {max(counts)} instructions")
+    print(f"{cpu} ({target} kernels): one glove tick = {n} instructions")
+
+
+def test_glove_with_sf_predictor_on_m0plus(want):
+    """The example with ctl_mlp renamed ctl_sf (the bench's SF-predictor glove, M0+ kernels) == the twins
+    with the SF predictor in its shipped configuration (~3 s)."""
+    if msg := toolchain_missing():
+        pytest.skip(msg)
+    enc, pot, force, _, want_est = want
+    cal = prepare(str(GENERATED / "models" / "mlp_calibration.pt"), prefix="cal_mlp")
+    want_motor, _ = _twins(cal.qmodel, enc, pot, force, ctl="ctl_sf")
+    files = glove_files("cortex-m0plus", "cal_mlp", "ctl_sf")
+    motor, est, _ = _run(files, "cortex-m0plus", enc, pot, force)
+    assert np.array_equal(est, want_est), "force estimates differ"
+    assert np.array_equal(motor, want_motor), "motor commands differ"
+    assert np.abs(want_motor).max() > 0
 
 
 def test_cli_export_controller(tmp_path, capsys):

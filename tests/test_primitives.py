@@ -76,6 +76,22 @@ def test_compression_pipeline(c):
     assert np.array_equal(got, want), _first_mismatch(got, want, np.stack([enc, pot], 1))
 
 
+def test_compression_int32_paths_at_their_limits(c):
+    """sea_linkage_q16 / sea_compression_q16 take int32 paths where the table entries lie in [-2^26, 2^26) and
+    enc in [-2^14, 2^14), int64 paths beyond: both equal the twin, at the limits and on tables up to 2^30."""
+    for lim in (2**26, 2**30 - 1):
+        table = RNG.integers(-lim, lim + 1, 257)
+        table[:4] = [-(2**26), 2**26 - 1, 2**26, -(2**26) - 1] if lim == 2**26 else [-lim, lim, -lim, lim]
+        ct = c.ffi.new("int32_t[]", [int(x) for x in table])
+        edges = [-(2**31), -(2**14) - 1, -(2**14), -(2**14) + 1, -1, 0, 2**14 - 1, 2**14, 29183, 2**31 - 1]
+        enc = np.concatenate([np.repeat(edges, 8), RNG.integers(-(2**15), 2**15, 400)])
+        pot = RNG.integers(-5, 4101, enc.size)
+        pot[:80] = np.tile(np.arange(0, 80, 8), 8)
+        got = np.array([c.lib.sea_compression_q16(ct, int(e), int(q)) for e, q in zip(enc, pot, strict=True)])
+        want = P.compression_q16(table, enc, pot)
+        assert np.array_equal(got, want), _first_mismatch(got, want, np.stack([enc, pot], 1))
+
+
 def test_compression_matches_float_geometry():
     """The fixed-point compression stays within 1.5e-4 mm of Eq. 2 in floating point over the working range.
 

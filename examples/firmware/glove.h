@@ -3,8 +3,8 @@
  * Each actuator gets its calibrated force estimate (cal_mlp_step, the calibration MLP on raw counts) and its
  * force loop (ctl_mlp_controller_tick: the control MLP as the predictor of the tuned two-level controller).
  * Everything it includes comes from two seagen exports into one folder (see README.md):
- *     seagen export generated/models/mlp_calibration.pt --prefix cal_mlp --out build
- *     seagen export generated/models/mlp_control.pt --prefix ctl_mlp --controller --out build
+ *     seagen export generated/models/mlp_calibration.pt --prefix cal_mlp [--target CORE] --out build
+ *     seagen export generated/models/mlp_control.pt --prefix ctl_mlp --controller [--target CORE] --out build
  * Integers only, no malloc: the caller owns the glove_t (e.g. one static instance).
  */
 #ifndef GLOVE_H
