@@ -81,18 +81,25 @@ def test_bad_train_input_exits_2(argv, needle, fit_data: Path, tmp_path: Path, c
     assert not out.exists() and not list(tmp_path.glob(".m.pt*"))
 
 
-@pytest.mark.parametrize("case", ("garbage", "missing", "no_field"))
+@pytest.mark.parametrize("case", ("garbage", "missing", "no_field", "torchscript"))
 def test_bad_evaluate_input_exits_2(case: str, fit_data: Path, tmp_path: Path, capsys) -> None:  # noqa: F811
     """Unreadable, missing or incomplete model files: exit 2 naming the file (and field); no plots written."""
-    path = {"garbage": tmp_path / "g.pt", "missing": tmp_path / "none.pt", "no_field": _bad_model(tmp_path)}[
-        case
-    ]
+    path = {
+        "garbage": tmp_path / "g.pt",
+        "missing": tmp_path / "none.pt",
+        "no_field": _bad_model(tmp_path),
+        "torchscript": tmp_path / "ts.pt",
+    }[case]
     if case == "garbage":
         path.write_bytes(b"not a torch file")
+    if case == "torchscript":
+        torch.jit.script(torch.nn.Sequential(torch.nn.Linear(2, 1))).save(str(path))
     plots = tmp_path / "plots"
     assert main(["evaluate", str(path), "--data", str(fit_data), "--plots", str(plots)]) == 2
     err = capsys.readouterr().err
     assert str(path) in err
     if case == "no_field":
         assert "'task'" in err
+    if case == "torchscript":
+        assert "reads the model.pt of `seagen train`" in err
     assert not plots.exists()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -81,7 +82,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         if not rep.ok:
             raise CheckFailed(f"{args.model}: the checks on {args.check} disagree; nothing written")
     written = write(ex, args.out)
-    print(f"seagen export: {args.model} -> {args.out}/ ({', '.join(p.name for p in written)})")
+    print(f"seagen export: {args.model} -> {Path(args.out)}/ ({', '.join(p.name for p in written)})")
     assert ex.oracle is not None  # prepare always runs the oracle
     for line in [*ex.lines, ex.oracle.line()]:
         print("  " + line)

@@ -48,7 +48,13 @@ def build_defaults(out: Path, seed: int = 0) -> None:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the `demo` command."""
-    p = sub.add_parser("demo", help="the whole pipeline on the simulated actuator (what `make demo` runs)")
+    p = sub.add_parser(
+        "demo",
+        help="the whole pipeline on the simulated actuator (what `make demo` runs)",
+        description="Data (paper protocol) -> the four default models -> C export checked bit for bit -> "
+        "closed-loop force control (Table II) -> the discrepancy workflow on data with a hidden effect; "
+        "outputs in --out. --regenerate/--rebuild maintain generated/.",
+    )
     p.add_argument("--out", default="demo_out", help="working directory (default demo_out)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--regenerate", metavar="DIR", help="only re-export DIR (generated/) from DIR/models/*.pt")

@@ -21,11 +21,12 @@ Contract (keys of the saved dict; `seagen.fit` writes it, `seagen export` and `s
 from __future__ import annotations
 
 import os
+import zipfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from seagen.errors import UserError
+from seagen.errors import UserError, not_a_file
 
 FORMAT = "seagen-model/1"
 DIFFERENCE_SCHEME = "backward; d=x[n]-x[n-1], dd=x[n]-2x[n-1]+x[n-2]; warm-up x[-1]=x[-2]=x[0]"
@@ -138,8 +139,31 @@ def load_model(path: str | os.PathLike[str], allow_pickle: bool = False) -> dict
     """Read a seagen model file without running code; errors name the file."""
     p = Path(path)
     if not p.is_file():
-        raise UserError(f"{p}: no such model file")
+        raise UserError(not_a_file(p, "model file"))
+    if p.suffix in (".onnx", ".pt2") or is_torchscript(zip_members(p)) or is_pt2(zip_members(p)):
+        raise UserError(
+            f"{p}: not a seagen model file: this command reads the model.pt of `seagen train` "
+            "(`seagen export` and `seagen verify` take TorchScript, .pt2 and .onnx models too)"
+        )
     obj = safe_load(p, allow_pickle)
     if not isinstance(obj, dict) or obj.get("format") != FORMAT:
         raise UserError(f"{p}: not a seagen model file (no format '{FORMAT}')")
     return obj
+
+
+def zip_members(p: Path) -> list[str]:
+    """Names inside a zip file ([] for anything else)."""
+    if not zipfile.is_zipfile(p):
+        return []
+    with zipfile.ZipFile(p) as z:
+        return z.namelist()
+
+
+def is_torchscript(names: list[str]) -> bool:
+    """TorchScript archives hold a code/ folder and constants.pkl."""
+    return any(n.endswith("constants.pkl") for n in names) and any("/code/" in n for n in names)
+
+
+def is_pt2(names: list[str]) -> bool:
+    """torch.export.save archives hold models/*.json and an archive_format file."""
+    return any(n.endswith("archive_format") for n in names)

@@ -9,32 +9,14 @@ from pathlib import Path
 from typing import Any
 
 from seagen.errors import UserError
-from seagen.fit.modelfile import PICKLE_HINT, safe_load
-
-
-def _members(p: Path) -> list[str]:
-    """Names inside a zip file ([] for anything else)."""
-    if not zipfile.is_zipfile(p):
-        return []
-    with zipfile.ZipFile(p) as z:
-        return z.namelist()
-
-
-def is_torchscript(names: list[str]) -> bool:
-    """TorchScript archives hold a code/ folder and constants.pkl."""
-    return any(n.endswith("constants.pkl") for n in names) and any("/code/" in n for n in names)
-
-
-def is_pt2(names: list[str]) -> bool:
-    """torch.export.save archives hold models/*.json and an archive_format file."""
-    return any(n.endswith("archive_format") for n in names)
+from seagen.fit.modelfile import PICKLE_HINT, is_pt2, is_torchscript, safe_load, zip_members
 
 
 def load_torch(p: Path, allow_pickle: bool = False) -> Any:
     """A .pt/.pth (seagen model dict, nn.Module), TorchScript archive or .pt2 ExportedProgram."""
     import torch
 
-    names = _members(p)
+    names = zip_members(p)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")

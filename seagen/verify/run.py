@@ -149,6 +149,8 @@ def verify(
         return v
     qm = ex.qmodel
     _files, target = disk_target(root, man, core, qm)
+    if vectors == 0:
+        v.warnings.append("--vectors 0: NAME_infer is checked on the edge vectors only")
     edges = edge_inputs(len(qm.inputs))
     x = np.vstack([random_inputs(qm, vectors, seed=0), edges])
     chk = compare("infer", qm, target, x, None)
