@@ -110,3 +110,23 @@ def test_integer_reference_loads_no_plant_or_torch():
     )
     res = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
     assert res.stdout.strip() == "[]", res.stdout
+
+
+def test_unpickling_only_behind_the_opt_in():
+    """`weights_only=False` appears once, in fit.modelfile.unpickle_trusted; every allow_pickle parameter in
+    seagen defaults to False (the CLI flags are store_true: off unless given)."""
+    unsafe, defaults = [], []
+    for path in sorted(ROOT.rglob("*.py")):
+        tree = ast.parse(path.read_text(), str(path))
+        for fn in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef | ast.AsyncFunctionDef)):
+            args = fn.args.args + fn.args.kwonlyargs
+            vals = [None] * (len(fn.args.args) - len(fn.args.defaults)) + list(fn.args.defaults)
+            vals += list(fn.args.kw_defaults)
+            for a, d in zip(args, vals, strict=True):
+                if a.arg == "allow_pickle" and not (isinstance(d, ast.Constant) and d.value is False):
+                    defaults.append(f"{path.name}:{fn.name}")
+            for kw in (k for c in ast.walk(fn) if isinstance(c, ast.Call) for k in c.keywords):
+                if kw.arg == "weights_only" and not (isinstance(kw.value, ast.Constant) and kw.value.value):
+                    unsafe.append(f"{path.name}:{fn.name}")
+    assert unsafe == ["modelfile.py:unpickle_trusted"], unsafe
+    assert not defaults, f"allow_pickle without a False default: {defaults}"
