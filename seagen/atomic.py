@@ -43,3 +43,17 @@ def write_with(path: str | os.PathLike[str], writer: Callable[[Path], None]) -> 
     """Let `writer` fill a temporary file, then rename it onto `path`."""
     with atomic_path(path) as tmp:
         writer(tmp)
+
+
+def writable_place(path: str | os.PathLike[str]) -> str | None:
+    """Why `path` cannot be created or replaced (its nearest existing parent is a file, not writable, or
+    under /proc or /sys), or None when it can."""
+    p = Path(path)
+    probe = p.parent if p.exists() else p
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir():
+        return f"{probe} is a file, not a folder"
+    if not os.access(probe, os.W_OK | os.X_OK) or str(p.resolve()).startswith(("/proc/", "/sys/")):
+        return "cannot write there (no permission or not a regular file system)"
+    return None

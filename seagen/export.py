@@ -9,7 +9,9 @@ import shutil
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
+from seagen.atomic import writable_place
 from seagen.codegen.cfmt import assert_valid_prefix
 from seagen.codegen.manifest import SUFFIX, manifest_text
 from seagen.codegen.render import RUNTIME, model_hash, render
@@ -18,7 +20,7 @@ from seagen.codegen.summary import summary_lines
 from seagen.codegen.targets import RUNTIME as TARGET_RUNTIME
 from seagen.codegen.targets import check_target
 from seagen.errors import CheckFailed, UserError
-from seagen.frontends.load import Loaded, load_with_original
+from seagen.frontends.load import Loaded, load_with_original, read_features_file
 from seagen.ir import FloatModel, QModel
 from seagen.quant.model import quantize
 from seagen.reference.oracle import OracleReport, box_points, compare_original
@@ -72,7 +74,7 @@ def prepare(
     prefix: str | None = None,
     weights: str = "int16",
     calib: str | None = None,
-    features: str | None = None,
+    features: str | dict[str, Any] | None = None,
     with_onnx: bool = False,
     allow_pickle: bool = False,
     controller: bool = False,
@@ -84,13 +86,15 @@ def prepare(
 
     `controller` adds NAME_controller.{h,c} and the controller runtime (control models); `ranges` gives the
     input ranges outright (seagen verify rebuilds an export from its manifest that way); `target` picks the
-    kernel of NAME_infer (seagen/codegen/targets.py) and the runtime header it includes."""
+    kernel of NAME_infer (seagen/codegen/targets.py) and the runtime header it includes; `features` is a
+    --features file or the spec already read from one (a manifest's)."""
     prefix = check_prefix(default_prefix(model_path) if prefix is None else prefix)
     bits = {"int16": 16, "int8": 8}.get(weights)
     if bits is None:
         raise UserError(f"--weights must be int16 or int8, not {weights!r}")
     given = ranges or ((lambda names: calib_ranges(calib, names)) if calib else None)
-    loaded = load_with_original(model_path, features, given, allow_pickle)
+    spec = features if isinstance(features, dict) else read_features_file(features)
+    loaded = load_with_original(model_path, spec, given, allow_pickle)
     qm = quantize(loaded.model, bits)
     rep = compare_original(
         f"oracle ({loaded.runtime}) on the box", qm, loaded.original, box_points(qm), loaded.margin
@@ -109,7 +113,7 @@ def prepare(
         onnx_bytes = build_onnx(qm, prefix).SerializeToString()
     options = {"weights": weights, "target": target, "calib": calib, "onnx": with_onnx}
     options["controller"] = controller
-    files[f"{prefix}{SUFFIX}"] = export_manifest(qm, prefix, model_path, options, features, files, onnx_bytes)
+    files[f"{prefix}{SUFFIX}"] = export_manifest(qm, prefix, model_path, options, spec, files, onnx_bytes)
     return Export(loaded.model, qm, prefix, files, onnx_bytes, summary_lines(qm), loaded, rep)
 
 
@@ -118,13 +122,12 @@ def export_manifest(
     prefix: str,
     model_path: str,
     options: dict,
-    features: str | None,
+    spec: dict[str, Any],
     files: dict[str, str],
     onnx_bytes: bytes | None,
 ) -> str:
-    """NAME.seagen.json for the files of this export (the runtime files and NAME.onnx included)."""
-    from seagen.frontends.load import read_features_file
-
+    """NAME.seagen.json for the files of this export (the runtime files and NAME.onnx included); `spec`:
+    the --features file as read ({} without one)."""
     emitted = {name: text.encode() for name, text in files.items()}
     if onnx_bytes is not None:
         emitted[f"{prefix}.onnx"] = onnx_bytes
@@ -133,7 +136,7 @@ def export_manifest(
         "output": [qm.output.name, qm.output.unit],
         "qmodel_hash": model_hash(qm),
         "error_bound": qm.error_bound,
-        "features": read_features_file(features) or None,
+        "features": spec or None,
     }
     return manifest_text(prefix, model_path, options, resolved, emitted)
 
@@ -143,13 +146,8 @@ def check_out_dir(out_dir: str | os.PathLike[str]) -> Path:
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise UserError(f"{out}: exists and is not a directory (--out needs a folder)")
-    probe = out
-    while not probe.exists():
-        probe = probe.parent
-    if not probe.is_dir():
-        raise UserError(f"{out}: {probe} is a file, not a folder (--out needs a folder)")
-    if not os.access(probe, os.W_OK | os.X_OK) or str(out.resolve()).startswith(("/proc/", "/sys/")):
-        raise UserError(f"{out}: cannot write there (no permission or not a regular file system)")
+    if why := writable_place(out / "x"):
+        raise UserError(f"{out}: {why}" + (" (--out needs a folder)" if "a file" in why else ""))
     return out
 
 

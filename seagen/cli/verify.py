@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from seagen.atomic import atomic_path
+from seagen.atomic import atomic_path, writable_place
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -50,8 +50,8 @@ def cmd_verify(args: argparse.Namespace) -> int:
     from seagen.errors import UserError
     from seagen.verify.run import verify
 
-    if args.junit and (Path(args.junit).is_dir() or not _writable_parent(Path(args.junit))):
-        raise UserError(f"{args.junit}: cannot write the JUnit report there (a folder or no writable parent)")
+    if args.junit and (why := "a folder" if Path(args.junit).is_dir() else writable_place(args.junit)):
+        raise UserError(f"{args.junit}: cannot write the JUnit report there ({why})")
     verdict = verify(
         args.dir,
         args.model,
@@ -67,13 +67,3 @@ def cmd_verify(args: argparse.Namespace) -> int:
         with atomic_path(Path(args.junit)) as tmp:
             Path(tmp).write_bytes(verdict.junit())
     return 0 if verdict.ok else 1
-
-
-def _writable_parent(path: Path) -> bool:
-    """Whether the nearest existing parent of `path` is a writable folder outside /proc and /sys."""
-    import os
-
-    probe = path.resolve().parent
-    while not probe.exists():
-        probe = probe.parent
-    return probe.is_dir() and os.access(probe, os.W_OK) and not str(probe).startswith(("/proc", "/sys"))

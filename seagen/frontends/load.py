@@ -187,7 +187,7 @@ def read_features_file(path: str | None) -> dict[str, Any]:
 
 
 def load_float_model(
-    path: str, features: str | None = None, ranges: Any = None, allow_pickle: bool = False
+    path: str, features: str | dict[str, Any] | None = None, ranges: Any = None, allow_pickle: bool = False
 ) -> FloatModel:
     """Any supported model file -> float IR (a features file overrides/fills the model's own metadata).
 
@@ -198,13 +198,14 @@ def load_float_model(
 
 
 def load_with_original(
-    path: str, features: str | None = None, ranges: Any = None, allow_pickle: bool = False
+    path: str, features: str | dict[str, Any] | None = None, ranges: Any = None, allow_pickle: bool = False
 ) -> Loaded:
-    """The float IR of a model file and its original run by its own runtime (for the oracle)."""
+    """The float IR of a model file and its original run by its own runtime (for the oracle); `features`:
+    a --features file, or the dict `read_features_file` made of one."""
     p = Path(path)
     if not p.is_file():
         raise UserError(not_a_file(p, "model file"))
-    extra = read_features_file(features)
+    extra = features if isinstance(features, dict) else read_features_file(features)
     if p.suffix == ".onnx":
         if not extra:
             _need_features(p)

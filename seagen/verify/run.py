@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import json
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +9,7 @@ import numpy as np
 from seagen.build.equivalence import compare, edge_inputs, random_inputs, recorded, step_problem
 from seagen.codegen.manifest import Manifest
 from seagen.errors import CheckFailed, UserError
+from seagen.reference import onnx_ref
 from seagen.verify.drift import check_drift, select
 from seagen.verify.result import Verdict
 
@@ -22,37 +21,29 @@ def rebuild(man: Manifest, model: Path, features: str | None, allow_pickle: bool
     from seagen.export import prepare
 
     opts, res = man.data["options"], man.data["resolved"]
-    ranges = [[float(lo), float(hi)] for _n, _u, lo, hi in res["inputs"]]
-    with tempfile.TemporaryDirectory() as tmp:
-        if features is None and res.get("features"):
-            features = str(Path(tmp) / "features.json")
-            spec = res["features"]
-            Path(features).write_text(json.dumps({**spec.pop("features", {}), **spec}))
-        return prepare(
-            str(model),
-            man.prefix,
-            opts["weights"],
-            None,
-            features,
-            True,
-            controller=bool(opts.get("controller")),
-            target=opts.get("target", "portable"),
-            ranges=ranges,
-        )
+    return prepare(
+        str(model),
+        man.prefix,
+        opts["weights"],
+        None,
+        features if features is not None else (res.get("features") or {}),
+        False,
+        allow_pickle,
+        controller=bool(opts.get("controller")),
+        target=opts.get("target", "portable"),
+        ranges=[[float(lo), float(hi)] for _n, _u, lo, hi in res["inputs"]],
+    )
 
 
 def disk_target(folder: Path, man: Manifest, core: str, qm):
     """The C files of the export as they are on disk, built for the host (cffi) or an emulated core."""
-    files = {n: (folder / n).read_text() for n in man.files if n.endswith((".c", ".h"))}
-    if core == "host":
-        from seagen.build.model import CModel
+    from seagen.build.cortexm import toolchain_missing
+    from seagen.build.targets import build_target
 
-        return files, CModel(files, man.prefix, qm)
-    from seagen.build.cortexm import CortexM, toolchain_missing
-
-    if msg := toolchain_missing():
+    if core != "host" and (msg := toolchain_missing()):
         raise UserError(f"--core {core}: {msg}")
-    return files, CortexM(files, man.prefix, qm, core)
+    files = {n: (folder / n).read_text() for n in man.files if n.endswith((".c", ".h"))}
+    return build_target(core, files, man.prefix, qm)
 
 
 def synthetic_trials(qm, n_trials: int = 4, n: int = 400, seed: int = 0):
@@ -71,7 +62,7 @@ def synthetic_trials(qm, n_trials: int = 4, n: int = 400, seed: int = 0):
     return np.concatenate(enc).astype(np.int64), np.concatenate(pot).astype(np.int64), trial
 
 
-def check_steps(v: Verdict, ex, target, data: str | None) -> None:
+def check_steps(v: Verdict, ex, target, data: str | None, onnx_model) -> None:
     """NAME_step on the recorded trials of DATA (test, validation), or on synthetic sequences in the box."""
     from seagen.quant.features import external_inputs
     from seagen.reference.float_ref import quantize_features
@@ -98,7 +89,7 @@ def check_steps(v: Verdict, ex, target, data: str | None) -> None:
         df = derive(load_split(data, split))
         xq = quantize_features(qm, df[names].to_numpy())
         v.add(f"{p}_step on {split} trials ({len(df)} rows)", step_problem(qm, target, *recorded(qm, df)))
-        chk = compare(f"{p}_infer on {split}", qm, target, xq, None)
+        chk = compare(f"{p}_infer on {split}", qm, target, xq, onnx_model)
         v.add(f"{p}_infer on {split} rows ({len(df)}): C == numpy == torch == onnxruntime", _problem(chk))
 
 
@@ -148,12 +139,13 @@ def verify(
     if got != want:
         return v
     qm = ex.qmodel
-    _files, target = disk_target(root, man, core, qm)
+    target = disk_target(root, man, core, qm)
+    onnx_model = onnx_ref.build_onnx(qm)  # one graph for every comparison
     if vectors == 0:
         v.warnings.append("--vectors 0: NAME_infer is checked on the edge vectors only")
     edges = edge_inputs(len(qm.inputs))
     x = np.vstack([random_inputs(qm, vectors, seed=0), edges])
-    chk = compare("infer", qm, target, x, None)
+    chk = compare("infer", qm, target, x, onnx_model)
     v.add(
         f"{man.prefix}_infer on {vectors} random + {len(edges)} edge vectors ({core}): "
         "C == numpy == torch == onnxruntime",
@@ -166,7 +158,7 @@ def verify(
         ex.oracle.line(),
     )
     if has_pipeline(qm):
-        check_steps(v, ex, target, data)
+        check_steps(v, ex, target, data, onnx_model)
     elif data is not None:
         v.warnings.append(f"{man.prefix} has NAME_infer only (no feature pipeline): --data rows not used")
     if man.data["options"].get("controller"):
