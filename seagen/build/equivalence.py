@@ -8,6 +8,7 @@ import numpy as np
 import onnx
 
 from seagen.build.model import CModel
+from seagen.build.target import Target
 from seagen.reference import numpy_ref, onnx_ref, torch_ref
 
 
@@ -65,7 +66,7 @@ def edge_inputs(n_in: int) -> np.ndarray:
     return np.array(rows)
 
 
-def compare(name: str, qm, c: CModel, x: np.ndarray, onnx_model=None) -> Check:
+def compare(name: str, qm, c: Target, x: np.ndarray, onnx_model=None) -> Check:
     """Run all four on int16 inputs x (N, n_in); numpy is the reference the others must equal."""
     ref = numpy_ref.infer(qm, x)
     c_out = c.infer(x)
@@ -130,8 +131,9 @@ def step_problem(qm, target, enc, pot, trial, ext: np.ndarray) -> str | None:
     return first_mismatch(target.step(enc, pot, trial, e), ref, np.column_stack([trial, enc, pot]))
 
 
-def check_data_dir(ex, data_dir: str) -> DataReport:
-    """NAME_infer on the test and validation features, NAME_step on whole recorded trials, and |C - float|."""
+def check_data_dir(ex, data_dir: str, target=None, onnx_model=None) -> DataReport:
+    """NAME_infer on the test and validation features, NAME_step on whole recorded trials, and |C - float|;
+    on `target` (default: ex.files built for the host) against `onnx_model` (default: the export's)."""
     from seagen.data.features import derive
     from seagen.data.schema import load_split
     from seagen.errors import UserError
@@ -141,10 +143,13 @@ def check_data_dir(ex, data_dir: str) -> DataReport:
     qm = ex.qmodel
     names = [i.signal.name for i in qm.inputs]
     step = has_pipeline(qm)
-    c = CModel(ex.files, ex.prefix, qm)
-    onnx_model = (
-        onnx.load_model_from_string(ex.onnx_bytes) if ex.onnx_bytes is not None else onnx_ref.build_onnx(qm)
-    )
+    c = target if target is not None else CModel(ex.files, ex.prefix, qm)
+    if onnx_model is None:
+        onnx_model = (
+            onnx.load_model_from_string(ex.onnx_bytes)
+            if ex.onnx_bytes is not None
+            else onnx_ref.build_onnx(qm)
+        )
     checks, max_err, oracles = [], 0.0, []
     for split in ("test", "validation"):
         df = derive(load_split(data_dir, split))
@@ -152,7 +157,7 @@ def check_data_dir(ex, data_dir: str) -> DataReport:
         if missing:
             raise UserError(f"{data_dir}/{split}.csv: no column {', '.join(missing)} for the model's inputs")
         xq = quantize_features(qm, df[names].to_numpy())
-        infer_check = compare(f"{ex.prefix}_infer on {split}", qm, c, xq, onnx_model)
+        infer_check = compare(f"{ex.prefix}_infer on {split} rows", qm, c, xq, onnx_model)
         checks.append(infer_check)
         if ex.loaded is not None:
             oracles.append(

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from seagen.atomic import atomic_path, writable_place
+from seagen.build.targets import NAMES
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -30,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--vectors", type=int, default=10_000, metavar="N", help="random vectors (default 10000)")
     p.add_argument(
         "--core",
-        choices=("host", "cortex-m0plus", "cortex-m4"),
+        choices=NAMES,
         default="host",
         help="where the C runs: host (cffi) or an emulated core (arm-none-eabi-gcc + unicorn)",
     )

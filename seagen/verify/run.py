@@ -6,14 +6,13 @@ from pathlib import Path
 
 import numpy as np
 
-from seagen.build.equivalence import compare, edge_inputs, random_inputs, recorded, step_problem
+from seagen.build.equivalence import check_data_dir, compare, edge_inputs, random_inputs, step_problem
+from seagen.build.targets import NAMES, build_target
 from seagen.codegen.manifest import Manifest
 from seagen.errors import CheckFailed, UserError
 from seagen.reference import onnx_ref
 from seagen.verify.drift import check_drift, select
 from seagen.verify.result import Verdict
-
-CORES = ("host", "cortex-m0plus", "cortex-m4")
 
 
 def rebuild(man: Manifest, model: Path, features: str | None, allow_pickle: bool = False):
@@ -35,15 +34,9 @@ def rebuild(man: Manifest, model: Path, features: str | None, allow_pickle: bool
     )
 
 
-def disk_target(folder: Path, man: Manifest, core: str, qm):
-    """The C files of the export as they are on disk, built for the host (cffi) or an emulated core."""
-    from seagen.build.cortexm import toolchain_missing
-    from seagen.build.targets import build_target
-
-    if core != "host" and (msg := toolchain_missing()):
-        raise UserError(f"--core {core}: {msg}")
-    files = {n: (folder / n).read_text() for n in man.files if n.endswith((".c", ".h"))}
-    return build_target(core, files, man.prefix, qm)
+def disk_files(folder: Path, man: Manifest) -> dict[str, str]:
+    """The export's C sources and headers as they are on disk (read once, for every check)."""
+    return {n: (folder / n).read_text() for n in man.files if n.endswith((".c", ".h"))}
 
 
 def synthetic_trials(qm, n_trials: int = 4, n: int = 400, seed: int = 0):
@@ -65,11 +58,9 @@ def synthetic_trials(qm, n_trials: int = 4, n: int = 400, seed: int = 0):
 def check_steps(v: Verdict, ex, target, data: str | None, onnx_model) -> None:
     """NAME_step on the recorded trials of DATA (test, validation), or on synthetic sequences in the box."""
     from seagen.quant.features import external_inputs
-    from seagen.reference.float_ref import quantize_features
 
     qm, p = ex.qmodel, ex.prefix
     ext_names = external_inputs(qm)
-    names = [i.signal.name for i in qm.inputs]
     if data is None:
         enc, pot, trial = synthetic_trials(qm)
         rng = np.random.default_rng(1)
@@ -82,15 +73,11 @@ def check_steps(v: Verdict, ex, target, data: str | None, onnx_model) -> None:
             step_problem(qm, target, enc, pot, trial, ext),
         )
         return
-    from seagen.data.features import derive
-    from seagen.data.schema import load_split
-
-    for split in ("test", "validation"):
-        df = derive(load_split(data, split))
-        xq = quantize_features(qm, df[names].to_numpy())
-        v.add(f"{p}_step on {split} trials ({len(df)} rows)", step_problem(qm, target, *recorded(qm, df)))
-        chk = compare(f"{p}_infer on {split}", qm, target, xq, onnx_model)
-        v.add(f"{p}_infer on {split} rows ({len(df)}): C == numpy == torch == onnxruntime", _problem(chk))
+    rep = check_data_dir(ex, data, target, onnx_model)
+    for chk in rep.checks:
+        v.add(f"{chk.name} ({chk.rows} rows): {chk.compared}", _problem(chk))
+    for o in rep.oracles:
+        v.add(o.what, None if o.ok else o.line(), o.line() if o.ok else "")
 
 
 def _problem(chk) -> str | None:
@@ -112,8 +99,8 @@ def verify(
     from seagen.codegen.render import model_hash
     from seagen.quant.features import has_pipeline
 
-    if core not in CORES:
-        raise UserError(f"--core must be one of {', '.join(CORES)}, not {core!r}")
+    if core not in NAMES:
+        raise UserError(f"--core must be one of {', '.join(NAMES)}, not {core!r}")
     if vectors < 0:
         raise UserError(f"--vectors must be >= 0, got {vectors}")
     root, mpath = Path(folder), Path(model)
@@ -139,7 +126,8 @@ def verify(
     if got != want:
         return v
     qm = ex.qmodel
-    target = disk_target(root, man, core, qm)
+    files = disk_files(root, man)
+    target = build_target(core, files, man.prefix, qm)
     onnx_model = onnx_ref.build_onnx(qm)  # one graph for every comparison
     if vectors == 0:
         v.warnings.append("--vectors 0: NAME_infer is checked on the edge vectors only")
@@ -164,5 +152,5 @@ def verify(
     if man.data["options"].get("controller"):
         from seagen.verify.tick import check_controller
 
-        check_controller(v, root, man, qm)
+        check_controller(v, files, man.prefix, qm)
     return v

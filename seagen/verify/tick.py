@@ -2,11 +2,8 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
-from seagen.codegen.manifest import Manifest
 from seagen.verify.result import Verdict
 
 
@@ -22,12 +19,10 @@ def sequence(qm, n: int = 800, seed: int = 3) -> tuple[np.ndarray, np.ndarray, n
     return enc, pot, np.array([q16(f) for f in force])
 
 
-def disk_ticks(folder: Path, man: Manifest, enc, pot, force) -> np.ndarray:
-    """NAME_controller_init at the first sample, then NAME_controller_tick per sample (files on disk)."""
+def disk_ticks(files: dict[str, str], p: str, enc, pot, force) -> np.ndarray:
+    """NAME_controller_init at the first sample, then NAME_controller_tick per sample (the files on disk)."""
     from seagen.build.host import build
 
-    p = man.prefix
-    files = {n: (folder / n).read_text() for n in man.files if n.endswith((".c", ".h"))}
     cdef = (  # the actuator struct stays opaque: cffi takes its size from NAME_controller.h
         f"typedef struct {{ ...; }} {p}_controller_t;\n"
         f"void {p}_controller_init({p}_controller_t *a, int32_t enc, int32_t pot);\n"
@@ -50,11 +45,11 @@ def twin_ticks(qm, prefix: str, enc, pot, force) -> np.ndarray:
     return control_run(ControlConfig(**{**cfg.__dict__, "predictor": StepTwin(prefix, qm)}), enc, pot, force)
 
 
-def check_controller(v: Verdict, folder: Path, man: Manifest, qm) -> None:
+def check_controller(v: Verdict, files: dict[str, str], prefix: str, qm) -> None:
     """Record whether the exported controller's ticks equal the twin's on one synthetic sequence."""
     enc, pot, force = sequence(qm)
-    got = disk_ticks(folder, man, enc, pot, force)
-    want = twin_ticks(qm, man.prefix, enc, pot, force)
+    got = disk_ticks(files, prefix, enc, pot, force)
+    want = twin_ticks(qm, prefix, enc, pot, force)
     bad = np.flatnonzero(got != want)
     problem = None
     if bad.size:
@@ -62,4 +57,4 @@ def check_controller(v: Verdict, folder: Path, man: Manifest, qm) -> None:
         problem = (
             f"tick {k} (enc {enc[k]}, pot {pot[k]}, force_q16 {force[k]}): C {got[k]} vs twin {want[k]} mV"
         )
-    v.add(f"{man.prefix}_controller_tick over {len(enc)} ticks (host) == controller twin", problem)
+    v.add(f"{prefix}_controller_tick over {len(enc)} ticks (host) == controller twin", problem)
