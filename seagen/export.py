@@ -30,14 +30,18 @@ from seagen.reference.oracle import OracleReport, box_points, compare_original
 class Export:
     """What an export produced: the float and quantized models, the files, the summary and the oracle."""
 
-    float_model: FloatModel
+    loaded: Loaded = field(repr=False)  # the float IR and the original model run by its own runtime
     qmodel: QModel
     prefix: str
     files: dict[str, str]
+    oracle: OracleReport
     onnx_bytes: bytes | None = None
     lines: list[str] = field(default_factory=list)
-    loaded: Loaded | None = field(default=None, repr=False)
-    oracle: OracleReport | None = None
+
+    @property
+    def float_model(self) -> FloatModel:
+        """The float IR the quantized model approximates."""
+        return self.loaded.model
 
 
 def calib_ranges(data_dir: str, names: list[str]) -> list[list[float]]:
@@ -56,17 +60,6 @@ def default_prefix(model_path: str) -> str:
     """A C identifier from the model file name (e.g. mlp_calibration.pt -> mlp_calibration)."""
     stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(model_path).stem)
     return stem if stem[:1].isalpha() else f"m_{stem}"
-
-
-def check_prefix(prefix: str) -> str:
-    """A valid C prefix outside the runtime's own `sea` namespace."""
-    if not prefix:
-        raise UserError("--prefix is empty: give a C identifier such as cal_mlp")
-    if prefix.lower() == "sea" or prefix.lower().startswith("sea_"):
-        raise UserError(
-            f"invalid prefix {prefix!r}: sea and sea_* belong to the C runtime (sea_fixed, sea_nn)"
-        )
-    return assert_valid_prefix(prefix)
 
 
 def prepare(
@@ -88,7 +81,7 @@ def prepare(
     input ranges outright (seagen verify rebuilds an export from its manifest that way); `target` picks the
     kernel of NAME_infer (seagen/codegen/targets.py) and the runtime header it includes; `features` is a
     --features file or the spec already read from one (a manifest's)."""
-    prefix = check_prefix(default_prefix(model_path) if prefix is None else prefix)
+    prefix = assert_valid_prefix(default_prefix(model_path) if prefix is None else prefix)
     bits = {"int16": 16, "int8": 8}.get(weights)
     if bits is None:
         raise UserError(f"--weights must be int16 or int8, not {weights!r}")
@@ -114,7 +107,7 @@ def prepare(
     options = {"weights": weights, "target": target, "calib": calib, "onnx": with_onnx}
     options["controller"] = controller
     files[f"{prefix}{SUFFIX}"] = export_manifest(qm, prefix, model_path, options, spec, files, onnx_bytes)
-    return Export(loaded.model, qm, prefix, files, onnx_bytes, summary_lines(qm), loaded, rep)
+    return Export(loaded, qm, prefix, files, rep, onnx_bytes, summary_lines(qm))
 
 
 def export_manifest(

@@ -29,7 +29,7 @@ from seagen.build import cortexm as cm
 from seagen.build.elfinfo import library_helpers
 from seagen.build.host import compile_objects
 from seagen.build.mcu_trace import disassemble, traced_call
-from seagen.defaults import DEFAULT_PREFIX, GENERATED
+from seagen.defaults import DEFAULT_PREFIX, default_model
 
 DATA_AT = 0x20020000  # .data/.bss of the float implementations (the arguments sit at 0x20000000)
 LINKER = cm.LINKER_SCRIPT.replace(
@@ -148,7 +148,7 @@ def bench_model(name: str) -> list[dict]:
     for cpu in cm.CPUS:
         impls = {}
         for target in ("portable", TARGET_OF[cpu]):
-            ex = prepare(str(GENERATED / "models" / f"{name}.pt"), prefix=DEFAULT_PREFIX[name], target=target)
+            ex = prepare(str(default_model(name)), prefix=DEFAULT_PREFIX[name], target=target)
             impls[f"seagen {target}"] = ("fixed", ex)
         qm, fm = ex.qmodel, ex.float_model
         xq = _inputs(qm, N, seed=1)
@@ -216,7 +216,7 @@ def firmware_rows() -> list[B.Entry]:
     for cpu in cm.CPUS:
         with tempfile.TemporaryDirectory() as d:
             for name, prefix in DEFAULT_PREFIX.items():
-                write(prepare(str(GENERATED / "models" / f"{name}.pt"), prefix=prefix, target=cpu), d)
+                write(prepare(str(default_model(name)), prefix=prefix, target=cpu), d)
             rows += B.bench_dir(Path(d), (cpu,))
     return rows
 

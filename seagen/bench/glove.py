@@ -20,7 +20,7 @@ import numpy as np
 from seagen.build import cortexm as cm
 from seagen.build.host import compile_objects
 from seagen.build.mcu_trace import disassemble, traced_call
-from seagen.defaults import DEFAULT_PREFIX, GENERATED
+from seagen.defaults import DEFAULT_PREFIX, default_model
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "firmware"
 N_SEA, TICKS = 7, 120
@@ -64,8 +64,8 @@ def glove_files(target: str = "portable", cal: str = "cal_mlp", ctl: str = "ctl_
     from seagen.control.firmware import controller_files
     from seagen.export import prepare
 
-    c = prepare(str(GENERATED / "models" / f"{MODEL_OF[cal]}.pt"), prefix=cal, target=target)
-    k = prepare(str(GENERATED / "models" / f"{MODEL_OF[ctl]}.pt"), prefix=ctl, target=target)
+    c = prepare(str(default_model(MODEL_OF[cal])), prefix=cal, target=target)
+    k = prepare(str(default_model(MODEL_OF[ctl])), prefix=ctl, target=target)
     files = {**c.files, **k.files, **controller_files(ctl, k.qmodel)}
     for f in EXAMPLE.glob("glove.[ch]"):
         files[f.name] = f.read_text().replace("cal_mlp", cal).replace("CAL_MLP", cal.upper())

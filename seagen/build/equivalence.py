@@ -159,10 +159,7 @@ def check_data_dir(ex, data_dir: str, target=None, onnx_model=None) -> DataRepor
         xq = quantize_features(qm, df[names].to_numpy())
         infer_check = compare(f"{ex.prefix}_infer on {split} rows", qm, c, xq, onnx_model)
         checks.append(infer_check)
-        if ex.loaded is not None:
-            oracles.append(
-                _oracle_rows(ex, f"C vs original on {split} rows", df[names].to_numpy(), infer_check)
-            )
+        oracles.append(_oracle_rows(ex, f"C vs original on {split} rows", df[names].to_numpy(), infer_check))
         if split == "test":
             assert infer_check.c_out is not None
             fixed = infer_check.c_out * 2.0**-qm.out_frac

@@ -49,14 +49,19 @@ _C_KEYWORDS = {
 
 
 def assert_valid_prefix(prefix: str) -> str:
-    """A C identifier usable as the prefix of every emitted symbol (letters, digits, _, <= 31 chars)."""
+    """A C identifier usable as the prefix of every emitted symbol (letters, digits, _, <= 31 chars),
+    outside the runtime's own `sea` namespace."""
+    if not prefix:
+        raise UserError("--prefix is empty: give a C identifier such as cal_mlp")
     if not _IDENT.match(prefix) or prefix in _C_KEYWORDS or keyword.iskeyword(prefix):
         raise UserError(
             f"invalid prefix {prefix!r}: use a C identifier of letters, digits and '_', starting "
             "with a letter, at most 31 characters, not a C keyword"
         )
-    if prefix.lower().startswith("sea_"):
-        raise UserError(f"invalid prefix {prefix!r}: 'sea_' is reserved for the seagen runtime")
+    if prefix.lower() == "sea" or prefix.lower().startswith("sea_"):
+        raise UserError(
+            f"invalid prefix {prefix!r}: sea and sea_* belong to the C runtime (sea_fixed, sea_nn)"
+        )
     return prefix
 
 

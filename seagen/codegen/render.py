@@ -150,6 +150,7 @@ def _kind_context(qm: QModel, prefix: str) -> dict[str, Any]:
 
 def context(qm: QModel, prefix: str) -> dict[str, Any]:
     """Everything the templates print, decided here."""
+    pipeline = F.has_pipeline(qm)
     prefix = assert_valid_prefix(prefix)
     return {
         "P": prefix,
@@ -161,8 +162,8 @@ def context(qm: QModel, prefix: str) -> dict[str, Any]:
         "output": qm.output,
         "out_frac": qm.out_frac,
         "summary": summary_lines(qm),
-        "pipeline": F.has_pipeline(qm),
-        "features": _features(qm) if F.has_pipeline(qm) else [],
+        "pipeline": pipeline,
+        "features": _features(qm) if pipeline else [],
         "externals": F.external_inputs(qm),
         "link": linkage_table_q16(),
         "predictor": {"force_input": "force_n"} if F.is_predictor(qm) else None,

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from seagen.ir import QMLP, QModel
-from seagen.quant.features import FEATURES, N_BASE
+from seagen.quant.features import FEATURES, N_BASE, not_computed
 from seagen.quant.primitives import LINK_TABLE_LEN
 
 STATE_BYTES = 4 * 2 * N_BASE + 4  # sea_features_state: p1, p2 (int32 per base signal), primed (padded)
@@ -47,8 +47,7 @@ def summary_lines(qm: QModel) -> list[str]:
         lines.append(
             f"surface fit: {len(qm.horner)} Horner steps on {qm.n_regs} int32 registers, floor shifts"
         )
-    missing = [q.signal.name for q in qm.inputs if q.source is None]
-    if missing:
+    if missing := not_computed(qm):
         lines.append(
             f"NAME_infer only: no NAME_step, since the firmware feature pipeline does not compute "
             f"{', '.join(missing)} (it computes {', '.join(FEATURES)})"

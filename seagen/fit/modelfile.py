@@ -148,7 +148,8 @@ def load_model(path: str | os.PathLike[str], allow_pickle: bool = False) -> dict
     p = Path(path)
     if not p.is_file():
         raise UserError(not_a_file(p, "model file"))
-    if p.suffix in (".onnx", ".pt2") or is_torchscript(zip_members(p)) or is_pt2(zip_members(p)):
+    names = zip_members(p)
+    if p.suffix in (".onnx", ".pt2") or is_torchscript(names) or is_pt2(names):
         raise UserError(
             f"{p}: not a seagen model file: this command reads the model.pt of `seagen train` "
             "(`seagen export` and `seagen verify` take TorchScript, .pt2 and .onnx models too)"

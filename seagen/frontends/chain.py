@@ -77,6 +77,13 @@ def clip_act(op: str, path: str, lo: float | None, hi: float | None) -> Act:
     return Act(op, path, "hardtanh", lo=lo_f, hi=hi_f)
 
 
+def batchnorm_affine(op: str, path: str, gamma, beta, mean, var, eps: float) -> Affine:
+    """An eval-mode batch normalisation as the elementwise affine map it is: x * s + (beta - mean * s),
+    s = gamma / sqrt(var + eps)."""
+    s = np.asarray(gamma, dtype=float) / np.sqrt(np.asarray(var, dtype=float) + float(eps))
+    return Affine(op, path, s, np.asarray(beta, dtype=float) - np.asarray(mean, dtype=float) * s)
+
+
 def _vec(a: np.ndarray, n: int, where: str, item: Item) -> np.ndarray:
     """A constant broadcast to a width-n vector (scalar, (n,), (1, n)); anything else is refused."""
     a = np.asarray(a, dtype=float)

@@ -19,7 +19,7 @@ from seagen.frontends import Network, read_module, read_onnx
 from seagen.frontends.margin import float32_margin
 from seagen.frontends.torch_files import load_torch
 from seagen.ir import FloatLayer, FloatMLP, FloatModel, FloatSF, Signal
-from seagen.quant.qformat import widened
+from seagen.quant.qformat import widened, widened_box
 
 UNITS = {"pot": "count", "enc": "count", "angle_deg": "deg", "compression_mm": "mm", "force_n": "N"}
 
@@ -136,7 +136,7 @@ def _mlp_model(
         y = net.run((np.asarray(x, dtype=np.float64) - mean) / std * w)
         return y[:, 0] * spec.output_std + spec.output_mean
 
-    box = np.array([widened(s.lo, s.hi) for s in model.inputs]).T
+    box = np.array(widened_box(model.inputs))
     xmax = np.max(np.abs((box - mean) / std * w), axis=0)
     margin = float32_margin(net.layers, xmax) * spec.output_std
     return Loaded(model, original, net.runtime, margin)
@@ -217,8 +217,7 @@ def load_with_original(
         raise UserError(f"{p}: a dict but not a seagen model file (no format '{FORMAT}')")
     if not extra:
         _need_features(p)
-    spec = FeatureSpec.from_dict(extra["features"], str(p))
-    return from_model_dict({"kind": "mlp", **extra}, str(p), ranges, read_module(obj, p, len(spec.inputs)))
+    return from_model_dict({"kind": "mlp", **extra, "module": obj}, str(p), ranges)
 
 
 def _need_features(p: Path) -> dict[str, Any]:

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from seagen.errors import UserError
-from seagen.frontends.chain import Act, Affine, Dense, Item, Reshape, clip_act, refuse
+from seagen.frontends.chain import Act, Affine, Dense, Item, Reshape, batchnorm_affine, clip_act, refuse
 from seagen.frontends.graph import Node, chain_nodes
 
 _ACTS = {"Relu": "relu", "Tanh": "tanh", "Sigmoid": "sigmoid"}
@@ -139,8 +139,7 @@ def _item(n: Node, consts: dict, where: str) -> list[Item]:
         return [clip_act(op, p, lo_v, hi_v)]
     if op == "BatchNormalization" and not a.get("training_mode", 0):
         g_, b_, m_, v_ = (_c(n, consts, k) for k in (1, 2, 3, 4))
-        s = g_ / np.sqrt(v_ + float(a.get("epsilon", 1e-5)))  # type: ignore[operator]
-        return [Affine(op, p, s, b_ - m_ * s)]  # type: ignore[operator]
+        return [batchnorm_affine(op, p, g_, b_, m_, v_, float(a.get("epsilon", 1e-5)))]
     if op in _NOOPS or (op == "Cast" and a.get("to") in _FLOAT):
         return []
     if op == "Flatten" and int(a.get("axis", 1)) == 1:

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from seagen.errors import UserError
-from seagen.frontends.chain import Act, Affine, Dense, Item, Reshape, clip_act, refuse
+from seagen.frontends.chain import Act, Affine, Dense, Item, Reshape, batchnorm_affine, clip_act, refuse
 from seagen.frontends.graph import Node, chain_nodes
 
 _ACTS = {"aten.relu.default": "relu", "aten.tanh.default": "tanh", "aten.sigmoid.default": "sigmoid"}
@@ -196,8 +196,7 @@ def _batchnorm(n: Any, t: str, p: str, consts: dict, where: str) -> Affine:
     g, b, m, v = (_arg(n, k, "", None, consts) for k in (1, 2, 3, 4))
     if any(not isinstance(a, np.ndarray) for a in (g, b, m, v)):
         raise refuse(where, Item(t, p), "BatchNorm without affine parameters and running statistics")
-    s = g / np.sqrt(v + float(n.args[eps_k]))
-    return Affine(t, p, s, b - m * s)
+    return batchnorm_affine(t, p, g, b, m, v, float(n.args[eps_k]))
 
 
 def sequential_items(m: Any) -> list[Item] | None:
@@ -242,5 +241,4 @@ def _bn_module(c: Any, t: str, p: str) -> Affine:
     v, mu = c.running_var.detach().double().numpy(), c.running_mean.detach().double().numpy()
     g = c.weight.detach().double().numpy() if c.affine else np.ones_like(v)
     b = c.bias.detach().double().numpy() if c.affine else np.zeros_like(v)
-    s = g / np.sqrt(v + c.eps)
-    return Affine(t, p, s, b - mu * s)
+    return batchnorm_affine(t, p, g, b, mu, v, c.eps)

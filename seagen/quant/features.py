@@ -163,15 +163,19 @@ def inputs(
     return np.stack(cols, axis=1)
 
 
+def not_computed(qm: QModel) -> list[str]:
+    """Names of the inputs the firmware feature pipeline does not compute (then there is no NAME_step)."""
+    return [q.signal.name for q in qm.inputs if q.source is None]
+
+
 def has_pipeline(qm: QModel) -> bool:
     """True when the firmware feature pipeline computes every input (then NAME_step is generated too)."""
-    return all(q.source is not None for q in qm.inputs)
+    return not not_computed(qm)
 
 
 def sources(qm: QModel) -> list[FeatureSource]:
     """Every input's source; a model the pipeline cannot feed is an error naming the first such input."""
-    missing = [q.signal.name for q in qm.inputs if q.source is None]
-    if missing:
+    if missing := not_computed(qm):
         raise UserError(
             f"input '{missing[0]}' is not a feature the firmware pipeline computes "
             f"(known: {', '.join(FEATURES)})"

@@ -33,3 +33,9 @@ def widened(lo: float, hi: float, margin: float = INPUT_MARGIN) -> tuple[float, 
     """The calibrated range widened by `margin` of its span on each side (at least 1e-6 wide)."""
     span = max(hi - lo, 1e-6)
     return lo - margin * span, hi + margin * span
+
+
+def widened_box(signals) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) arrays of the widened calibrated box of Signals (where the bounds are proven)."""
+    lo, hi = np.array([widened(s.lo, s.hi) for s in signals], dtype=float).T
+    return lo, hi

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from seagen.ir import QModel
-from seagen.quant.qformat import widened
+from seagen.quant.qformat import widened_box
 from seagen.reference import numpy_ref
 from seagen.reference.float_ref import quantize_features
 
@@ -47,7 +47,7 @@ class OracleReport:
 def box_points(qm: QModel, n: int = N_RANDOM, seed: int = 0) -> np.ndarray:
     """Physical inputs over the widened calibrated box: random points, the centre and corners (all corners
     up to MAX_CORNERS, else random ones)."""
-    lo, hi = np.array([widened(i.signal.lo, i.signal.hi) for i in qm.inputs]).T
+    lo, hi = widened_box(i.signal for i in qm.inputs)
     rng = np.random.default_rng(seed)
     k = len(lo)
     if 2**k <= MAX_CORNERS:
@@ -87,5 +87,5 @@ def compare_original(
 
 def in_box(qm: QModel, x: np.ndarray) -> np.ndarray:
     """Rows of physical inputs x inside the widened box (where the bound is proven)."""
-    lo, hi = np.array([widened(i.signal.lo, i.signal.hi) for i in qm.inputs]).T
+    lo, hi = widened_box(i.signal for i in qm.inputs)
     return np.all((x >= lo) & (x <= hi), axis=1)
