@@ -8,7 +8,7 @@ import pytest
 
 from seagen.build.cortexm import toolchain_missing
 from seagen.build.targets import NAMES, build_target
-from seagen.control.controller import ControlConfig, control_run, q16
+from seagen.control.controller import ControlConfig, control_run, q16, sensor_walk
 from seagen.control.firmware import tick_config
 from seagen.control.gentwin import MODEL_FILES, StepTwin
 from seagen.defaults import GENERATED
@@ -20,12 +20,9 @@ PREFIXES = ("ctl_sf", "ctl_mlp")
 def _sequence(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Raw (enc, pot) random walks within the fault limits and a desired force stepping through the
     calibrated range; the last 50 ticks ask for 25 N (a force-range fault latches)."""
-    rng = np.random.default_rng(seed)
-    enc = 400 + np.cumsum(rng.integers(-60, 61, n))
-    pot = np.clip(1500 + np.cumsum(rng.integers(-30, 31, n)), 1, 4094)
-    force = np.repeat(rng.uniform(2.0, 18.0, n // 100 + 1), 100)[:n]
-    force[-50:] = 25.0
-    return enc, pot, np.array([q16(f) for f in force])
+    enc, pot, force = sensor_walk(seed, n, steps=(60, 30))
+    force[-50:] = q16(25.0)
+    return enc, pot, force
 
 
 def _twin(prefix: str, cfg: ControlConfig, enc, pot, force) -> np.ndarray:

@@ -50,13 +50,9 @@ class GloveLoad:
 
 def sensors(seed: int, ticks: int = TICKS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(enc, pot, desired force Q16) per tick and actuator: random walks, forces stepping within range."""
-    from seagen.control.controller import q16
+    from seagen.control.controller import sensor_walk
 
-    rng = np.random.default_rng(seed)
-    enc = 300 + np.cumsum(rng.integers(-40, 41, (ticks, N_SEA)), axis=0)
-    pot = np.clip(1200 + np.cumsum(rng.integers(-20, 21, (ticks, N_SEA)), axis=0), 1, 4094)
-    force = np.repeat(rng.uniform(1.0, 15.0, (ticks // 40 + 1, N_SEA)), 40, axis=0)[:ticks]
-    return enc, pot, np.vectorize(q16)(force)
+    return sensor_walk(seed, ticks, (N_SEA,), start=(300, 1200), force_n=(1.0, 15.0), hold=40)
 
 
 def glove_files(target: str = "portable", cal: str = "cal_mlp", ctl: str = "ctl_mlp") -> dict[str, str]:

@@ -192,3 +192,22 @@ def control_run(c: ControlConfig, enc: np.ndarray, pot: np.ndarray, force_q16: n
         s = control_step(c, s, enc[k : k + 1], pot[k : k + 1], force_q16[k : k + 1])
         out.append(int(s.out[0]))
     return np.array(out, dtype=np.int64)
+
+
+def sensor_walk(
+    seed: int,
+    n: int,
+    batch: tuple[int, ...] = (),
+    start: tuple[int, int] = (400, 1500),
+    steps: tuple[int, int] = (40, 20),
+    force_n: tuple[float, float] = (2.0, 18.0),
+    hold: int = 100,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Test sequences for controller ticks, (n, *batch) each: raw enc and pot random walks (steps of at most
+    `steps` counts from `start`, pot kept in 1..4094) and a desired force (Q16 N) drawn in `force_n` and
+    held `hold` ticks."""
+    rng = np.random.default_rng(seed)
+    enc = start[0] + np.cumsum(rng.integers(-steps[0], steps[0] + 1, (n, *batch)), axis=0)
+    pot = np.clip(start[1] + np.cumsum(rng.integers(-steps[1], steps[1] + 1, (n, *batch)), axis=0), 1, 4094)
+    force = np.repeat(rng.uniform(force_n[0], force_n[1], (n // hold + 1, *batch)), hold, axis=0)[:n]
+    return enc, pot, np.vectorize(q16, otypes=[np.int64])(force)

@@ -9,14 +9,10 @@ from seagen.verify.result import Verdict
 
 def sequence(qm, n: int = 800, seed: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Raw enc/pot random walks and a desired force (Q16 N) stepping through the calibrated force range."""
-    from seagen.control.controller import q16
+    from seagen.control.controller import sensor_walk
 
-    rng = np.random.default_rng(seed)
-    lo, hi = next((i.signal.lo, i.signal.hi) for i in qm.inputs if i.signal.name == "force_n")
-    enc = 400 + np.cumsum(rng.integers(-40, 41, n))
-    pot = np.clip(1500 + np.cumsum(rng.integers(-20, 21, n)), 1, 4094)
-    force = np.repeat(rng.uniform(lo, hi, n // 100 + 1), 100)[:n]
-    return enc, pot, np.array([q16(f) for f in force])
+    force_n = next((i.signal.lo, i.signal.hi) for i in qm.inputs if i.signal.name == "force_n")
+    return sensor_walk(seed, n, force_n=force_n)
 
 
 def disk_ticks(files: dict[str, str], p: str, enc, pot, force) -> np.ndarray:
