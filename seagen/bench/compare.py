@@ -86,26 +86,12 @@ def _image(sources: dict[str, str], cpu: str, flags: tuple[str, ...], root: str,
             subprocess.run(cmd, check=True, capture_output=True)
             objs.append(obj)
     (work / "link.ld").write_text(LINKER)
-    elf = work / "fw.elf"
-    libs = ["-lm", "-lc", "-lgcc"] if not strict else ["-lgcc"]
-    cmd = [
-        cm.GCC,
-        *all_flags,
-        "-nostdlib",
-        "-T",
-        str(work / "link.ld"),
-        "-Wl,--gc-sections",
-        f"-Wl,--undefined={root}",
-    ]
-    cm._run([*cmd, *map(str, objs), *libs, "-lgcc", "-o", str(elf)], "linking")
-    bin_path = work / "fw.bin"
-    cm._run(["arm-none-eabi-objcopy", "-O", "binary", "-j", ".text", str(elf), str(bin_path)], "objcopy")
+    libs = ("-lgcc", "-lgcc") if strict else ("-lm", "-lc", "-lgcc", "-lgcc")
+    elf = cm.link(work, objs, all_flags, (root,), libs=libs)
     sections = cm._sections(elf)
-    machine = cm.Machine(cm.Image(bin_path.read_bytes(), cm._symbols(elf), {}, sections), cpu)
-    if sections.get(".data", 0):
-        data = work / "data.bin"
-        cm._run(["arm-none-eabi-objcopy", "-O", "binary", "-j", ".data", str(elf), str(data)], "objcopy")
-        machine.uc.mem_write(DATA_AT, data.read_bytes())
+    machine = cm.Machine(cm.Image(cm.flat_section(elf), cm._symbols(elf), {}, sections), cpu)
+    if sections.get(".data", 0):  # emlearn's tables: copied to RAM here, as start-up code would
+        machine.uc.mem_write(DATA_AT, cm.flat_section(elf, ".data"))
     return machine, disassemble(elf), elf, objs, work
 
 

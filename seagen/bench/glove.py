@@ -92,7 +92,7 @@ def glove_load(
     cpu: str, cal: str = "cal_mlp", ctl: str = "ctl_mlp", target: str | None = None, traced: range = TRACED
 ) -> GloveLoad:
     """Build the example with the core's target kernels (or `target`) and trace the ticks `traced`."""
-    from seagen.bench.run import _link, _machine
+    from seagen.bench.run import _machine
 
     target = target or cpu
     work = Path(tempfile.mkdtemp(prefix="seagen-glove."))
@@ -102,8 +102,8 @@ def glove_load(
             glove_files(target, cal, ctl), work, (*flags, *cm.FREESTANDING), cc=cm.GCC, pic=False
         )
         (work / "link.ld").write_text(cm.LINKER_SCRIPT)
-        elf = _link(work, objs, flags, ("glove_init", "glove_tick"), "glove")
-        instr, cycles = _run(_machine(work, elf, cpu), disassemble(elf), 7, traced)
+        elf = cm.link(work, objs, flags, ("glove_init", "glove_tick"), "glove")
+        instr, cycles = _run(_machine(elf, cpu), disassemble(elf), 7, traced)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return GloveLoad(

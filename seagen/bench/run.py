@@ -76,23 +76,9 @@ def _box(c_text: str, prefix: str) -> tuple[np.ndarray, np.ndarray]:
     return out[0], out[1]
 
 
-def _link(work: Path, objs: list[Path], flags: tuple[str, ...], roots: tuple[str, ...], name: str) -> Path:
-    """Link objs (+ libgcc) with --gc-sections keeping `roots`; returns the ELF."""
-    elf = work / f"{name}.elf"
-    undef = [f"-Wl,--undefined={r}" for r in roots]
-    cmd = [cm.GCC, *flags, "-nostdlib", "-T", str(work / "link.ld"), "-Wl,--gc-sections", *undef]
-    cm._run([*cmd, *map(str, objs), "-lgcc", "-o", str(elf)], f"linking {name}")
-    return elf
-
-
-def _machine(work: Path, elf: Path, cpu: str) -> cm.Machine:
+def _machine(elf: Path, cpu: str) -> cm.Machine:
     """An emulator loaded with the ELF's flat .text."""
-    bin_path = elf.with_suffix(".bin")
-    cm._run(["arm-none-eabi-objcopy", "-O", "binary", "-j", ".text", str(elf), str(bin_path)], "objcopy")
-    sections = cm._sections(elf)
-    if sections.get(".data", 0) or sections.get(".bss", 0):
-        raise UserError(f"{elf.name}: .data/.bss present; the emulator runs no start-up code")
-    image = cm.Image(bin_path.read_bytes(), cm._symbols(elf), {}, sections)
+    image = cm.Image(cm.flat_section(elf), cm._symbols(elf), {}, cm.no_startup_sections(elf))
     return cm.Machine(image, cpu)
 
 
@@ -206,14 +192,14 @@ def bench_model(d: Path, prefix: str, cpu: str) -> list[Entry]:
         )
         (work / "link.ld").write_text(cm.LINKER_SCRIPT)
         roots = tuple(r.format(p=prefix) for e in entries for r in ROOTS[e])
-        elf = _link(work, objs, flags, roots, "all")
-        machine, code, usage = _machine(work, elf, cpu), disassemble(elf), stack_usage(work)
+        elf = cm.link(work, objs, flags, roots, "all")
+        machine, code, usage = _machine(elf, cpu), disassemble(elf), stack_usage(work)
         box = _box(sources[f"{prefix}.c"], prefix)
         out = []
         for e in entries:
             measured = ROOTS[e][-1].format(p=prefix)
             keep = (ROOTS[e][0].format(p=prefix), measured) if e == "tick" else (measured,)
-            alone = _link(work, objs, flags, keep, e)
+            alone = cm.link(work, objs, flags, keep, e)
             setup, calls = _calls(prefix, e, sources[f"{prefix}.h"], box)
             traces = _run(machine, code, setup, calls)
             n = np.array([t.instructions for t in traces])

@@ -118,19 +118,44 @@ def _compile_link(
     ordered = dict(sorted(sources.items()))
     objs = compile_objects(ordered, work, (*flags, *FREESTANDING), cc=GCC, pic=False)
     (work / "link.ld").write_text(LINKER_SCRIPT)
-    elf = work / "fw.elf"
+    return link(work, objs, flags, roots)
+
+
+def link(
+    work: Path,
+    objs: list[Path],
+    flags: tuple[str, ...],
+    roots: tuple[str, ...],
+    name: str = "fw",
+    libs: tuple[str, ...] = ("-lgcc",),
+) -> Path:
+    """Link objs with work/link.ld and --gc-sections keeping the functions `roots` (+ libs): NAME.elf."""
+    elf = work / f"{name}.elf"
     undef = [f"-Wl,--undefined={r}" for r in roots]
     cmd = [GCC, *flags, "-nostdlib", "-T", str(work / "link.ld"), "-Wl,--gc-sections", *undef]
-    _run([*cmd, *map(str, objs), "-lgcc", "-o", str(elf)], "linking the Cortex-M image")
+    _run([*cmd, *map(str, objs), *libs, "-o", str(elf)], f"linking the Cortex-M image {name}")
     return elf
+
+
+def flat_section(elf: Path, section: str = ".text") -> bytes:
+    """One section of a linked image as flat bytes (objcopy -O binary)."""
+    out = elf.with_name(f"{elf.stem}{section.replace('.', '_')}.bin")
+    _run(["arm-none-eabi-objcopy", "-O", "binary", "-j", section, str(elf), str(out)], "objcopy")
+    return out.read_bytes()
+
+
+def no_startup_sections(elf: Path) -> dict[str, int]:
+    """The image's section sizes; an image needing start-up code (.data/.bss) is refused."""
+    sections = _sections(elf)
+    if sections.get(".data", 0) or sections.get(".bss", 0):
+        raise UserError(f"{elf.name} has .data/.bss ({sections}): the emulator runs no start-up code")
+    return sections
 
 
 def _describe(work: Path, elf: Path, sources: dict[str, str]) -> dict:
     """The cached description of a linked image (symbols and sizes); refuses images needing start-up code."""
-    image_sections = _sections(elf)
-    if image_sections.get(".data", 0) or image_sections.get(".bss", 0):
-        raise UserError(f"the image has .data/.bss ({image_sections}): the emulator runs no start-up code")
-    _run(["arm-none-eabi-objcopy", "-O", "binary", "-j", ".text", str(elf), str(work / "fw.bin")], "objcopy")
+    image_sections = no_startup_sections(elf)
+    (work / "fw.bin").write_bytes(flat_section(elf))
     objects = {f: _sections(work / (Path(f).stem + ".o")) for f in sorted(sources) if f.endswith(".c")}
     return {"symbols": _symbols(elf), "objects": objects, "image_sections": image_sections}
 
