@@ -93,8 +93,7 @@ def _trajectory(n: int) -> tuple[np.ndarray, np.ndarray]:
 def _tick_driver(prefix: str) -> dict[str, str]:
     """The controller-tick driver of a control predictor with the tuned PID (templates/bench_tick.c.j2)."""
     from seagen.codegen.render import environment
-    from seagen.control.controller import ControlConfig
-    from seagen.control.experiment import MLP_PRED_AVG
+    from seagen.control.controller import MLP_PRED_AVG, ControlConfig
 
     c = ControlConfig()
     text = (
