@@ -164,9 +164,8 @@ def write(ex: Export, out_dir: str | os.PathLike[str]) -> list[Path]:
             os.replace(f, out / f.name)
             written.append(out / f.name)
         own = (f"{ex.prefix}.onnx", f"{ex.prefix}_controller.h", f"{ex.prefix}_controller.c")
-        for name in own:  # files of an earlier export of NAME that this one does not write
-            if name not in ex.files and (name != f"{ex.prefix}.onnx" or ex.onnx_bytes is None):
-                (out / name).unlink(missing_ok=True)
+        for name in set(own) - {p.name for p in written}:  # left by an earlier export of NAME
+            (out / name).unlink(missing_ok=True)
         return written
     except OSError as e:
         raise UserError(f"{out}: cannot write the export: {e.strerror or e}") from None
