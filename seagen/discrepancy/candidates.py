@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import itertools
+import threading
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
 
+from seagen.discrepancy.rendezvous import Rendezvous
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS, chi2_per_trial, zscores
 from seagen.plant import PlantConfig
@@ -29,6 +31,7 @@ SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
 }
 GRID = {1: 9, 2: 5, 3: 3}  # screening points per dimension
 POLISH_NFEV = 6  # least-squares evaluations per polished candidate
+STEP = 1e-3  # forward-difference step of the Jacobians (unit box)
 
 
 @dataclass
@@ -77,9 +80,9 @@ def to_unit(effect: str, param: str, value: float) -> float:
     return float(np.clip(x, 0, 1))
 
 
-def joint_recalibration(cfg: PlantConfig, fit: Runs, sigma: dict, nfev: int) -> Candidate | None:
-    """Every present effect's parameters re-fitted together from cfg's values (least squares only: too
-    many dimensions for a grid); None with fewer than two present effects."""
+def joint_recalibration(cfg: PlantConfig, fit: Runs, sigma: dict) -> Candidate | None:
+    """Every present effect's parameters together, at cfg's values, to be polished (least squares only:
+    too many dimensions for a grid); None with fewer than two present effects."""
     present = present_effects(cfg)
     if len(present) < 2:
         return None
@@ -87,7 +90,6 @@ def joint_recalibration(cfg: PlantConfig, fit: Runs, sigma: dict, nfev: int) -> 
         tuple(present), np.concatenate([start(cfg, e).u for e in present]), tag=" (joint recalibration)"
     )
     c.chi2_fit = float(objective(cfg, [c.params()], fit, sigma).sum())
-    polish(cfg, c, fit, sigma, nfev=nfev)
     return c
 
 
@@ -104,10 +106,12 @@ def objective(cfg: PlantConfig, sets: list[ParamSet], runs: Runs, sigma: dict) -
     return chi2_per_trial(zscores(runs, simulate(cfg, sets, runs), sigma))
 
 
-def _grid(c: Candidate, center: np.ndarray, half: float) -> list[np.ndarray]:
-    """A regular grid in the candidate's unit box around center."""
-    d = len(c.keys)
-    axes = [np.clip(np.linspace(x - half, x + half, GRID[min(d, 3)]), 0, 1) for x in center]
+def _grid(c: Candidate, center: np.ndarray, half: float, hold: int = 0) -> list[np.ndarray]:
+    """A regular grid in the candidate's unit box around center; the first `hold` coordinates stay put."""
+    n = GRID[min(len(c.keys) - hold, 3)]
+    axes = [
+        [x] if i < hold else np.clip(np.linspace(x - half, x + half, n), 0, 1) for i, x in enumerate(center)
+    ]
     return [np.array(p) for p in itertools.product(*axes)]
 
 
@@ -119,15 +123,19 @@ def screen(
     rounds: int = 3,
     half0: float = 0.5,
     beam: int = 1,
+    hold: int = 0,
 ) -> None:
     """Zooming grid search for all candidates at once (one batched replay per round), half-width half0.
 
     Each candidate keeps its `beam` best distinct points and zooms around all of them (a multi-start
-    search: the stick-slip and compliance objectives have narrow valleys and flat steps)."""
+    search: the stick-slip and compliance objectives have narrow valleys and flat steps). The first
+    `hold` coordinates of every candidate are held (a pair's anchor, already fitted alone)."""
     centers = {id(c): [c.u] for c in cands}
     half = half0
     for _ in range(rounds):
-        pts = [(c, u) for c in cands for u in _unique(p for x in centers[id(c)] for p in _grid(c, x, half))]
+        pts = [
+            (c, u) for c in cands for u in _unique(p for x in centers[id(c)] for p in _grid(c, x, half, hold))
+        ]
         chi = objective(cfg, [c.params(u) for c, u in pts], runs, sigma).sum(axis=1)
         for c in cands:
             idx = sorted((i for i, (cc, _) in enumerate(pts) if cc is c), key=lambda i: chi[i])
@@ -145,23 +153,59 @@ def _unique(points) -> list[np.ndarray]:
     return list(out.values())
 
 
-def _residual_vectors(cfg: PlantConfig, c: Candidate, us: list[np.ndarray], runs: Runs, sigma: dict):
-    """Flattened residual vector (scored channels, real samples) for every unit point in us."""
-    z = zscores(runs, simulate(cfg, [c.params(u) for u in us], runs), sigma)
-    return [np.concatenate([z[ch][k][runs.mask] for ch in SCORE_CHANNELS]) for k in range(len(us))]
+def residual_vectors(
+    cfg: PlantConfig, jobs: list[tuple[Candidate, list[np.ndarray]]], runs: Runs, sigma: dict
+) -> list[list[np.ndarray]]:
+    """Flattened residual vectors (scored channels, real samples) of every (candidate, unit points) job,
+    all from one batched replay."""
+    sets = [c.params(u) for c, us in jobs for u in us]
+    z = zscores(runs, simulate(cfg, sets, runs), sigma)
+    flat = [np.concatenate([z[ch][k][runs.mask] for ch in SCORE_CHANNELS]) for k in range(len(sets))]
+    ends = np.cumsum([len(us) for _, us in jobs])
+    return [flat[e - len(us) : e] for (_, us), e in zip(jobs, ends, strict=True)]
 
 
-def polish(cfg: PlantConfig, c: Candidate, runs: Runs, sigma: dict, nfev: int = POLISH_NFEV) -> None:
-    """Refine a candidate with scipy least_squares; value and forward-difference Jacobian in one batch."""
+def jacobian_points(u: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+    """u and its forward-difference neighbours (backward at the upper bound), and the signed steps."""
+    h = np.where(u + STEP <= 1, STEP, -STEP)
+    return [u] + [u + h[i] * np.eye(len(u))[i] for i in range(len(u))], h
+
+
+def polish(
+    cfg: PlantConfig, cands: list[Candidate], runs: Runs, sigma: dict, nfev: int = POLISH_NFEV
+) -> None:
+    """Refine candidates with scipy least_squares, one solver per candidate in its own thread; whenever
+    every running solver waits for a value and Jacobian, one batched replay answers them all."""
+    meet = Rendezvous(len(cands))
+    errors: list[BaseException] = []
+
+    def run(i: int) -> None:
+        try:
+            _least_squares(cands[i], nfev, lambda us: meet.ask(i, us))
+        except BaseException as exc:  # handed to the caller below
+            errors.append(exc)
+        finally:
+            meet.leave(i)
+
+    threads = [threading.Thread(target=run, args=(i,), daemon=True) for i in range(len(cands))]
+    for t in threads:
+        t.start()
+    meet.serve(lambda asked: residual_vectors(cfg, [(cands[i], us) for i, us in asked], runs, sigma))
+    for t in threads:
+        t.join()
+    if errors:
+        raise errors[0]
+
+
+def _least_squares(c: Candidate, nfev: int, ask) -> None:
+    """One bounded least-squares refinement of c; `ask(unit points)` returns their residual vectors."""
     cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
-    step = 1e-3
 
     def both(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         key = np.asarray(u, float).tobytes()
         if key not in cache:
-            h = np.where(u + step <= 1, step, -step)
-            us = [u] + [u + h[i] * np.eye(len(u))[i] for i in range(len(u))]
-            r = _residual_vectors(cfg, c, us, runs, sigma)
+            us, h = jacobian_points(u)
+            r = ask(us)
             cache.clear()
             cache[key] = (r[0], np.stack([(r[i + 1] - r[0]) / h[i] for i in range(len(u))], axis=1))
         return cache[key]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from seagen.discrepancy.candidates import SPACE, Candidate, _residual_vectors, to_unit
+from seagen.discrepancy.candidates import SPACE, Candidate, jacobian_points, residual_vectors, to_unit
 from seagen.discrepancy.replay import ParamSet, Runs
 from seagen.plant import PlantConfig
 
@@ -50,9 +50,8 @@ def uncertainty(base: PlantConfig, params: ParamSet, fit: Runs, sigma: dict) -> 
     """1-sigma of every fitted parameter from the Gauss-Newton covariance of the fitting trials."""
     cand = Candidate(tuple(params), np.zeros(0))
     u = np.array([to_unit(e, p, params[e][p]) for e, p in cand.keys])
-    step = 1e-3
-    h = np.where(u + step <= 1, step, -step)
-    r = _residual_vectors(base, cand, [u] + [u + h[i] * np.eye(len(u))[i] for i in range(len(u))], fit, sigma)
+    us, h = jacobian_points(u)
+    r = residual_vectors(base, [(cand, us)], fit, sigma)[0]
     jac = np.stack([(r[i + 1] - r[0]) / h[i] for i in range(len(u))], axis=1)
     dof = max(len(r[0]) - len(u), 1)
     scale = max(float(np.sum(r[0] ** 2)) / dof, 1.0)  # inflate when the fit leaves more than noise

@@ -125,7 +125,7 @@ def _remainder(res: Result) -> str:
     """'closest: X; the data's form differs: ...' when a structured residual is left."""
     if not res.remainder:
         return ""
-    closest = res.order[0] if res.order else (res.ranking[0][0] if res.ranking else "none")
+    closest = res.first or (res.ranking[0][0] if res.ranking else "none")
     return f"## What is left\nclosest: {closest}; the data's form differs: " + "; ".join(res.remainder) + "."
 
 

@@ -80,6 +80,11 @@ class Result:
     order: list[str] = field(default_factory=list)  # effects changed (added or recalibrated), first first
 
     @property
+    def first(self) -> str | None:
+        """The first effect added (the name given), else the first recalibrated; None when nothing changed."""
+        return next(iter([n.name for n in self.effects] + self.order), None)
+
+    @property
     def rms_learned(self) -> float:
         """Held-out residual RMS with the learned remainder too (= rms_after without one)."""
         return rms(self.learned.z) if self.learned else self.rms_after
@@ -153,17 +158,32 @@ def _score(cfg, cands, held, sig_h, rng) -> tuple[pd.DataFrame, np.ndarray]:
 ZOOM_HALF = 0.08  # final local grid search around the polished best single (unit-box half-width)
 DEEP_TOP = 2  # singles that get the multi-start search after the first screen
 DEEP = {"rounds": 8, "beam": 4}  # multi-start zoom of the best singles (narrow valleys, stick-slip steps)
-PAIR_DEEP = {"rounds": 6, "beam": 3}  # the same for the pairs with the best single
-PAIR_NFEV = 12  # least-squares evaluations for the best pair
-JOINT_NFEV = 10  # least-squares evaluations for the joint recalibration of every present effect
+PARTNER = {"rounds": 5, "beam": 2}  # multi-start search of each partner, the best single held at its fit
+PAIR_TOP = 4  # pairs (with the joint recalibration) polished together after the partner search
+PAIR_NFEV = 12  # least-squares evaluations for the best pairs and the joint recalibration
 
 
 def _deep_fit(cfg: PlantConfig, cands: list[Candidate], fit: Runs, sig_f, search: dict, nfev: int) -> None:
     """Multi-start grid search of cands (one batch a round), then polish and a local zoom of the best."""
     screen(cfg, cands, fit, sig_f, **search)
     best = min(cands, key=lambda c: c.chi2_fit)
-    polish(cfg, best, fit, sig_f, nfev=nfev)
+    polish(cfg, [best], fit, sig_f, nfev=nfev)
     screen(cfg, [best], fit, sig_f, rounds=3, half0=ZOOM_HALF)  # derivative-free: stick-slip is not smooth
+
+
+def _pairs(cfg: PlantConfig, ranked: list[Candidate], fit: Runs, sig_f) -> list[Candidate]:
+    """The best single with every other: each partner searched with the best single held at its own fit
+    (one batch a round), then the best pairs and the joint recalibration polished together in all their
+    parameters and a local zoom of the best pair."""
+    anchor = ranked[0]
+    pairs = [Candidate(anchor.names + o.names, np.concatenate([anchor.u, o.u])) for o in ranked[1:]]
+    screen(cfg, pairs, fit, sig_f, hold=len(anchor.u), **PARTNER)
+    top = sorted(pairs, key=lambda c: c.chi2_fit)[:PAIR_TOP]
+    joint = joint_recalibration(cfg, fit, sig_f)  # several base parameters may be off
+    polish(cfg, top + ([joint] if joint else []), fit, sig_f, nfev=PAIR_NFEV)
+    best = min(pairs, key=lambda c: c.chi2_fit)
+    screen(cfg, [best], fit, sig_f, rounds=3, half0=ZOOM_HALF)
+    return pairs + ([joint] if joint else [])
 
 
 def best_addition(cfg: PlantConfig, fit: Runs, held: Runs, sig_f, sig_h, rng, noise: float):
@@ -178,12 +198,8 @@ def best_addition(cfg: PlantConfig, fit: Runs, held: Runs, sig_f, sig_h, rng, no
     ranked = sorted(singles, key=lambda c: c.chi2_fit)
     table, wins = _score(cfg, singles, held, sig_h, rng)
     best_single = table.loc[table["candidate"] == ranked[0].label, "rms_held_out"].iloc[0]
-    pairs: list[Candidate] = []
-    if best_single > PAIR_RMS * noise:  # one effect is clearly not enough: search the pairs with the best
-        pairs = [Candidate(ranked[0].names + o.names, np.concatenate([ranked[0].u, o.u])) for o in ranked[1:]]
-        _deep_fit(cfg, pairs, fit, sig_f, PAIR_DEEP, PAIR_NFEV)
-        joint = joint_recalibration(cfg, fit, sig_f, JOINT_NFEV)  # several base parameters may be off
-        pairs += [joint] if joint else []
+    # one effect clearly not enough: the pairs with the best single
+    pairs = _pairs(cfg, ranked, fit, sig_f) if best_single > PAIR_RMS * noise else []
     cands = singles + pairs
     table, wins = _score(cfg, cands, held, sig_h, rng)
     table = table.sort_values("bic_held_out").reset_index(drop=True)
@@ -211,12 +227,47 @@ def _structured(held: Runs, z: dict[str, np.ndarray], labels: dict[str, np.ndarr
 
 def _refit(base: PlantConfig, named: list[Named], fit: Runs, sig_f, nfev: int = POLISH_NFEV) -> list[Named]:
     """Polish all named effects together from the original base (undoes bias of the first fits)."""
-    cand = Candidate(tuple(n.name for n in named), np.zeros(0))
-    cand.u = np.array([to_unit(e, p, n.params[p]) for n in named for e, p in cand.keys if e == n.name])
-    cand.chi2_fit = float(objective(base, [cand.params()], fit, sig_f).sum())
-    polish(base, cand, fit, sig_f, nfev=nfev)
-    fitted = cand.params()
-    return [Named(n.name, fitted[n.name], n.confidence, n.before) for n in named]
+    return _refit_all(base, [named], fit, sig_f, nfev)[0]
+
+
+def _refit_all(
+    base: PlantConfig, groups: list[list[Named]], fit: Runs, sig_f, nfev: int
+) -> list[list[Named]]:
+    """_refit of several alternative groups of named effects, polished together (batched replays)."""
+    cands = []
+    for named in groups:
+        cand = Candidate(tuple(n.name for n in named), np.zeros(0))
+        cand.u = np.array([to_unit(e, p, n.params[p]) for n in named for e, p in cand.keys if e == n.name])
+        cands.append(cand)
+    live = [c for c in cands if c.names]
+    chi = objective(base, [c.params() for c in live], fit, sig_f).sum(axis=1) if live else []
+    for c, x in zip(live, chi, strict=True):
+        c.chi2_fit = float(x)
+    if live:
+        polish(base, live, fit, sig_f, nfev=nfev)
+    return [
+        [Named(n.name, c.params()[n.name], n.confidence, n.before) for n in named]
+        for named, c in zip(groups, cands, strict=True)
+    ]
+
+
+def _prune(base: PlantConfig, named: list[Named], fit: Runs, held: Runs, sig_f, sig_h) -> list[Named]:
+    """Revert recalibrations the held-out data does not need: each in turn is put back to the base's
+    values (the rest re-polished); the cheapest reversion is taken while it costs the held-out BIC less
+    than DBIC_MIN (the evidence needed to name an effect), so confounded parameters (a friction offset in
+    actuator and linkage friction) are not both moved."""
+    n = n_scored(held)
+    while any(x.before is not None for x in named):
+        drops = [[m for m in named if m is not x] for x in named if x.before is not None]
+        drops = _refit_all(base, drops, fit, sig_f, POLISH_NFEV)
+        groups = [named, *drops]
+        chi = objective(base, [{m.name: m.params for m in grp} for grp in groups], held, sig_h).sum(axis=1)
+        bic = chi + np.array([sum(len(m.params) for m in grp) for grp in groups]) * np.log(n)
+        best = 1 + int(np.argmin(bic[1:]))
+        if bic[best] - bic[0] >= DBIC_MIN:
+            break
+        named = groups[best]
+    return named
 
 
 def _merge(base: PlantConfig, named: list[Named], params: ParamSet, conf: dict[str, float]) -> list[Named]:
@@ -271,6 +322,11 @@ def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) 
         z1 = _residual(cfg, held, sig_h)
     else:
         verdict = "unexplained"
+    if any(n.before is not None for n in named):
+        named = _prune(base, named, fit, held, sig_f, sig_h)
+        cfg = _apply(base, {n.name: n.params for n in named})
+        z1 = _residual(cfg, held, sig_h)
+        verdict = "none" if not named and verdict == "explained" else verdict
     sig_p = uncertainty(base, {n.name: n.params for n in named}, fit, sig_f) if named else {}
     for n in named:
         n.sigma = sig_p[n.name]
