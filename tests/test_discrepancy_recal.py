@@ -40,3 +40,55 @@ def test_change_lines_name_units_and_flag_implausible_values() -> None:
     assert ok == ["actuator_friction.force_n 3.6 -> 2.71 N, ±0.02"]
     bad = change_lines("series_compliance", {"k_n_per_mm": 30.0}, {"k_n_per_mm": 250.0}, {"k_n_per_mm": 5.0})
     assert "OUTSIDE the plausible range 8..150" in bad[0]
+
+
+def _split(seed: int):
+    """Fitting and held-out trials (and their noise) of quick data from the paper's actuator."""
+    from seagen.discrepancy.bench import measure
+    from seagen.discrepancy.residuals import noise_sigma
+    from seagen.discrepancy.workflow import split_trials
+
+    runs = measure(PlantConfig(), seed=seed, fast=True)
+    fit_i, held_i = split_trials(runs)
+    sig = noise_sigma(runs)
+    return (
+        runs.take(fit_i),
+        runs.take(held_i),
+        *({c: s[i] for c, s in sig.items()} for i in (fit_i, held_i)),
+    )
+
+
+def test_confounded_offset_is_recalibrated_through_one_parameter() -> None:
+    """Linkage c0 and actuator friction F_c move the same friction offset: a recalibration of linkage
+    friction holds c0 while actuator friction is on (or joins it); added alone, linkage friction fits c0."""
+    from seagen.discrepancy.candidates import pair, start
+
+    cfg = PlantConfig()
+    link = start(cfg, "linkage_friction")
+    assert [p for _, p in link.keys] == ["c1_n", "c2_n"] and "c0_n" not in link.params()["linkage_friction"]
+    alone = start(cfg.with_effect("actuator_friction", False), "linkage_friction")
+    assert [p for _, p in alone.keys] == ["c0_n", "c1_n", "c2_n"]
+    off = cfg.with_effect("actuator_friction", False).with_effect("linkage_friction", False)
+    assert len(start(off, "linkage_friction").keys) == 3
+    both = pair(cfg.with_effect("actuator_friction", False), alone, start(cfg, "viscous_friction"))
+    assert len(both.keys) == 4
+    with_af = pair(cfg.with_effect("actuator_friction", False), alone, start(off, "actuator_friction"))
+    assert ("linkage_friction", "c0_n") not in with_af.keys
+
+
+def test_unneeded_recalibration_is_reverted() -> None:
+    """A base with F_c 1.8 N (truth 2.7): of a change list that re-fits F_c and also moves linkage c1 a
+    little, pruning keeps the friction change (within 5 % of 2.7) and puts linkage friction back (~10 s)."""
+    from seagen.discrepancy.workflow import Named, _prune
+
+    fit, held, sig_f, sig_h = _split(3)
+    base = PlantConfig().with_effect("actuator_friction", True, force_n=1.8)
+    af = {"force_n": 1.8, "reverse_ratio": 0.55}
+    lf = {"c1_n": 1.343, "c2_n": 1.34}
+    named = [
+        Named("actuator_friction", {**af, "force_n": 2.7}, 1.0, af),
+        Named("linkage_friction", {**lf, "c1_n": 1.45}, 1.0, lf),
+    ]
+    kept = _prune(base, named, fit, held, sig_f, sig_h)
+    assert [n.name for n in kept] == ["actuator_friction"]
+    assert kept[0].params["force_n"] == pytest.approx(2.7, rel=0.05)

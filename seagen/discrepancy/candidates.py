@@ -29,6 +29,10 @@ SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
     "load_cell_offset": {"offset_n": (-4.0, 4.0, False)},
     "transport_delay": {"delay_s": (0.001, 0.12, True)},
 }
+# A recalibration holds these parameters at the base's values while the named effect is on too: both move
+# the same thing (a constant friction offset on the shaft: linkage c0 and actuator friction F_c), so the
+# data cannot tell them apart and only the other one is re-fitted.
+CONFOUNDED = {("linkage_friction", "c0_n"): "actuator_friction"}
 GRID = {1: 9, 2: 5, 3: 3}  # screening points per dimension
 POLISH_NFEV = 6  # least-squares evaluations per polished candidate
 STEP = 1e-3  # forward-difference step of the Jacobians (unit box)
@@ -42,11 +46,12 @@ class Candidate:
     u: np.ndarray
     chi2_fit: float = np.inf
     tag: str = ""  # appended to the label (e.g. ' (joint recalibration)')
+    held: frozenset[tuple[str, str]] = frozenset()  # (effect, parameter) kept at the base's value
 
     @property
     def keys(self) -> list[tuple[str, str]]:
         """(effect, parameter) per coordinate."""
-        return [(e, p) for e in self.names for p in SPACE[e]]
+        return [(e, p) for e in self.names for p in SPACE[e] if (e, p) not in self.held]
 
     def params(self, u: np.ndarray | None = None) -> ParamSet:
         """Parameter set at unit point u (default: the best one)."""
@@ -80,15 +85,40 @@ def to_unit(effect: str, param: str, value: float) -> float:
     return float(np.clip(x, 0, 1))
 
 
+def held_in(cfg: PlantConfig, names: tuple[str, ...]) -> frozenset[tuple[str, str]]:
+    """The CONFOUNDED parameters a candidate of `names` holds: a recalibration's, its partner being on."""
+    return frozenset(
+        k
+        for k, other in CONFOUNDED.items()
+        if k[0] in names and cfg.on(k[0]) and (cfg.on(other) or other in names)
+    )
+
+
+def at(names: tuple[str, ...], params: ParamSet, held: frozenset = frozenset(), tag: str = "") -> Candidate:
+    """A candidate of `names` at the values in params (a full set for each effect but the held ones)."""
+    c = Candidate(names, np.zeros(0), tag=tag, held=held)
+    c.u = np.array([to_unit(e, p, params[e][p]) for e, p in c.keys])
+    return c
+
+
+def from_params(params: ParamSet) -> Candidate:
+    """A candidate at a fitted parameter set; a parameter absent from it is held (CONFOUNDED)."""
+    held = frozenset((e, p) for e in params for p in SPACE[e] if p not in params[e])
+    return at(tuple(params), params, held)
+
+
+def values(cfg: PlantConfig, effect: str) -> dict[str, float]:
+    """cfg's values of an effect's fitted parameters."""
+    return {p: float(getattr(cfg.effect(effect), p)) for p in SPACE[effect]}
+
+
 def joint_recalibration(cfg: PlantConfig, fit: Runs, sigma: dict) -> Candidate | None:
     """Every present effect's parameters together, at cfg's values, to be polished (least squares only:
     too many dimensions for a grid); None with fewer than two present effects."""
-    present = present_effects(cfg)
+    present = tuple(present_effects(cfg))
     if len(present) < 2:
         return None
-    c = Candidate(
-        tuple(present), np.concatenate([start(cfg, e).u for e in present]), tag=" (joint recalibration)"
-    )
+    c = at(present, {e: values(cfg, e) for e in present}, held_in(cfg, present), " (joint recalibration)")
     c.chi2_fit = float(objective(cfg, [c.params()], fit, sigma).sum())
     return c
 
@@ -97,8 +127,13 @@ def start(cfg: PlantConfig, effect: str) -> Candidate:
     """A single-effect candidate: at cfg's values when the effect is on (recalibration), else mid-box."""
     if not cfg.on(effect):
         return Candidate((effect,), np.full(len(SPACE[effect]), 0.5))
-    eff = cfg.effect(effect)
-    return Candidate((effect,), np.array([to_unit(effect, p, float(getattr(eff, p))) for p in SPACE[effect]]))
+    return at((effect,), {effect: values(cfg, effect)}, held_in(cfg, (effect,)))
+
+
+def pair(cfg: PlantConfig, a: Candidate, b: Candidate) -> Candidate:
+    """a and b together, each at its own best point."""
+    names = a.names + b.names
+    return at(names, {**a.params(), **b.params()}, held_in(cfg, names))
 
 
 def objective(cfg: PlantConfig, sets: list[ParamSet], runs: Runs, sigma: dict) -> np.ndarray:
@@ -106,11 +141,13 @@ def objective(cfg: PlantConfig, sets: list[ParamSet], runs: Runs, sigma: dict) -
     return chi2_per_trial(zscores(runs, simulate(cfg, sets, runs), sigma))
 
 
-def _grid(c: Candidate, center: np.ndarray, half: float, hold: int = 0) -> list[np.ndarray]:
-    """A regular grid in the candidate's unit box around center; the first `hold` coordinates stay put."""
-    n = GRID[min(len(c.keys) - hold, 3)]
+def _grid(c: Candidate, center: np.ndarray, half: float, hold: tuple[str, ...] = ()) -> list[np.ndarray]:
+    """A regular grid in the candidate's unit box around center; coordinates of effects in hold stay put."""
+    free = [e not in hold for e, _ in c.keys]
+    n = GRID[min(sum(free), 3)]
     axes = [
-        [x] if i < hold else np.clip(np.linspace(x - half, x + half, n), 0, 1) for i, x in enumerate(center)
+        np.clip(np.linspace(x - half, x + half, n), 0, 1) if f else [x]
+        for x, f in zip(center, free, strict=True)
     ]
     return [np.array(p) for p in itertools.product(*axes)]
 
@@ -123,13 +160,13 @@ def screen(
     rounds: int = 3,
     half0: float = 0.5,
     beam: int = 1,
-    hold: int = 0,
+    hold: tuple[str, ...] = (),
 ) -> None:
     """Zooming grid search for all candidates at once (one batched replay per round), half-width half0.
 
     Each candidate keeps its `beam` best distinct points and zooms around all of them (a multi-start
-    search: the stick-slip and compliance objectives have narrow valleys and flat steps). The first
-    `hold` coordinates of every candidate are held (a pair's anchor, already fitted alone)."""
+    search: the stick-slip and compliance objectives have narrow valleys and flat steps). The parameters
+    of the effects in `hold` stay put (a pair's anchor, already fitted alone)."""
     centers = {id(c): [c.u] for c in cands}
     half = half0
     for _ in range(rounds):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from seagen.discrepancy.candidates import SPACE, Candidate, jacobian_points, residual_vectors, to_unit
+from seagen.discrepancy.candidates import SPACE, from_params, jacobian_points, residual_vectors
 from seagen.discrepancy.replay import ParamSet, Runs
 from seagen.plant import PlantConfig
 
@@ -48,8 +48,8 @@ def plausible(effect: str, param: str, value: float) -> bool:
 
 def uncertainty(base: PlantConfig, params: ParamSet, fit: Runs, sigma: dict) -> dict[str, dict[str, float]]:
     """1-sigma of every fitted parameter from the Gauss-Newton covariance of the fitting trials."""
-    cand = Candidate(tuple(params), np.zeros(0))
-    u = np.array([to_unit(e, p, params[e][p]) for e, p in cand.keys])
+    cand = from_params(params)
+    u = cand.u
     us, h = jacobian_points(u)
     r = residual_vectors(base, [(cand, us)], fit, sigma)[0]
     jac = np.stack([(r[i + 1] - r[0]) / h[i] for i in range(len(u))], axis=1)

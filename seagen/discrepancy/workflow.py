@@ -11,14 +11,15 @@ import pandas as pd
 from seagen.discrepancy.candidates import (
     POLISH_NFEV,
     Candidate,
+    from_params,
     joint_recalibration,
     missing_effects,
     objective,
+    pair,
     polish,
     present_effects,
     screen,
     start,
-    to_unit,
 )
 from seagen.discrepancy.learned import Learned, fit_learned, with_learned
 from seagen.discrepancy.recalibrate import uncertainty
@@ -176,8 +177,8 @@ def _pairs(cfg: PlantConfig, ranked: list[Candidate], fit: Runs, sig_f) -> list[
     (one batch a round), then the best pairs and the joint recalibration polished together in all their
     parameters and a local zoom of the best pair."""
     anchor = ranked[0]
-    pairs = [Candidate(anchor.names + o.names, np.concatenate([anchor.u, o.u])) for o in ranked[1:]]
-    screen(cfg, pairs, fit, sig_f, hold=len(anchor.u), **PARTNER)
+    pairs = [pair(cfg, anchor, o) for o in ranked[1:]]
+    screen(cfg, pairs, fit, sig_f, hold=anchor.names, **PARTNER)
     top = sorted(pairs, key=lambda c: c.chi2_fit)[:PAIR_TOP]
     joint = joint_recalibration(cfg, fit, sig_f)  # several base parameters may be off
     polish(cfg, top + ([joint] if joint else []), fit, sig_f, nfev=PAIR_NFEV)
@@ -234,11 +235,7 @@ def _refit_all(
     base: PlantConfig, groups: list[list[Named]], fit: Runs, sig_f, nfev: int
 ) -> list[list[Named]]:
     """_refit of several alternative groups of named effects, polished together (batched replays)."""
-    cands = []
-    for named in groups:
-        cand = Candidate(tuple(n.name for n in named), np.zeros(0))
-        cand.u = np.array([to_unit(e, p, n.params[p]) for n in named for e, p in cand.keys if e == n.name])
-        cands.append(cand)
+    cands = [from_params({n.name: n.params for n in named}) for named in groups]
     live = [c for c in cands if c.names]
     chi = objective(base, [c.params() for c in live], fit, sig_f).sum(axis=1) if live else []
     for c, x in zip(live, chi, strict=True):
