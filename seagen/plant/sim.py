@@ -200,8 +200,12 @@ class Plant:
         self.v_shaft = (y - y0) / dt
         self.shaft_mm = y
 
-    def _solve(self, y0: np.ndarray, n0: np.ndarray, target: np.ndarray, b, moving: np.ndarray) -> np.ndarray:
-        """Solve net(y) - b (y - y0) = target for y by safeguarded Newton (net is decreasing in y).
+    def _solve(
+        self, y0: np.ndarray, n0: np.ndarray, target: np.ndarray, b: np.ndarray | float, moving: np.ndarray
+    ) -> np.ndarray:
+        """Solve net(y) - b (y - y0) = target for y by safeguarded Newton (net is decreasing in y): a step
+        that leaves the bracket or fails to halve the previous one is replaced by bisection (plain Newton
+        can cycle between two points across the contact kink and never converge).
 
         Only the moving elements iterate, each until its own step is below 1e-9 mm (at most 50 times),
         and a converged element leaves the active set. So an element's result depends only on its own
@@ -213,18 +217,26 @@ class Plant:
         span = np.abs(n0[idx] - ta) / g.SPRING_N_PER_MM
         up = n0[idx] > ta
         lo, hi, ya = np.where(up, y0a, y0a - span), np.where(up, y0a + span, y0a), y0a
+        last = np.full(idx.size, np.inf)  # the previous step's size
         for _ in range(50):
             f, s = self._net_force(ya, idx)
             r = f - ba * (ya - y0a) - ta
-            lo, hi = np.where(r > 0, ya, lo), np.where(r <= 0, ya, hi)
-            y_new = ya - r / (s - ba)
-            y_new = np.where((y_new >= lo) & (y_new <= hi), y_new, 0.5 * (lo + hi))
-            done = np.abs(y_new - ya) < 1e-9
+            beyond = r > 0  # the root lies beyond ya
+            lo, hi = np.where(beyond, ya, lo), np.where(beyond, hi, ya)
+            step = r / (s - ba)
+            y_new = ya - step
+            # bisect when Newton leaves the bracket or does not halve the step (it cycles at the kinks)
+            ok = (y_new >= lo) & (y_new <= hi) & (2 * np.abs(step) <= last)
+            y_new = np.where(ok, y_new, 0.5 * (lo + hi))
+            last = np.abs(y_new - ya)
+            done = last < 1e-9
             ya = y_new
             if done.any():
                 y[idx[done]] = ya[done]
                 keep = np.flatnonzero(~done)
-                idx, ya, y0a, ta, lo, hi, ba = (pick(x, keep) for x in (idx, ya, y0a, ta, lo, hi, ba))
+                idx, ya, y0a, ta, lo, hi, ba, last = (
+                    pick(x, keep) for x in (idx, ya, y0a, ta, lo, hi, ba, last)
+                )
                 if not idx.size:
                     break
         y[idx] = ya  # the few still unconverged after 50 iterations
