@@ -209,9 +209,9 @@ class _Balance(Plant):
 
     worst = 0.0
 
-    def _solve(self, y0, n0, target, b, moving):  # type: ignore[no-untyped-def]
+    def _solve(self, y0, net0, target, b, moving):  # type: ignore[no-untyped-def]
         """The solve, then |net(y) - b (y - y0) - target| over the moving elements."""
-        y = super()._solve(y0, n0, target, b, moving)
+        y = super()._solve(y0, net0, target, b, moving)
         r = self._net_force(y)[0] - b * (y - y0) - target
         self.worst = max(self.worst, float(np.abs(r[moving]).max()))
         return y

@@ -190,18 +190,23 @@ class Plant:
             sf = e.stribeck_friction
             boost = sf.extra_static_n * np.exp(-((self.v_shaft / sf.v_s_mm_s) ** 2))
             fwd, rev = fwd + boost, rev + boost * (rev > 0)
-        n0, _ = self._net_force(y0)
+        n0, s0 = self._net_force(y0)
         b = e.viscous_friction.b_n_s_per_mm / dt if e.viscous_friction.enabled else 0.0
         target = np.where(n0 > fwd, fwd, np.where(n0 < -rev, -rev, n0))
         moving = target != n0
         y = y0.copy()
         if moving.any():
-            y = self._solve(y0, n0, target, b, moving)
+            y = self._solve(y0, (n0, s0), target, b, moving)
         self.v_shaft = (y - y0) / dt
         self.shaft_mm = y
 
     def _solve(
-        self, y0: np.ndarray, n0: np.ndarray, target: np.ndarray, b: np.ndarray | float, moving: np.ndarray
+        self,
+        y0: np.ndarray,
+        net0: tuple[np.ndarray, np.ndarray],
+        target: np.ndarray,
+        b: np.ndarray | float,
+        moving: np.ndarray,
     ) -> np.ndarray:
         """Solve net(y) - b (y - y0) = target for y by safeguarded Newton (net is decreasing in y): a step
         that leaves the bracket or fails to halve the previous one is replaced by bisection (plain Newton
@@ -210,16 +215,17 @@ class Plant:
         Only the moving elements iterate, each until its own step is below 1e-9 mm (at most 50 times),
         and a converged element leaves the active set. So an element's result depends only on its own
         inputs, never on the other elements of the batch: alone or in any batch it is bit-identical.
+        net0 is _net_force(y0) (value, slope), which the first iteration reuses.
         """
         idx = np.flatnonzero(moving)
+        f, s = net0[0][idx], net0[1][idx]
         y, y0a, ta, ba = y0.copy(), y0[idx], target[idx], pick(b, idx)
         # net falls at least as fast as the bare spring (slope >= k), which bounds the step.
-        span = np.abs(n0[idx] - ta) / g.SPRING_N_PER_MM
-        up = n0[idx] > ta
+        span = np.abs(f - ta) / g.SPRING_N_PER_MM
+        up = f > ta
         lo, hi, ya = np.where(up, y0a, y0a - span), np.where(up, y0a + span, y0a), y0a
         last = np.full(idx.size, np.inf)  # the previous step's size
         for _ in range(50):
-            f, s = self._net_force(ya, idx)
             r = f - ba * (ya - y0a) - ta
             beyond = r > 0  # the root lies beyond ya
             lo, hi = np.where(beyond, ya, lo), np.where(beyond, hi, ya)
@@ -239,6 +245,7 @@ class Plant:
                 )
                 if not idx.size:
                     break
+            f, s = self._net_force(ya, idx)
         y[idx] = ya  # the few still unconverged after 50 iterations
         return y
 
