@@ -8,7 +8,7 @@ import pytest
 from seagen.data import protocol
 from seagen.discrepancy.bench import HARD_PAIRS, HIDEABLE, make_case, measure
 from seagen.discrepancy.workflow import identify
-from seagen.plant import Plant, PlantConfig
+from seagen.plant import Plant, PlantConfig, pick
 
 FAST_SEED = 11
 SLOW_SEEDS = (21, 31)
@@ -131,14 +131,15 @@ class LuGrePlant(Plant):
 class CubicCompliancePlant(Plant):
     """Structure deflection d = F/k + g F^3 (the catalogue uses F/k + beta F^2)."""
 
-    def structure_force(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Invert d(F) by Newton on each element; slope from the inverse derivative."""
-        d = np.maximum(y - self.y_contact, 0.0)
+    def structure_force(self, y: np.ndarray, idx: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Invert d(F) by Newton on each element; slope from the inverse derivative (elements idx)."""
+        yc = pick(self.y_contact, idx)
+        d = np.maximum(y - yc, 0.0)
         k, g = 35.0, 2.5e-4
         f = np.minimum(d * k, np.cbrt(d / g))
         for _ in range(30):
             f = np.maximum(f - (f / k + g * f**3 - d) / (1 / k + 3 * g * f**2), 0.0)
-        return f, np.where(y > self.y_contact, 1.0 / (1 / k + 3 * g * f**2), 0.0)
+        return f, np.where(y > yc, 1.0 / (1 / k + 3 * g * f**2), 0.0)
 
 
 LUGRE = (LuGrePlant, "actuator_friction", {"actuator_friction", "stribeck_friction"})

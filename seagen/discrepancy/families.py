@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from seagen import geometry as g
-from seagen.plant import Plant, PlantConfig
+from seagen.plant import Plant, PlantConfig, pick
 
 
 class MemoryFriction(Plant):
@@ -58,14 +58,15 @@ class CubicStructure(Plant):
 
     k, c = 35.0, 2.5e-4
 
-    def structure_force(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Invert d(F) by Newton per element; slope from the inverse derivative."""
-        d = np.maximum(y - self.y_contact, 0.0)
+    def structure_force(self, y: np.ndarray, idx: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Invert d(F) by Newton per element; slope from the inverse derivative (elements idx)."""
+        yc = pick(self.y_contact, idx)
+        d = np.maximum(y - yc, 0.0)
         k, c = self.k, self.c
         f = np.minimum(d * k, np.cbrt(d / c))
         for _ in range(30):
             f = np.maximum(f - (f / k + c * f**3 - d) / (1 / k + 3 * c * f**2), 0.0)
-        return f, np.where(y > self.y_contact, 1.0 / (1 / k + 3 * c * f**2), 0.0)
+        return f, np.where(y > yc, 1.0 / (1 / k + 3 * c * f**2), 0.0)
 
 
 class LaggedCell(Plant):

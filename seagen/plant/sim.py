@@ -13,6 +13,14 @@ _STOP_N_PER_MM = 400.0  # hard stop when the nut pulls the shaft back (negative 
 _RIGID_N_PER_MM = 5000.0  # structure stiffness when series_compliance is off
 
 
+def pick(x, idx: np.ndarray | None):
+    """x[idx] for a per-element array (a parameter or state over the batch); a scalar, or any x when idx
+    is None, passes through unchanged."""
+    if idx is None or not isinstance(x, np.ndarray) or x.ndim == 0:
+        return x
+    return x[idx]
+
+
 @dataclass
 class Sensors:
     """One sample of every signal, each an array over the batch of trials."""
@@ -68,40 +76,52 @@ class Plant:
         self._history = np.zeros((self._delay_n + 1, n))
 
     # --- force laws -------------------------------------------------------------------------------
-    def spring_force(self, d: np.ndarray) -> np.ndarray:
-        """Spring force for compression d (with preload and nonlinearity when enabled)."""
+    def spring_force(self, d: np.ndarray, idx: np.ndarray | None = None) -> np.ndarray:
+        """Spring force for compression d (with preload and nonlinearity when enabled); d is over the
+        batch elements idx (all when None), per-element parameters are taken at idx."""
         e = self.cfg.effects
         f = np.where(d >= 0, g.SPRING_N_PER_MM * d, _STOP_N_PER_MM * d)
         if e.spring_nonlinearity.enabled:
-            f = f + e.spring_nonlinearity.k3_n_per_mm3 * np.maximum(d, 0.0) ** 3
+            f = f + pick(e.spring_nonlinearity.k3_n_per_mm3, idx) * np.maximum(d, 0.0) ** 3
         if e.spring_preload.enabled:
-            f = f + e.spring_preload.force_n
+            f = f + pick(e.spring_preload.force_n, idx)
         return f
 
-    def _spring_slope(self, d: np.ndarray) -> np.ndarray:
+    def _spring_slope(self, d: np.ndarray, idx: np.ndarray | None = None) -> np.ndarray:
+        """dF/dd of spring_force at compression d over the batch elements idx (all when None)."""
         e = self.cfg.effects
         s = np.where(d >= 0, g.SPRING_N_PER_MM, _STOP_N_PER_MM)
         if e.spring_nonlinearity.enabled:
-            s = s + 3 * e.spring_nonlinearity.k3_n_per_mm3 * np.maximum(d, 0.0) ** 2
+            s = s + 3 * pick(e.spring_nonlinearity.k3_n_per_mm3, idx) * np.maximum(d, 0.0) ** 2
         return s
 
-    def structure_force(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Force the loaded linkage pushes back with, and its slope, for shaft advance y.
+    def structure_force(self, y: np.ndarray, idx: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Force the loaded linkage pushes back with, and its slope, for shaft advance y of the batch
+        elements idx (all when None).
 
         The compliance parameters may be scalars or arrays over the batch (the discrepancy replay fits
         one parameter set per element): beta > 0 inverts d = F/k + beta F^2, beta = 0 is linear.
+        Overrides must take per-element arrays at idx (`pick`) and treat each element on its own.
         """
-        d = np.maximum(y - self.y_contact, 0.0)
+        yc = pick(self.y_contact, idx)
+        d = np.maximum(y - yc, 0.0)
         sc = self.cfg.effects.series_compliance
         if not sc.enabled:
-            return _RIGID_N_PER_MM * d, np.where(y > self.y_contact, _RIGID_N_PER_MM, 0.0)
-        a, b = 1.0 / np.asarray(sc.k_n_per_mm, float), np.asarray(sc.beta_mm_per_n2, float)
+            return _RIGID_N_PER_MM * d, np.where(y > yc, _RIGID_N_PER_MM, 0.0)
+        a = 1.0 / np.asarray(pick(sc.k_n_per_mm, idx), float)
+        b = np.asarray(pick(sc.beta_mm_per_n2, idx), float)
+        inside = y > yc
+        if b.ndim == 0:  # one law for every element (the usual case): the same values in fewer operations
+            if b <= 0:
+                return d / a, np.where(inside, 1.0 / a, 0.0)
+            root = np.sqrt(a * a + 4 * b * d)
+            return (root - a) / (2 * b), np.where(inside, 1.0 / root, 0.0)
         quad = b > 0
         bq = np.where(quad, b, 1.0)
         root = np.sqrt(a * a + 4 * bq * d)
         force = np.where(quad, (root - a) / (2 * bq), d / a)
         slope = np.where(quad, 1.0 / root, 1.0 / a)
-        return force, np.where(y > self.y_contact, slope, 0.0)
+        return force, np.where(inside, slope, 0.0)
 
     def friction_limits(self, angle_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Coulomb friction on the shaft (forward, reverse) at this linkage angle, before speed terms."""
@@ -153,11 +173,12 @@ class Plant:
         b = bl.half_width_mm
         self.nut_mm = np.clip(self.nut_mm, self.motor_mm - b, self.motor_mm + b)
 
-    def _net_force(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Spring push minus structure reaction on the massless shaft, and its (negative) slope."""
-        d = self.nut_mm - y
-        fl, sl = self.structure_force(y)
-        return self.spring_force(d) - fl, -self._spring_slope(d) - sl
+    def _net_force(self, y: np.ndarray, idx: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Spring push minus structure reaction on the massless shaft, and its (negative) slope, for shaft
+        advance y of the batch elements idx (all when None)."""
+        d = pick(self.nut_mm, idx) - y
+        fl, sl = self.structure_force(y, idx)
+        return self.spring_force(d, idx) - fl, -self._spring_slope(d, idx) - sl
 
     def _move_shaft(self, dt: float) -> None:
         """Quasi-static massless shaft: stick inside the friction band, else slide to its edge."""
@@ -169,38 +190,64 @@ class Plant:
             sf = e.stribeck_friction
             boost = sf.extra_static_n * np.exp(-((self.v_shaft / sf.v_s_mm_s) ** 2))
             fwd, rev = fwd + boost, rev + boost * (rev > 0)
-        n0, _ = self._net_force(y0)
+        n0, s0 = self._net_force(y0)
         b = e.viscous_friction.b_n_s_per_mm / dt if e.viscous_friction.enabled else 0.0
         target = np.where(n0 > fwd, fwd, np.where(n0 < -rev, -rev, n0))
         moving = target != n0
         y = y0.copy()
         if moving.any():
-            y = self._solve(y0, n0, target, b, moving)
+            y = self._solve(y0, (n0, s0), target, b, moving)
         self.v_shaft = (y - y0) / dt
         self.shaft_mm = y
 
     def _solve(
-        self, y0: np.ndarray, n0: np.ndarray, target: np.ndarray, b: float, moving: np.ndarray
+        self,
+        y0: np.ndarray,
+        net0: tuple[np.ndarray, np.ndarray],
+        target: np.ndarray,
+        b: np.ndarray | float,
+        moving: np.ndarray,
     ) -> np.ndarray:
-        """Solve net(y) - b (y - y0) = target for y by safeguarded Newton (net is decreasing in y)."""
+        """Solve net(y) - b (y - y0) = target for y by safeguarded Newton (net is decreasing in y): a step
+        that leaves the bracket or fails to halve the previous one is replaced by bisection (plain Newton
+        can cycle between two points across the contact kink and never converge).
+
+        Only the moving elements iterate, each until its own step is below 1e-9 mm (at most 50 times),
+        and a converged element leaves the active set. So an element's result depends only on its own
+        inputs, never on the other elements of the batch: alone or in any batch it is bit-identical.
+        net0 is _net_force(y0) (value, slope), which the first iteration reuses.
+        """
+        idx = np.flatnonzero(moving)
+        f, s = net0[0][idx], net0[1][idx]
+        y, y0a, ta, ba = y0.copy(), y0[idx], target[idx], pick(b, idx)
         # net falls at least as fast as the bare spring (slope >= k), which bounds the step.
-        span = np.abs(n0 - target) / g.SPRING_N_PER_MM
-        lo = np.where(n0 > target, y0, y0 - span)
-        hi = np.where(n0 > target, y0 + span, y0)
-        y = y0.copy()
+        span = np.abs(f - ta) / g.SPRING_N_PER_MM
+        up = f > ta
+        lo, hi, ya = np.where(up, y0a, y0a - span), np.where(up, y0a + span, y0a), y0a
+        last = np.full(idx.size, np.inf)  # the previous step's size
         for _ in range(50):
-            f, s = self._net_force(y)
-            r = f - b * (y - y0) - target
-            lo = np.where(r > 0, y, lo)
-            hi = np.where(r <= 0, y, hi)
-            y_new = y - r / (s - b)
-            bad = ~((y_new >= lo) & (y_new <= hi))
-            y_new = np.where(bad, 0.5 * (lo + hi), y_new)
-            done = np.abs(y_new - y) < 1e-9
-            y = y_new
-            if done.all():
-                break
-        return np.where(moving, y, y0)
+            r = f - ba * (ya - y0a) - ta
+            beyond = r > 0  # the root lies beyond ya
+            lo, hi = np.where(beyond, ya, lo), np.where(beyond, hi, ya)
+            step = r / (s - ba)
+            y_new = ya - step
+            # bisect when Newton leaves the bracket or does not halve the step (it cycles at the kinks)
+            ok = (y_new >= lo) & (y_new <= hi) & (2 * np.abs(step) <= last)
+            y_new = np.where(ok, y_new, 0.5 * (lo + hi))
+            last = np.abs(y_new - ya)
+            done = last < 1e-9
+            ya = y_new
+            if done.any():
+                y[idx[done]] = ya[done]
+                keep = np.flatnonzero(~done)
+                idx, ya, y0a, ta, lo, hi, ba, last = (
+                    pick(x, keep) for x in (idx, ya, y0a, ta, lo, hi, ba, last)
+                )
+                if not idx.size:
+                    break
+            f, s = self._net_force(ya, idx)
+        y[idx] = ya  # the few still unconverged after 50 iterations
+        return y
 
     # --- sensors ----------------------------------------------------------------------------------
     def learned_inputs(self) -> dict[str, np.ndarray]:
