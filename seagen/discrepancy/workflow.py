@@ -160,7 +160,6 @@ ZOOM_HALF = 0.08  # final local grid search around the polished best single (uni
 DEEP_TOP = 2  # singles that get the multi-start search after the first screen
 DEEP = {"rounds": 8, "beam": 4}  # multi-start zoom of the best singles (narrow valleys, stick-slip steps)
 PARTNER = {"rounds": 5, "beam": 2}  # multi-start search of each partner, the best single held at its fit
-PAIR_TOP = 4  # pairs (with the joint recalibration) polished together after the partner search
 PAIR_NFEV = 12  # least-squares evaluations for the best pairs and the joint recalibration
 
 
@@ -174,14 +173,13 @@ def _deep_fit(cfg: PlantConfig, cands: list[Candidate], fit: Runs, sig_f, search
 
 def _pairs(cfg: PlantConfig, ranked: list[Candidate], fit: Runs, sig_f) -> list[Candidate]:
     """The best single with every other: each partner searched with the best single held at its own fit
-    (one batch a round), then the best pairs and the joint recalibration polished together in all their
-    parameters and a local zoom of the best pair."""
+    (one batch a round), then every pair and the joint recalibration polished together in all their
+    parameters (batched least squares) and a local zoom of the best pair."""
     anchor = ranked[0]
     pairs = [pair(cfg, anchor, o) for o in ranked[1:]]
     screen(cfg, pairs, fit, sig_f, hold=anchor.names, **PARTNER)
-    top = sorted(pairs, key=lambda c: c.chi2_fit)[:PAIR_TOP]
     joint = joint_recalibration(cfg, fit, sig_f)  # several base parameters may be off
-    polish(cfg, top + ([joint] if joint else []), fit, sig_f, nfev=PAIR_NFEV)
+    polish(cfg, pairs + ([joint] if joint else []), fit, sig_f, nfev=PAIR_NFEV)
     best = min(pairs, key=lambda c: c.chi2_fit)
     screen(cfg, [best], fit, sig_f, rounds=3, half0=ZOOM_HALF)
     return pairs + ([joint] if joint else [])
@@ -249,14 +247,13 @@ def _refit_all(
 
 
 def _prune(base: PlantConfig, named: list[Named], fit: Runs, held: Runs, sig_f, sig_h) -> list[Named]:
-    """Revert recalibrations the held-out data does not need: each in turn is put back to the base's
-    values (the rest re-polished); the cheapest reversion is taken while it costs the held-out BIC less
-    than DBIC_MIN (the evidence needed to name an effect), so confounded parameters (a friction offset in
-    actuator and linkage friction) are not both moved."""
+    """Drop the changes the held-out data does not need: each named change in turn is undone (an added
+    effect removed, a recalibration put back to the base's values; the rest re-polished), and the
+    cheapest undo is taken while it costs the held-out BIC less than DBIC_MIN, the evidence needed to
+    name an effect (a near-zero partner of a pair, a parameter moved along with the real change)."""
     n = n_scored(held)
-    while any(x.before is not None for x in named):
-        drops = [[m for m in named if m is not x] for x in named if x.before is not None]
-        drops = _refit_all(base, drops, fit, sig_f, POLISH_NFEV)
+    while named:
+        drops = _refit_all(base, [[m for m in named if m is not x] for x in named], fit, sig_f, POLISH_NFEV)
         groups = [named, *drops]
         chi = objective(base, [{m.name: m.params for m in grp} for grp in groups], held, sig_h).sum(axis=1)
         bic = chi + np.array([sum(len(m.params) for m in grp) for grp in groups]) * np.log(n)
@@ -319,7 +316,7 @@ def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) 
         z1 = _residual(cfg, held, sig_h)
     else:
         verdict = "unexplained"
-    if any(n.before is not None for n in named):
+    if named:
         named = _prune(base, named, fit, held, sig_f, sig_h)
         cfg = _apply(base, {n.name: n.params for n in named})
         z1 = _residual(cfg, held, sig_h)
