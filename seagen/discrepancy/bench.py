@@ -152,12 +152,17 @@ def summarize(rows: pd.DataFrame) -> dict:
 
 def bench(seeds: int, jobs: int = 2) -> dict:
     """Run every planned case (in `jobs` processes) and summarize."""
+    return summarize(pd.DataFrame(run_all(_run, plan(seeds), jobs)))
+
+
+def run_all(fn, todo: list, jobs: int) -> list[dict]:
+    """fn over every item of todo in `jobs` worker processes, in order, with a progress bar on stderr."""
     from concurrent.futures import ProcessPoolExecutor
 
-    todo = plan(seeds)
+    from tqdm import tqdm
+
     with ProcessPoolExecutor(max_workers=jobs) as pool:
-        rows = list(pool.map(_run, todo))
-    return summarize(pd.DataFrame(rows))
+        return list(tqdm(pool.map(fn, todo), total=len(todo), desc="data sets", unit="set", leave=False))
 
 
 def _run(args: tuple[str, tuple[str, ...], int]) -> dict:

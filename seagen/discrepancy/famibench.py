@@ -7,7 +7,7 @@ import time
 import numpy as np
 import pandas as pd
 
-from seagen.discrepancy.bench import measure
+from seagen.discrepancy.bench import measure, run_all
 from seagen.discrepancy.families import FAMILIES, family_case, misset_case
 from seagen.discrepancy.report import gap_cut
 from seagen.discrepancy.workflow import identify
@@ -109,12 +109,7 @@ def summarize(rows: pd.DataFrame) -> dict:
 
 def bench_families(seeds: int, jobs: int = 2, fast: bool = False) -> dict:
     """Run every planned family case in `jobs` processes and summarize."""
-    from concurrent.futures import ProcessPoolExecutor
-
-    todo = [(n, s, fast) for n, s in plan(seeds)]
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
-        rows = list(pool.map(_run, todo))
-    return summarize(pd.DataFrame(rows))
+    return summarize(pd.DataFrame(run_all(_run, [(n, s, fast) for n, s in plan(seeds)], jobs)))
 
 
 def _run(args: tuple[str, int, bool]) -> dict:

@@ -160,7 +160,7 @@ ZOOM_HALF = 0.08  # final local grid search around the polished best single (uni
 DEEP_TOP = 2  # singles that get the multi-start search after the first screen
 DEEP = {"rounds": 8, "beam": 4}  # multi-start zoom of the best singles (narrow valleys, stick-slip steps)
 PARTNER = {"rounds": 5, "beam": 2}  # multi-start search of each partner, the best single held at its fit
-PAIR_NFEV = 12  # least-squares evaluations for the best pairs and the joint recalibration
+PAIR_NFEV = 12  # least-squares evaluations for every pair and the joint recalibration
 
 
 def _deep_fit(cfg: PlantConfig, cands: list[Candidate], fit: Runs, sig_f, search: dict, nfev: int) -> None:
