@@ -92,3 +92,23 @@ def test_unneeded_recalibration_is_reverted() -> None:
     kept = _prune(base, named, fit, held, sig_f, sig_h)
     assert [n.name for n in kept] == ["actuator_friction"]
     assert kept[0].params["force_n"] == pytest.approx(2.7, rel=0.05)
+
+
+def test_only_the_closest_name_is_claimed_when_the_form_differs() -> None:
+    """In a case left unexplained only the first effect added is claimed (the closest catalogue effect);
+    later additions and recalibrations are marked compensations; an explained case claims every change."""
+    from seagen.discrepancy.workflow import Named, _claims
+
+    def changes() -> list[Named]:
+        return [
+            Named("actuator_friction", {"force_n": 2.0}, 1.0, {"force_n": 2.7}),
+            Named("stribeck_friction", {"extra_static_n": 1.0}, 1.0),
+            Named("spring_preload", {"force_n": 0.3}, 0.95),
+        ]
+
+    left = changes()
+    _claims(left, "unexplained")
+    assert [n.claimed for n in left] == [False, True, False]
+    done = changes()
+    _claims(done, "explained")
+    assert all(n.claimed for n in done)

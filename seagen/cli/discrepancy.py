@@ -51,7 +51,13 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(s, indent=2))
     else:
-        named = ", ".join(f"{e['name']} ({e['confidence']:.0%})" for e in s["effects"]) or "nothing"
+        named = (
+            ", ".join(
+                f"{e['name']} ({e['confidence']:.0%}{'' if e['claimed'] else ', compensation only'})"
+                for e in s["effects"]
+            )
+            or "nothing"
+        )
         recal = ", ".join(
             f"{r['effect']}.{r['param']} {r['before']:.4g} -> {r['after']:.4g}" for r in s["recalibrated"]
         )

@@ -45,8 +45,9 @@ def run_family(name: str, seed: int, fast: bool = False) -> dict:
     res = identify(runs, base)
     recal = {f"{n.name}.{p}": v for n in res.recalibrated for p, v in n.params.items()}
     added = [n.name for n in res.effects]
-    sure = [(n.name, n.name in expected and name != "misset") for n in res.effects if n.confidence >= SURE]
-    sure += [(n.name, n.name in expected) for n in res.recalibrated if n.confidence >= SURE and wrong]
+    given = [(n, n.name in expected and name != "misset") for n in res.effects if n.confidence >= SURE]
+    given += [(n, n.name in expected) for n in res.recalibrated if n.confidence >= SURE and wrong]
+    sure = [(n.name, ok) for n, ok in given if n.claimed]  # names claimed at >= SURE
     return {
         "family": name,
         "seed": seed,
@@ -61,6 +62,8 @@ def run_family(name: str, seed: int, fast: bool = False) -> dict:
         and all(abs(recal.get(k, b) - t) <= RECOVERED * abs(t) for k, (b, t) in wrong.items()),
         "sure_names": len(sure),
         "sure_right": sum(ok for _, ok in sure),
+        "sure_unclaimed": len(given) - len(sure),  # compensations at >= SURE (not claims)
+        "sure_unclaimed_right": sum(ok for n, ok in given if not n.claimed),
         "learned": res.learned is not None,
         "gap_cut_physics": gap_cut(res.rms_before, res.rms_after, res.noise_floor),
         "gap_cut": gap_cut(res.rms_before, res.rms_learned, res.noise_floor),
@@ -96,6 +99,8 @@ def summarize(rows: pd.DataFrame) -> dict:
         "ooc_closest_first_rate": float(ooc.first_ok.mean()) if len(ooc) else float("nan"),
         "sure_names": int(rows.sure_names.sum()),
         "sure_right_rate": float(rows.sure_right.sum() / max(rows.sure_names.sum(), 1)),
+        "unclaimed_at_sure": int(rows.sure_unclaimed.sum()),
+        "unclaimed_at_sure_right": int(rows.sure_unclaimed_right.sum()),
         "misset_recovered_nothing_added": float((mis.recovered & (mis.added == "-")).mean())
         if len(mis)
         else float("nan"),

@@ -82,8 +82,11 @@ def _md_table(df: pd.DataFrame) -> str:
 def markdown(res: Result, source: str, before: pd.DataFrame, after: pd.DataFrame, gap: pd.DataFrame) -> str:
     """The one-minute report."""
     eff = pd.DataFrame(
-        [(n.name, ", ".join(f"{k}={v:.4g}" for k, v in n.params.items()), n.confidence) for n in res.effects],
-        columns=["effect", "fitted parameters", "confidence"],
+        [
+            (n.name, ", ".join(f"{k}={v:.4g}" for k, v in n.params.items()), n.confidence, _claim(n))
+            for n in res.effects
+        ],
+        columns=["effect", "fitted parameters", "confidence", "claim"],
     )
     sig = before[before["significant"]].head(10)
     parts = [
@@ -121,6 +124,11 @@ def markdown(res: Result, source: str, before: pd.DataFrame, after: pd.DataFrame
     return "\n\n".join(p for p in parts if p) + "\n"
 
 
+def _claim(n) -> str:
+    """'named' for a claimed change, else what it is: a compensation (the data's form differs)."""
+    return "named" if n.claimed else "compensation only (the data's form differs; not a claim)"
+
+
 def _remainder(res: Result) -> str:
     """'closest: X; the data's form differs: ...' when a structured residual is left."""
     if not res.remainder:
@@ -149,9 +157,9 @@ def gap_cut(before: float, after: float, floor: float) -> float:
 
 
 def _changes(n) -> list[str]:
-    """Change lines of one recalibrated effect, with its bootstrap confidence."""
+    """Change lines of one recalibrated effect, with its bootstrap confidence (and claim)."""
     return [
-        f"{line} (confidence {n.confidence:.0%})"
+        f"{line} (confidence {n.confidence:.0%}{'' if n.claimed else '; ' + _claim(n)})"
         for line in change_lines(n.name, n.before, n.params, n.sigma)
     ]
 
@@ -183,7 +191,13 @@ def summary(res: Result) -> dict:
     """The --json object."""
     return {
         "effects": [
-            {"name": n.name, "params": n.params, "sigma": n.sigma, "confidence": n.confidence}
+            {
+                "name": n.name,
+                "params": n.params,
+                "sigma": n.sigma,
+                "confidence": n.confidence,
+                "claimed": n.claimed,
+            }
             for n in res.effects
         ],
         "recalibrated": [
@@ -195,6 +209,7 @@ def summary(res: Result) -> dict:
                 "sigma": n.sigma.get(p),
                 "plausible": plausible(n.name, p, v),
                 "confidence": n.confidence,
+                "claimed": n.claimed,
             }
             for n in res.recalibrated
             if n.before is not None
