@@ -113,9 +113,10 @@ def test_integer_reference_loads_no_plant_or_torch():
 
 
 def test_unpickling_only_behind_the_opt_in():
-    """`weights_only=False` appears once, in fit.modelfile.unpickle_trusted; every allow_pickle parameter in
-    seagen defaults to False (the CLI flags are store_true: off unless given)."""
-    unsafe, defaults = [], []
+    """`weights_only=False` appears once, in fit.modelfile.safe_load, inside its `if allow_pickle:` branch;
+    every allow_pickle parameter in seagen defaults to False (the CLI flags are store_true: off unless
+    given)."""
+    unsafe, guarded, defaults = [], [], []
     for path in sorted(ROOT.rglob("*.py")):
         tree = ast.parse(path.read_text(), str(path))
         for fn in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef | ast.AsyncFunctionDef)):
@@ -125,8 +126,19 @@ def test_unpickling_only_behind_the_opt_in():
             for a, d in zip(args, vals, strict=True):
                 if a.arg == "allow_pickle" and not (isinstance(d, ast.Constant) and d.value is False):
                     defaults.append(f"{path.name}:{fn.name}")
-            for kw in (k for c in ast.walk(fn) if isinstance(c, ast.Call) for k in c.keywords):
-                if kw.arg == "weights_only" and not (isinstance(kw.value, ast.Constant) and kw.value.value):
-                    unsafe.append(f"{path.name}:{fn.name}")
-    assert unsafe == ["modelfile.py:unpickle_trusted"], unsafe
+            opt_in = [
+                c
+                for i in ast.walk(fn)
+                if isinstance(i, ast.If) and isinstance(i.test, ast.Name) and i.test.id == "allow_pickle"
+                for b in i.body
+                for c in ast.walk(b)
+            ]
+            for call in (c for c in ast.walk(fn) if isinstance(c, ast.Call)):
+                for kw in call.keywords:
+                    if kw.arg == "weights_only" and not (
+                        isinstance(kw.value, ast.Constant) and kw.value.value
+                    ):
+                        where = f"{path.name}:{fn.name}"
+                        (guarded if any(call is c for c in opt_in) else unsafe).append(where)
+    assert guarded == ["modelfile.py:safe_load"] and not unsafe, (guarded, unsafe)
     assert not defaults, f"allow_pickle without a False default: {defaults}"

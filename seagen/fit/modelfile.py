@@ -120,12 +120,13 @@ PICKLE_HINT = (
 
 def safe_load(p: Path, allow_pickle: bool = False) -> Any:
     """torch.load with weights_only=True and the torch.nn allowlist; only the user's explicit
-    --allow-pickle (allow_pickle=True, never a default) hands the file to `unpickle_trusted`."""
+    --allow-pickle (allow_pickle=True, never a default) unpickles, which RUNS the code the file carries
+    (export, evaluate, verify)."""
     import torch
 
     try:
         if allow_pickle:
-            return unpickle_trusted(p)
+            return torch.load(p, map_location="cpu", weights_only=False)
         with torch.serialization.safe_globals(nn_allowlist()):
             return torch.load(p, map_location="cpu", weights_only=True)
     except Exception as e:  # torch raises many types for corrupt or refused files
@@ -134,13 +135,6 @@ def safe_load(p: Path, allow_pickle: bool = False) -> Any:
             raise UserError(f"{p}: {PICKLE_HINT}") from None
         first = text.strip().splitlines()[0] if text.strip() else type(e).__name__
         raise UserError(f"{p}: not a readable torch file: {first}") from None
-
-
-def unpickle_trusted(p: Path) -> Any:
-    """RUNS the code a pickle carries: reached only through --allow-pickle (export, evaluate, verify)."""
-    import torch
-
-    return torch.load(p, map_location="cpu", weights_only=False)
 
 
 def load_model(path: str | os.PathLike[str], allow_pickle: bool = False) -> dict[str, Any]:
