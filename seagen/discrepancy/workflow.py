@@ -135,14 +135,18 @@ def _apply(cfg: PlantConfig, params: ParamSet) -> PlantConfig:
     return cfg
 
 
+def _held_out(cfg: PlantConfig, sets: list[ParamSet], k: np.ndarray, held: Runs, sig_h):
+    """Held-out chi-square per set and trial, and each set's BIC penalty k ln n (k fitted parameters)."""
+    return objective(cfg, sets, held, sig_h), k * np.log(n_scored(held))
+
+
 def _score(cfg, cands, held, sig_h, rng) -> tuple[pd.DataFrame, np.ndarray]:
     """Held-out chi-square, BIC and RMS per candidate (row 0 = no change), bootstrap win counts."""
-    chi = objective(cfg, [{}] + [c.params() for c in cands], held, sig_h)
-    n = n_scored(held)
     k = np.array([0] + [len(c.keys) for c in cands])
-    bic = chi.sum(axis=1) + k * np.log(n)
+    chi, penalty = _held_out(cfg, [{}] + [c.params() for c in cands], k, held, sig_h)
+    bic = chi.sum(axis=1) + penalty
     boot = rng.integers(0, chi.shape[1], size=(BOOTSTRAP, chi.shape[1]))
-    wins = np.argmin(chi[:, boot].sum(axis=2) + (k * np.log(n))[:, None], axis=0)
+    wins = np.argmin(chi[:, boot].sum(axis=2) + penalty[:, None], axis=0)
     table = pd.DataFrame(
         {
             "candidate": ["(none)"] + [c.label for c in cands],
@@ -151,7 +155,7 @@ def _score(cfg, cands, held, sig_h, rng) -> tuple[pd.DataFrame, np.ndarray]:
             "k": k,
             "chi2_fit": [np.nan] + [c.chi2_fit if np.isfinite(c.chi2_fit) else np.nan for c in cands],
             "bic_held_out": bic,
-            "rms_held_out": np.sqrt(chi.sum(axis=1) / n),
+            "rms_held_out": np.sqrt(chi.sum(axis=1) / n_scored(held)),
         }
     )
     return table, wins
@@ -252,12 +256,12 @@ def _prune(base: PlantConfig, named: list[Named], fit: Runs, held: Runs, sig_f, 
     effect removed, a recalibration put back to the base's values; the rest re-polished), and the
     cheapest undo is taken while it costs the held-out BIC less than DBIC_MIN, the evidence needed to
     name an effect (a near-zero partner of a pair, a parameter moved along with the real change)."""
-    n = n_scored(held)
     while named:
         drops = _refit_all(base, [[m for m in named if m is not x] for x in named], fit, sig_f, POLISH_NFEV)
         groups = [named, *drops]
-        chi = objective(base, [{m.name: m.params for m in grp} for grp in groups], held, sig_h).sum(axis=1)
-        bic = chi + np.array([sum(len(m.params) for m in grp) for grp in groups]) * np.log(n)
+        k = np.array([sum(len(m.params) for m in grp) for grp in groups])
+        chi, penalty = _held_out(base, [{m.name: m.params for m in grp} for grp in groups], k, held, sig_h)
+        bic = chi.sum(axis=1) + penalty
         best = 1 + int(np.argmin(bic[1:]))
         if bic[best] - bic[0] >= DBIC_MIN:
             break
