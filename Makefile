@@ -48,9 +48,9 @@ format: venv
 	$(VENV)/bin/ruff check --fix .
 
 # seagen's kernels (portable and per core) against emlearn's float MLP and a plain float loop, on emulated
-# Cortex-M4 and M0+; writes the tables between the bench markers of README.md (~2.5 min).
+# Cortex-M4 and M0+; writes the tables between the bench markers of docs/benchmarks.md (~2.5 min).
 bench: venv
-	$(PY) -m seagen.bench.compare --readme README.md
+	$(PY) -m seagen.bench.compare --readme docs/benchmarks.md
 
 clean:
 	rm -rf $(DEMO) build dist *.egg-info .pytest_cache

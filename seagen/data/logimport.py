@@ -1,6 +1,6 @@
 """A rig's log -> seagen's CSV schema: a TOML column map with units, trials, resampling to 100 Hz.
 
-The map (see README "Reading a rig's logs"):
+The map (see README "Data from your rig"):
 
     [columns.t_s]            column = "time_ms", unit = "ms"      # required: time, any sample rate
     [columns.trial]          column = "run"                        # optional
