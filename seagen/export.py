@@ -14,9 +14,9 @@ from typing import Any
 from seagen.atomic import writable_place
 from seagen.codegen.cfmt import assert_valid_prefix
 from seagen.codegen.manifest import SUFFIX, manifest_text
+from seagen.codegen.quant_summary import summary_lines
 from seagen.codegen.render import RUNTIME, model_hash, render
 from seagen.codegen.runtime import runtime_sources
-from seagen.codegen.summary import summary_lines
 from seagen.codegen.targets import RUNTIME as TARGET_RUNTIME
 from seagen.codegen.targets import check_target
 from seagen.errors import CheckFailed, UserError
@@ -96,7 +96,7 @@ def prepare(
         raise CheckFailed(f"{model_path}: {rep.line()}")
     files = {**render(qm, prefix, target), **runtime_sources(*RUNTIME, *TARGET_RUNTIME[check_target(target)])}
     if controller:
-        from seagen.control.firmware import controller_files
+        from seagen.codegen.controller import controller_files
 
         files.update(controller_files(prefix, qm))
     onnx_bytes = None

@@ -14,7 +14,7 @@ import torch
 
 from seagen.cli import main
 from seagen.defaults import GENERATED
-from seagen.fit.modelfile import load_model
+from seagen.modelfile import load_model
 from tests import table_models as T
 
 SF = GENERATED / "models" / "sf_calibration.pt"
@@ -123,10 +123,10 @@ def test_misread_model_exits_1_and_writes_nothing(tmp_path, monkeypatch, capsys)
 
 def test_failed_check_exits_1_and_writes_nothing(tmp_path, monkeypatch, capsys):
     """--check that finds a disagreement: exit 1 and nothing in --out."""
-    import seagen.build.equivalence as eq
+    import seagen.datacheck as dc
 
-    bad = eq.DataReport([eq.Check("x", 1, {"C": "row 0"})], 0.0, "N", 0.0)
-    monkeypatch.setattr(eq, "check_data_dir", lambda ex, d: bad)
+    bad = dc.DataReport([dc.Check("x", 1, {"C": "row 0"})], 0.0, "N", 0.0)
+    monkeypatch.setattr(dc, "check_data_dir", lambda ex, d: bad)
     out = tmp_path / "out"
     assert main(["export", str(SF), "--out", str(out), "--check", str(tmp_path)]) == 1
     assert "MISMATCH" in capsys.readouterr().out
@@ -135,10 +135,10 @@ def test_failed_check_exits_1_and_writes_nothing(tmp_path, monkeypatch, capsys):
 
 def test_bare_network_exports_infer_alone(files, tmp_path):
     """Inputs x0..x2 (not SEA features): NAME_infer only, no NAME_step or state; the C equals numpy."""
-    from seagen.build.equivalence import random_inputs
-    from seagen.build.model import CModel
     from seagen.export import prepare
     from seagen.reference import numpy_ref
+    from seagen.toolchain.equivalence import random_inputs
+    from seagen.toolchain.model import CModel
 
     ex = prepare(str(files["seq"]), prefix="bare", features=str(files["bare"]))
     h = ex.files["bare.h"]
@@ -198,7 +198,7 @@ def test_evaluate_refuses_pickles(tmp_path):
 def test_default_models_load_weights_only():
     """generated/models/*.pt (a pickled nn.Sequential inside a dict) load with weights_only=True and the
     torch.nn allowlist: every global they name is on it."""
-    from seagen.fit.modelfile import nn_allowlist, safe_load
+    from seagen.modelfile import nn_allowlist, safe_load
 
     allowed = {f"{c.__module__}.{c.__qualname__}" for c in nn_allowlist()}
     for p in sorted((GENERATED / "models").glob("*.pt")):

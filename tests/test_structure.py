@@ -1,4 +1,4 @@
-"""seagen's packages import in one direction: the package import graph has no cycle."""
+"""seagen's packages import in one direction: downward through the layers of LAYERS, with no cycle."""
 
 from __future__ import annotations
 
@@ -73,6 +73,63 @@ def find_cycle(graph: dict[str, dict[str, str]]) -> list[str]:
     return []
 
 
+# The layers, bottom-up (README "How it is built"). BOTTOM is shared by both sides; the physics side (the
+# simulated actuator and what is fitted to it) and the compiler side (model -> C) never import each other;
+# the drivers on top join them. A package imports only packages listed before it in its own list or in a
+# list below it (BOTTOM for a side; BOTTOM and both sides for the drivers).
+BOTTOM = [
+    "__version__", "errors", "c_runtime", "actuators", "atomic", "actuator", "geometry", "ir", "plotting",
+    "modelfile", "defaults", "runtime",
+]  # fmt: skip
+PHYSICS = ["plant", "data", "fit", "discrepancy"]
+COMPILER = ["quant", "frontends", "reference", "codegen", "toolchain"]
+DRIVERS = ["control", "datacheck", "export", "verify", "bench", "testing", "demo", "cli"]
+
+
+def allowed(src: str) -> set[str]:
+    """The packages `src` may import."""
+    for i, layer in enumerate((BOTTOM, PHYSICS, COMPILER, DRIVERS)):
+        if src in layer:
+            below = set(layer[: layer.index(src)]) | set(BOTTOM)
+            return below | (set(PHYSICS) | set(COMPILER) if i == 3 else set())
+    raise AssertionError(f"package '{src}' is in no layer of tests/test_structure.py: place it")
+
+
+def violations(graph: dict[str, dict[str, str]]) -> list[str]:
+    """Every import of a package not below the importer, as 'src -> dst (file)'."""
+    return [
+        f"{src} -> {dst} ({where})"
+        for src, dsts in sorted(graph.items())
+        for dst, where in sorted(dsts.items())
+        if dst not in allowed(src)
+    ]
+
+
+def test_packages_import_only_lower_layers():
+    """Every package (function-level imports included) imports only packages below it in LAYERS."""
+    graph = package_graph()
+    for name in {n for n in graph} | {d for ds in graph.values() for d in ds}:
+        allowed(name)  # every package is placed
+    assert not violations(graph), "imports from a higher layer or across sides: " + "; ".join(
+        violations(graph)
+    )
+
+
+def test_layer_checker_finds_planted_violations():
+    """The checker itself: an import across the sides, an upward import and a driver import are found."""
+    planted = {
+        "plant": {"codegen": "seagen/plant/x.py", "geometry": "seagen/plant/sim.py"},
+        "quant": {"reference": "seagen/quant/y.py"},
+        "toolchain": {"export": "seagen/toolchain/z.py"},
+        "cli": {"plant": "seagen/cli/data.py"},
+    }
+    assert violations(planted) == [
+        "plant -> codegen (seagen/plant/x.py)",
+        "quant -> reference (seagen/quant/y.py)",
+        "toolchain -> export (seagen/toolchain/z.py)",
+    ]
+
+
 def test_package_imports_form_a_dag():
     """No cycle between seagen's packages (each top-level module counts as its own node)."""
     graph = package_graph()
@@ -105,7 +162,7 @@ def test_integer_reference_loads_no_plant_or_torch():
     import sys
 
     probe = (
-        "import sys, seagen.reference.numpy_ref, seagen.quant.primitives, seagen.quant.kernels;"
+        "import sys, seagen.reference.numpy_ref, seagen.runtime.fixed, seagen.runtime.nn;"
         "print(sorted(m for m in sys.modules if m.startswith(('seagen.plant', 'seagen.data', 'torch'))))"
     )
     res = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)

@@ -131,7 +131,7 @@ def test_assert_equivalent_raises_with_the_report(tmp_path):
 def test_cortex_m4_core(tmp_path, capsys):
     """--core cortex-m4 builds the C on disk with arm-none-eabi-gcc and runs it in unicorn: exit 0."""
     pytest.importorskip("unicorn")
-    from seagen.build.cortexm import toolchain_missing
+    from seagen.toolchain.cortexm import toolchain_missing
 
     if msg := toolchain_missing():
         pytest.skip(msg)
@@ -172,7 +172,7 @@ def test_bare_network_export_verifies_without_step(tmp_path, capsys):
     for core in ("host", "cortex-m0plus"):
         if core != "host":
             pytest.importorskip("unicorn")
-            from seagen.build.cortexm import toolchain_missing
+            from seagen.toolchain.cortexm import toolchain_missing
 
             if toolchain_missing():
                 continue

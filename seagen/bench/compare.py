@@ -25,11 +25,11 @@ import numpy as np
 from seagen.bench import glove as G
 from seagen.bench import run as B
 from seagen.bench.mcu import FLOAT_FLAGS, float_source, macs
-from seagen.build import cortexm as cm
-from seagen.build.elfinfo import library_helpers
-from seagen.build.host import compile_objects
-from seagen.build.mcu_trace import disassemble, traced_call
 from seagen.defaults import DEFAULT_PREFIX, default_model
+from seagen.toolchain import cortexm as cm
+from seagen.toolchain.elfinfo import library_helpers
+from seagen.toolchain.host import compile_objects
+from seagen.toolchain.mcu_trace import disassemble, traced_call
 
 DATA_AT = 0x20020000  # .data/.bss of the float implementations (the arguments sit at 0x20000000)
 LINKER = cm.LINKER_SCRIPT.replace(
@@ -306,7 +306,7 @@ def main(argv: list[str] | None = None) -> int:
         + "\n\nThe glove's load: `examples/firmware` built from exports with the core's `--target`, mean of "
         + f"ticks {G.TRACED.start}-{G.TRACED.stop - 1} of its sensor sequence (`seagen/bench/glove.py`):\n\n"
         + G.table(glove)
-        + "\n\nGoals of issue 12 (cycles from the model in `seagen/build/mcu_trace.py`):\n\n"
+        + "\n\nGoals of issue 12 (cycles from the model in `seagen/toolchain/mcu_trace.py`):\n\n"
         + goals(rows, fw, glove)
     )
     if args.readme:

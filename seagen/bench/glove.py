@@ -5,7 +5,7 @@ The example's glove.c/.h are taken as they are (cal_mlp + the ctl_mlp controller
 models (e.g. the SF control predictor) the prefixes cal_mlp / ctl_mlp in their text are replaced by the
 other models' prefixes, nothing else. Sensor sequence: `sensors` (random walks of the raw counts, desired
 forces stepping every 40 ticks), the same one tests/test_firmware_example.py checks against the Python twins.
-Cycles: the model in seagen/build/mcu_trace.py; the load is cycles per tick / (48 MHz / 100 Hz).
+Cycles: the model in seagen/toolchain/mcu_trace.py; the load is cycles per tick / (48 MHz / 100 Hz).
 """
 
 from __future__ import annotations
@@ -17,10 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from seagen.build import cortexm as cm
-from seagen.build.host import compile_objects
-from seagen.build.mcu_trace import disassemble, traced_call
 from seagen.defaults import DEFAULT_PREFIX, default_model
+from seagen.toolchain import cortexm as cm
+from seagen.toolchain.host import compile_objects
+from seagen.toolchain.mcu_trace import disassemble, traced_call
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "firmware"
 N_SEA, TICKS = 7, 120
@@ -50,14 +50,14 @@ class GloveLoad:
 
 def sensors(seed: int, ticks: int = TICKS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(enc, pot, desired force Q16) per tick and actuator: random walks, forces stepping within range."""
-    from seagen.control.controller import sensor_walk
+    from seagen.runtime.control import sensor_walk
 
     return sensor_walk(seed, ticks, (N_SEA,), start=(300, 1200), force_n=(1.0, 15.0), hold=40)
 
 
 def glove_files(target: str = "portable", cal: str = "cal_mlp", ctl: str = "ctl_mlp") -> dict[str, str]:
     """What the example's README exports into one folder (with `--target target`), plus glove.c/.h."""
-    from seagen.control.firmware import controller_files
+    from seagen.codegen.controller import controller_files
     from seagen.export import prepare
 
     c = prepare(str(default_model(MODEL_OF[cal])), prefix=cal, target=target)

@@ -3,10 +3,10 @@
 For every model NAME in DIR (a header declaring NAME_infer) and each core: executed instructions of
 NAME_infer (inputs drawn across the calibrated box), NAME_step (a synthetic raw enc/pot run after NAME_reset)
 and, for a control predictor (NAME_predict_q16), one controller tick (sea_control_step with the predictor
-and the tuned PID, templates/bench_tick.c.j2); a cycle estimate (seagen/build/mcu_trace.py); flash (.text +
-.rodata of an image linked from that entry point alone, library helpers included) and RAM (.data + .bss);
-the stack: static worst case from -fstack-usage over the call graph, and the deepest stack measured; every
-library helper linked (float ones must be none) and an ISA check of every executed instruction.
+and the tuned PID, templates/bench_tick.c.j2); a cycle estimate (seagen/toolchain/mcu_trace.py);
+flash (.text + .rodata of an image linked from that entry point alone, library helpers included) and RAM
+(.data + .bss); the stack: static worst case from -fstack-usage over the call graph, and the deepest stack
+measured; every library helper linked (none may be float) and an ISA check of each executed instruction.
 """
 
 from __future__ import annotations
@@ -20,11 +20,11 @@ from pathlib import Path
 import numpy as np
 
 from seagen import __version__
-from seagen.build import cortexm as cm
-from seagen.build.elfinfo import library_helpers, stack_usage, static_stack
-from seagen.build.host import compile_objects
-from seagen.build.mcu_trace import Trace, disassemble, traced_call
 from seagen.errors import UserError
+from seagen.toolchain import cortexm as cm
+from seagen.toolchain.elfinfo import library_helpers, stack_usage, static_stack
+from seagen.toolchain.host import compile_objects
+from seagen.toolchain.mcu_trace import Trace, disassemble, traced_call
 
 FLOAT_HELPER = re.compile(  # soft-float helpers of libgcc (AEABI and GCC names); integer helpers do not match
     r"^__(aeabi_([fd][a-z0-9]+|u?[il]2[fd])|(add|sub|mul|div|neg)[sdt]f3|(eq|ne|lt|le|gt|ge|un|cmp)[sdt]f2"
@@ -93,7 +93,7 @@ def _trajectory(n: int) -> tuple[np.ndarray, np.ndarray]:
 def _tick_driver(prefix: str) -> dict[str, str]:
     """The controller-tick driver of a control predictor with the tuned PID (templates/bench_tick.c.j2)."""
     from seagen.codegen.render import environment
-    from seagen.control.controller import MLP_PRED_AVG, ControlConfig
+    from seagen.runtime.control import MLP_PRED_AVG, ControlConfig
 
     c = ControlConfig()
     text = (

@@ -84,7 +84,7 @@ def cmd_import(args: argparse.Namespace) -> int:
 
 def cmd_summary(args: argparse.Namespace) -> int:
     """Print the summary of a data directory."""
-    from seagen.summary import format_summary, summarize
+    from seagen.fit.data_summary import format_summary, summarize
 
     s = summarize(args.dir)
     print(json.dumps(s, indent=2) if args.json else format_summary(s))

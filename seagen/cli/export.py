@@ -75,7 +75,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         target=args.target,
     )
     if args.check:
-        from seagen.build.equivalence import check_data_dir
+        from seagen.datacheck import check_data_dir
 
         rep = check_data_dir(ex, args.check)
         print(rep.report())

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from seagen.atomic import atomic_path, writable_place
-from seagen.build.targets import NAMES
+from seagen.toolchain.targets import NAMES
 
 
 def register(sub: argparse._SubParsersAction) -> None:

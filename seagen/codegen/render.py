@@ -11,11 +11,11 @@ import numpy as np
 
 from seagen import __version__
 from seagen.codegen.cfmt import assert_valid_prefix, c_array, c_int
-from seagen.codegen.summary import buffer_width, summary_lines
+from seagen.codegen.quant_summary import buffer_width, summary_lines
 from seagen.codegen.targets import kernel_context
 from seagen.ir import QMLP, QSF, QLayer, QModel
-from seagen.quant import features as F
-from seagen.quant.primitives import linkage_table_q16
+from seagen.runtime import features as F
+from seagen.runtime.fixed import linkage_table_q16
 
 RUNTIME = ("sea_fixed.h", "sea_fixed.c", "sea_nn.h", "sea_nn.c", "sea_features.h", "sea_features.c")
 

@@ -6,9 +6,9 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
-from seagen.control.controller import MLP_PRED_AVG, ControlConfig
 from seagen.control.loop import CloudPredictor, McuPredictor, run_closed_loop
 from seagen.control.predictors import generated_cloud, generated_mcu, kinematic_mcu
+from seagen.runtime.control import MLP_PRED_AVG, ControlConfig
 
 TARGETS_N = (5.0, 10.0, 15.0)
 CONTACT_DEG = tuple(float(a) for a in np.linspace(7.0, 25.0, 10))  # ten contact angles

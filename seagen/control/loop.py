@@ -9,9 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from seagen.control.controller import ControlConfig, ControlState, Predictor, control_reset, control_step, q16
-from seagen.control.controller import set_desired as py_set_desired
 from seagen.plant import Plant, PlantConfig
+from seagen.runtime.control import ControlConfig, ControlState, Predictor, control_reset, control_step, q16
+from seagen.runtime.control import set_desired as py_set_desired
 
 PLANT_STEPS_PER_TICK = 10  # 1 kHz plant, 100 Hz controller
 TICK_S = 0.01
@@ -85,7 +85,7 @@ def make_controller(impl: str, pred: McuPredictor | CloudPredictor, c: ControlCo
         c = replace(c, predictor=None)
     if impl == "py":
         return PyController(c)
-    from seagen.control.cbuild import CController, build_control
+    from seagen.toolchain.controller import CController, build_control
 
     if isinstance(pred, McuPredictor):
         mod = build_control(pred.cdef, pred.sources)

@@ -14,11 +14,11 @@ from typing import Any
 import numpy as np
 
 from seagen.errors import UserError, not_a_file
-from seagen.fit.modelfile import FORMAT, FeatureSpec
 from seagen.frontends import Network, read_module, read_onnx
 from seagen.frontends.margin import float32_margin
 from seagen.frontends.torch_files import load_torch
 from seagen.ir import FloatLayer, FloatMLP, FloatModel, FloatSF, Signal
+from seagen.modelfile import FORMAT, FeatureSpec
 from seagen.quant.qformat import widened, widened_box
 
 UNITS = {"pot": "count", "enc": "count", "angle_deg": "deg", "compression_mm": "mm", "force_n": "N"}

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from seagen.errors import UserError
-from seagen.fit.modelfile import PICKLE_HINT, is_pt2, is_torchscript, safe_load, zip_members
+from seagen.modelfile import PICKLE_HINT, is_pt2, is_torchscript, safe_load, zip_members
 
 
 def load_torch(p: Path, allow_pickle: bool = False) -> Any:

@@ -8,11 +8,12 @@ import numpy as np
 
 from seagen.errors import UserError
 from seagen.ir import QMLP, FloatLayer, FloatMLP, QInput, QLayer, QTable
-from seagen.quant.activations import TABLE_OUT_FRAC, make_table
 from seagen.quant.bound import mlp_error_bound
-from seagen.quant.features import frac_cap, source_of
-from seagen.quant.primitives import rshift_rne
+from seagen.quant.interval import acc_interval
 from seagen.quant.qformat import frac_for, quantize, widened
+from seagen.runtime.activations import TABLE_OUT_FRAC, make_table
+from seagen.runtime.features import frac_cap, source_of
+from seagen.runtime.fixed import rshift_rne
 
 INT16_MAX = 2**15 - 1
 ACC32_LIMIT = 2**31 - 1
@@ -31,18 +32,6 @@ def quantize_inputs(model: FloatMLP) -> tuple[QInput, ...]:
             raise UserError(f"input '{s.name}': range [{s.lo}, {s.hi}] cannot be represented in int16")
         out.append(QInput(s, f, lo_q, hi_q, source_of(s.name, f)))
     return tuple(out)
-
-
-def _acc_bounds(w_q: np.ndarray, b_q: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple:
-    """Exact integer interval of W x + b over the box, and the worst partial-sum magnitude."""
-    w = w_q.astype(object)
-    a, c = w * lo.astype(object)[None, :], w * hi.astype(object)[None, :]
-    mn = np.minimum(a, c).sum(axis=1) + b_q.astype(object)
-    mx = np.maximum(a, c).sum(axis=1) + b_q.astype(object)
-    worst = (abs(w) * np.maximum(abs(lo), abs(hi)).astype(object)[None, :]).sum(axis=1) + abs(
-        b_q.astype(object)
-    )
-    return mn, mx, max(worst)
 
 
 def _out_frac(mn: np.ndarray, mx: np.ndarray, acc_frac: int, activation: str) -> int:
@@ -64,7 +53,8 @@ def quantize_layer(
     w_q = quantize(w_eff, w_frac)
     acc_frac = w_frac + in_frac
     b_q = quantize(layer.bias, acc_frac)
-    mn, mx, worst = _acc_bounds(w_q, b_q, lo, hi)
+    mn, mx, per_neuron = acc_interval(w_q, b_q, lo, hi)
+    worst = max(per_neuron)
     if worst >= 2**62:
         raise UserError(f"layer {index}: accumulator bound 2^{int(worst).bit_length()} exceeds int64")
     out_frac = _out_frac(mn, mx, acc_frac, layer.activation)

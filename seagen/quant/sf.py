@@ -9,8 +9,8 @@ import numpy as np
 from seagen.errors import UserError
 from seagen.ir import QSF, FloatSF, QHorner
 from seagen.quant.mlp import INT16_MAX, quantize_inputs
-from seagen.quant.primitives import rshift_rne
 from seagen.quant.qformat import frac_for, widened
+from seagen.runtime.fixed import rshift_rne
 
 REG_LIMIT = 2**30  # registers keep a bit of headroom below int32
 # Every product is shifted right by at least 16: the M4 kernel then takes the high word of one SMMUL/SMMLA

@@ -6,11 +6,12 @@ from pathlib import Path
 
 import numpy as np
 
-from seagen.build.equivalence import check_data_dir, compare, edge_inputs, random_inputs, step_problem
-from seagen.build.targets import NAMES, build_target
 from seagen.codegen.manifest import Manifest
+from seagen.datacheck import check_data_dir
 from seagen.errors import CheckFailed, UserError
 from seagen.reference import onnx_ref
+from seagen.toolchain.equivalence import compare, edge_inputs, random_inputs, step_problem
+from seagen.toolchain.targets import NAMES, build_target
 from seagen.verify.drift import check_drift, select
 from seagen.verify.result import Verdict
 
@@ -57,7 +58,7 @@ def synthetic_trials(qm, n_trials: int = 4, n: int = 400, seed: int = 0):
 
 def check_steps(v: Verdict, ex, target, data: str | None, onnx_model) -> None:
     """NAME_step on the recorded trials of DATA (test, validation), or on synthetic sequences in the box."""
-    from seagen.quant.features import external_inputs
+    from seagen.runtime.features import external_inputs
 
     qm, p = ex.qmodel, ex.prefix
     ext_names = external_inputs(qm)
@@ -97,7 +98,7 @@ def verify(
 ) -> Verdict:
     """Every check of `seagen verify`, in order: drift first, then numbers (see the README, "Use in CI")."""
     from seagen.codegen.render import model_hash
-    from seagen.quant.features import has_pipeline
+    from seagen.runtime.features import has_pipeline
 
     if core not in NAMES:
         raise UserError(f"--core must be one of {', '.join(NAMES)}, not {core!r}")

@@ -12,9 +12,9 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from seagen import __version__
-from seagen.codegen.runtime import runtime_sources
+from seagen.codegen.runtime import CONTROL_RUNTIME, runtime_sources
 from seagen.ir import QModel
-from seagen.quant.features import external_inputs, has_pipeline, is_predictor
+from seagen.runtime.features import external_inputs, has_pipeline, is_predictor
 
 # NAME_tick_batch's parameter words: the sea_control_config fields, in order, with their C types.
 TICK_FIELDS = (
@@ -24,7 +24,6 @@ TICK_FIELDS = (
     *((f, "int32_t") for f in ("predict_every", "pred_avg", "force_min", "force_max")),
     *((f, "int32_t") for f in ("enc_jump_max", "pot_stuck_ticks")),
 )
-CONTROL_RUNTIME = ("sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c")
 
 
 def driver_sources(prefix: str, qm: QModel) -> dict[str, str]:

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from seagen.build.cortexm import CPUS, CortexM
-from seagen.build.model import CModel
-from seagen.build.target import Target
 from seagen.errors import UserError
 from seagen.ir import QModel
+from seagen.toolchain.cortexm import CPUS, CortexM
+from seagen.toolchain.model import CModel
+from seagen.toolchain.target import Target
 
 NAMES = ("host", *CPUS)
 

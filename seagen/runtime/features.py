@@ -18,8 +18,8 @@ import numpy as np
 from seagen.c_runtime import defines
 from seagen.errors import UserError
 from seagen.ir import FeatureSource, QInput, QModel
-from seagen.quant import kernels as K
-from seagen.quant import primitives as P
+from seagen.runtime import fixed as P
+from seagen.runtime import nn as K
 
 _H = defines("sea_features.h")
 N_BASE = _H["SEA_FEAT_N_BASE"]

@@ -6,7 +6,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from seagen.quant.primitives import COMP_FRAC_BITS, clamp, rshift_rne, sat16, sat32
+from seagen.runtime.fixed import COMP_FRAC_BITS, clamp, rshift_rne, sat16, sat32
 
 GAIN_FRAC = 12  # SEA_PID_GAIN_FRAC
 ALPHA_FRAC = 16  # SEA_PID_ALPHA_FRAC

@@ -6,14 +6,13 @@ from __future__ import annotations
 from dataclasses import fields
 
 from seagen import __version__
-from seagen.build.target import CONTROL_RUNTIME
 from seagen.codegen.cfmt import assert_valid_prefix
 from seagen.codegen.render import environment, model_hash
-from seagen.codegen.runtime import runtime_sources
-from seagen.control.controller import MLP_PRED_AVG, ControlConfig
+from seagen.codegen.runtime import CONTROL_RUNTIME, runtime_sources
 from seagen.errors import UserError
 from seagen.ir import QMLP, QModel
-from seagen.quant.features import is_predictor
+from seagen.runtime.control import MLP_PRED_AVG, ControlConfig
+from seagen.runtime.features import is_predictor
 
 FIELDS = ("predict_every", "pred_avg", "force_min", "force_max", "enc_jump_max", "pot_stuck_ticks")
 
@@ -24,7 +23,7 @@ def shipped_config(qm: QModel) -> ControlConfig:
 
 
 def tick_config(c: ControlConfig) -> dict[str, int]:
-    """The sea_control_config fields of `c` by name (seagen.build.target.TICK_FIELDS), for Target.tick."""
+    """The sea_control_config fields of `c` by name (seagen.toolchain.target.TICK_FIELDS), for Target.tick."""
     pid = {f"pid.{f.name}": int(getattr(c.pid, f.name)) for f in fields(c.pid)}
     return {**pid, **{f: int(getattr(c, f)) for f in FIELDS}}
 

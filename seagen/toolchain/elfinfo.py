@@ -5,8 +5,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from seagen.build import cortexm as cm
-from seagen.build.mcu_trace import reg_count
+from seagen.toolchain import cortexm as cm
+from seagen.toolchain.mcu_trace import reg_count
 
 
 def stack_usage(work: Path) -> dict[str, int]:

@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 
 from seagen.data.features import derive
+from seagen.data.friction import friction_from_trial
 from seagen.data.schema import SPLITS, DataError, load_split
-from seagen.experiments import friction_from_trial
 from seagen.fit.kinematics import ERROR_THRESHOLD_N, kinematics_errors
 
 

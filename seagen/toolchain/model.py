@@ -8,10 +8,10 @@ from types import ModuleType
 
 import numpy as np
 
-from seagen.build.host import build, build_exe
-from seagen.build.target import Target, driver_sources
 from seagen.codegen.runtime import cdef_of
 from seagen.ir import QModel
+from seagen.toolchain.host import build, build_exe
+from seagen.toolchain.target import Target, driver_sources
 
 _CTYPES = {np.dtype(np.int16): "int16_t[]", np.dtype(np.int32): "int32_t[]", np.dtype(np.uint8): "uint8_t[]"}
 

@@ -9,8 +9,7 @@ from typing import Any
 import numpy as np
 
 from seagen.c_runtime import defines
-from seagen.control.pid import DEFAULT_PID, PidParams, PidState, merge, pid_reset, pid_step
-from seagen.quant.primitives import (
+from seagen.runtime.fixed import (
     FORCE_FRAC_BITS,
     POT_MAX,
     compression_q16,
@@ -19,6 +18,7 @@ from seagen.quant.primitives import (
     rshift_rne,
     sat32,
 )
+from seagen.runtime.pid import DEFAULT_PID, PidParams, PidState, merge, pid_reset, pid_step
 
 _C = defines("sea_control.h")  # the header is the one definition of the controller's constants
 FORCE_FRAC = FORCE_FRAC_BITS  # SEA_FORCE_FRAC_BITS: desired force in Q16 N

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from seagen.ir import QMLP, QModel
-from seagen.quant.features import FEATURES, N_BASE, not_computed
-from seagen.quant.primitives import LINK_TABLE_LEN
+from seagen.runtime.features import FEATURES, N_BASE, not_computed
+from seagen.runtime.fixed import LINK_TABLE_LEN
 
 STATE_BYTES = 4 * 2 * N_BASE + 4  # sea_features_state: p1, p2 (int32 per base signal), primed (padded)
 

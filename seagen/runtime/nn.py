@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from seagen.quant.primitives import rshift_rne, sat16, sat32
+from seagen.runtime.fixed import rshift_rne, sat16, sat32
 
 
 def clamp_s16(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

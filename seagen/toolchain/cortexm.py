@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from seagen.build.host import CACHE, STRICT_CFLAGS, _key, compile_objects
-from seagen.build.target import Target, driver_sources, entry_points
 from seagen.errors import UserError
 from seagen.ir import QModel
+from seagen.toolchain.host import CACHE, STRICT_CFLAGS, _key, compile_objects
+from seagen.toolchain.target import Target, driver_sources, entry_points
 
 GCC = "arm-none-eabi-gcc"
 TOOLS = (GCC, "arm-none-eabi-objcopy", "arm-none-eabi-size", "arm-none-eabi-nm")

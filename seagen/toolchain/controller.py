@@ -8,10 +8,9 @@ from types import ModuleType
 
 import numpy as np
 
-from seagen.build import host
 from seagen.codegen.runtime import cdef_of, runtime_sources
-from seagen.control.controller import ControlConfig, KinParams
-from seagen.defaults import GENERATED
+from seagen.runtime.control import ControlConfig, KinParams
+from seagen.toolchain import host
 
 SOURCES = ("sea_fixed.h", "sea_fixed.c", "sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c")
 NN_SOURCES = ("sea_nn.h", "sea_nn.c", "sea_features.h", "sea_features.c")
@@ -25,13 +24,13 @@ def build_control(extra_cdef: str = "", extra_sources: dict[str, str] | None = N
     )
 
 
-def generated_cdef(prefix: str, root: Path = GENERATED) -> str:
+def generated_cdef(prefix: str, root: Path) -> str:
     """cffi declarations of a generated control predictor (its header, after sea_features.h's)."""
     return cdef_of(*runtime_sources("sea_features.h").values(), (root / f"{prefix}.h").read_text())
 
 
-def generated_sources(prefix: str, root: Path = GENERATED) -> dict[str, str]:
-    """The exported {prefix}.c/.h (from generated/) plus the sea_nn runtime they link against."""
+def generated_sources(prefix: str, root: Path) -> dict[str, str]:
+    """The exported {prefix}.c/.h (from the folder root) plus the sea_nn runtime they link against."""
     files = {f"{prefix}{ext}": (root / f"{prefix}{ext}").read_text() for ext in (".h", ".c")}
     return {**runtime_sources(*NN_SOURCES), **files}
 
