@@ -53,17 +53,29 @@ def stop_on_sigterm() -> Iterator[None]:
 
 @contextlib.contextmanager
 def uninterrupted() -> Iterator[None]:
-    """SIGINT and SIGTERM held back inside the block (e.g. while renaming files into place); a signal that
-    arrived meanwhile takes effect when the block ends."""
-    if not hasattr(signal, "pthread_sigmask"):
+    """SIGINT and SIGTERM held back inside the block (e.g. while renaming files into place): a signal that
+    arrives meanwhile takes effect, as it would have, when the block ends. Main thread only (elsewhere the
+    block runs unprotected: Python runs signal handlers in the main thread)."""
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
-    held = {signal.SIGINT, signal.SIGTERM}
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    pending: list[int] = []
+
+    def hold(signum: int, _frame: Any) -> None:
+        pending.append(signum)
+
+    previous = {s: signal.signal(s, hold) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        for s, handler in previous.items():
+            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+        if pending:
+            handler = previous[pending[0]]
+            if callable(handler):
+                handler(pending[0], None)  # raises KeyboardInterrupt / Terminated
+            elif handler != signal.SIG_IGN:
+                os.kill(os.getpid(), pending[0])  # the default action
 
 
 def _die_with_parent(parent: int) -> None:
