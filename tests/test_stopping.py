@@ -204,3 +204,28 @@ def test_racing_exports_leave_a_folder_verify_accepts(tmp_path, capsys):
         assert main(["verify", str(out), "--model", str(sf), "--prefix", prefix, "--vectors", "200"]) == 0
         capsys.readouterr()
     assert not [f for f in out.iterdir() if f.name.startswith(".")]
+
+
+def test_sigterm_during_the_renames_lets_the_export_finish_first(tmp_path, monkeypatch, capsys):
+    """SIGTERM arriving at the first rename of an export: every file and the manifest are in place, nothing
+    staged is left, and then the command stops with 143 and one line."""
+    import json
+
+    import seagen.export as export
+
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signal handlers run in the main thread only")
+    real = os.replace
+
+    def replace(src, dst):
+        if Path(dst).parent == tmp_path and not list(tmp_path.glob("*.c")):
+            os.kill(os.getpid(), signal.SIGTERM)
+        real(src, dst)
+
+    monkeypatch.setattr(export.os, "replace", replace)
+    assert (
+        main(["export", str(default_model("sf_calibration")), "--out", str(tmp_path), "--prefix", "k"]) == 143
+    )
+    assert capsys.readouterr().err.splitlines() == ["seagen: stopped (SIGTERM)"]
+    files = json.loads((tmp_path / "k.seagen.json").read_text())["files"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([*files, "k.seagen.json"])
