@@ -17,8 +17,10 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from concurrent.futures import ProcessPoolExecutor
 
 WATCHDOG_S = 0.5  # how often a worker checks that its parent is still alive
 JOIN_S = 1.0  # how long the parent waits for a killed worker to be gone
@@ -131,6 +133,8 @@ def run_in_workers(
     order; a progress bar on stderr when it is a terminal. `fn` and the items must be picklable. If this
     call stops (an error in a worker, Ctrl-C, SIGTERM under `stop_on_sigterm`) every worker is killed
     before the exception goes on."""
+    from concurrent.futures import ProcessPoolExecutor
+
     from tqdm import tqdm
 
     bar = tqdm(total=len(items), desc=desc, unit=unit, leave=False, disable=None)
