@@ -155,7 +155,8 @@ def run_in_workers(
                 out.append(f.result())
                 bar.update()
         except BaseException:
-            _kill(pool)
+            with uninterrupted():  # a second Ctrl-C does not cut the clean-up short
+                _kill(pool)
             raise
         pool.shutdown(wait=True)
         return out
