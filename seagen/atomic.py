@@ -4,6 +4,7 @@ several files are renamed into (so two commands writing one folder at once leave
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import tempfile
 from collections.abc import Callable, Iterator
@@ -45,7 +46,11 @@ def locked_folder(folder: str | os.PathLike[str]) -> Iterator[Path]:
     fd = os.open(p, os.O_RDONLY) if fcntl is not None else None
     try:
         if fd is not None:
-            fcntl.flock(fd, fcntl.LOCK_EX)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX)
+            except OSError as e:  # a file system without locks (some network mounts): go on unlocked
+                if e.errno not in (errno.ENOLCK, errno.EBADF, errno.EINVAL, errno.EOPNOTSUPP):
+                    raise
         with uninterrupted():
             yield p
     finally:
