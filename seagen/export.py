@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from seagen.atomic import writable_place
+from seagen.atomic import locked_folder, writable_place
 from seagen.codegen.cfmt import assert_valid_prefix
 from seagen.codegen.manifest import SUFFIX, manifest_text
 from seagen.codegen.quant_summary import summary_lines
@@ -145,9 +145,11 @@ def check_out_dir(out_dir: str | os.PathLike[str]) -> Path:
 
 
 def write(ex: Export, out_dir: str | os.PathLike[str]) -> list[Path]:
-    """Write all files atomically: staged in a temporary folder, then renamed in. A NAME.onnx or
-    NAME_controller.{h,c} from an earlier export that this one does not write is removed (it would describe
-    another model or configuration)."""
+    """Write all files atomically: staged in a temporary folder, then renamed in under a lock on the folder
+    (a second export into it waits), the manifest last. A NAME.onnx or NAME_controller.{h,c} from an
+    earlier export that this one does not write is removed (it would describe another model or
+    configuration). Other exports in the folder are not touched (the shared runtime files they also use
+    are rewritten with the same text)."""
     out = check_out_dir(out_dir)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -159,14 +161,16 @@ def write(ex: Export, out_dir: str | os.PathLike[str]) -> list[Path]:
             (stage / name).write_text(text)
         if ex.onnx_bytes is not None:
             (stage / f"{ex.prefix}.onnx").write_bytes(ex.onnx_bytes)
-        written = []
-        for f in sorted(stage.iterdir()):
-            os.replace(f, out / f.name)
-            written.append(out / f.name)
+        manifest = f"{ex.prefix}{SUFFIX}"
+        names = sorted(f.name for f in stage.iterdir() if f.name != manifest) + [manifest]
         own = (f"{ex.prefix}.onnx", f"{ex.prefix}_controller.h", f"{ex.prefix}_controller.c")
-        for name in set(own) - {p.name for p in written}:  # left by an earlier export of NAME
-            (out / name).unlink(missing_ok=True)
-        return written
+        with locked_folder(out):
+            for name in names[:-1]:
+                os.replace(stage / name, out / name)
+            for name in set(own) - set(names):  # left by an earlier export of NAME
+                (out / name).unlink(missing_ok=True)
+            os.replace(stage / manifest, out / manifest)
+        return [out / name for name in sorted(names)]
     except OSError as e:
         raise UserError(f"{out}: cannot write the export: {e.strerror or e}") from None
     finally:

@@ -78,8 +78,8 @@ def find_cycle(graph: dict[str, dict[str, str]]) -> list[str]:
 # the drivers on top join them. A package imports only packages listed before it in its own list or in a
 # list below it (BOTTOM for a side; BOTTOM and both sides for the drivers).
 BOTTOM = [
-    "__version__", "errors", "c_runtime", "actuators", "atomic", "actuator", "geometry", "ir", "plotting",
-    "modelfile", "defaults", "runtime",
+    "__version__", "errors", "c_runtime", "actuators", "atomic", "workers", "actuator", "geometry", "ir",
+    "plotting", "modelfile", "defaults", "runtime",
 ]  # fmt: skip
 PHYSICS = ["plant", "data", "fit", "discrepancy"]
 COMPILER = ["quant", "frontends", "reference", "codegen", "toolchain"]

@@ -56,7 +56,9 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
 
 def _write_splits(out: Path, splits: dict) -> None:
-    """Write every split into a staging folder inside `out`, then rename each into place."""
+    """Write every split into a staging folder inside `out`, then rename each into place under a lock on
+    `out` (two commands writing one folder at once leave the splits of one of them)."""
+    from seagen.atomic import locked_folder
     from seagen.data.schema import save_csv
 
     out.mkdir(parents=True, exist_ok=True)
@@ -64,8 +66,9 @@ def _write_splits(out: Path, splits: dict) -> None:
     try:
         for name, df in splits.items():
             save_csv(df, Path(staged) / f"{name}.csv")
-        for name in splits:
-            os.replace(Path(staged) / f"{name}.csv", out / f"{name}.csv")
+        with locked_folder(out):
+            for name in splits:
+                os.replace(Path(staged) / f"{name}.csv", out / f"{name}.csv")
     finally:
         for f in Path(staged).glob("*"):
             f.unlink()

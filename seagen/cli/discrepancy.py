@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,6 +39,7 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
         return cmd_bench(args)
     if not args.measured or not args.out:
         raise UserError("discrepancy: --measured and --out are required (or use `discrepancy bench`)")
+    from seagen.atomic import locked_folder
     from seagen.discrepancy.replay import load_measured, runs_from_frames
     from seagen.discrepancy.report import summary, write_report
     from seagen.discrepancy.workflow import identify
@@ -46,7 +48,8 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
     base = load_config(args.base) if args.base else PlantConfig()
     runs = runs_from_frames(load_measured(args.measured))
     res = identify(runs, base)
-    write_report(res, args.out, str(args.measured))
+    with locked_folder(Path(args.out).resolve().parent):  # another report onto --out waits, then replaces
+        write_report(res, args.out, str(args.measured))
     s = summary(res)
     if args.json:
         print(json.dumps(s, indent=2))
