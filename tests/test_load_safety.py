@@ -53,6 +53,25 @@ class Eval:
         return (eval, (f"open({str(self.marker)!r}, 'w').close()",))
 
 
+class WithSetstate(nn.Module):
+    """A scripted module with a __setstate__, which torch.jit.load runs when it opens the file."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.fc = nn.Linear(T.N_IN, 1)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:  # noqa: D102
+        return self.fc(x)
+
+    @torch.jit.export
+    def __getstate__(self) -> tuple[torch.Tensor, bool]:  # noqa: D105
+        return (self.fc.weight, self.training)
+
+    @torch.jit.export
+    def __setstate__(self, state: tuple[torch.Tensor, bool]) -> None:  # noqa: D105
+        self.training = state[1]
+
+
 def rewrite(src: Path, dst: Path, change=None, add: dict[str, bytes] | None = None) -> Path:
     """A copy of a zip archive with members changed by change(name, data) -> data and members added."""
     with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dst, "w") as zout:
@@ -182,6 +201,13 @@ def script_global(cls):
     return build
 
 
+def script_setstate(good, d: Path, marker: Path) -> Path:
+    """TorchScript whose code defines __setstate__."""
+    p = d / "setstate.pt"
+    T._quiet(torch.jit.script(WithSetstate()).save, str(p))
+    return p
+
+
 # case -> (builder, the member the one line names, does torch itself run the payload on this file)
 CASES = {
     "old .pt2 layout": (old_layout, "serialized_exported_program.json", True),
@@ -193,6 +219,7 @@ CASES = {
     "TorchScript + unknown member": (script_unknown, "s/bytecode.pkl", False),
     "TorchScript data.pkl names os.system": (script_global(Shell), "s/data.pkl", False),
     "TorchScript data.pkl names builtins.eval": (script_global(Eval), "s/data.pkl", False),
+    "TorchScript code defines __setstate__": (script_setstate, "setstate/code/__torch__/", False),
 }
 
 

@@ -142,3 +142,36 @@ def test_unpickling_only_behind_the_opt_in():
                         (guarded if any(call is c for c in opt_in) else unsafe).append(where)
     assert guarded == ["modelfile.py:safe_load"] and not unsafe, (guarded, unsafe)
     assert not defaults, f"allow_pickle without a False default: {defaults}"
+
+
+def test_torch_archive_readers_only_behind_the_opt_in_or_the_check():
+    """`torch.export.load` is called only inside an `if allow_pickle:` branch (without it a .pt2 is rebuilt
+    from its checked JSON and raw tensors); `torch.jit.load` only there or after `check_torchscript` in the
+    same function."""
+    found: list[tuple[str, str, bool]] = []
+    for path in sorted(ROOT.rglob("*.py")):
+        tree = ast.parse(path.read_text(), str(path))
+        for fn in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)):
+            opt_in = {
+                id(c)
+                for i in ast.walk(fn)
+                if isinstance(i, ast.If) and isinstance(i.test, ast.Name) and i.test.id == "allow_pickle"
+                for b in i.body
+                for c in ast.walk(b)
+            }
+            checked = [
+                c.lineno
+                for c in ast.walk(fn)
+                if isinstance(c, ast.Call)
+                and isinstance(c.func, ast.Name)
+                and c.func.id == "check_torchscript"
+            ]
+            for call in (c for c in ast.walk(fn) if isinstance(c, ast.Call)):
+                name = ast.unparse(call.func)
+                if name.endswith(("export.load", "jit.load")):
+                    ok = id(call) in opt_in or (
+                        name.endswith("jit.load") and any(line < call.lineno for line in checked)
+                    )
+                    found.append((f"{path.name}:{fn.name}", name, ok))
+    assert {n for _w, n, _ok in found} == {"torch.export.load", "torch.jit.load"}, found
+    assert all(ok for _w, _n, ok in found), found
