@@ -329,3 +329,37 @@ def test_custom_class_named(good, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert rc == 2 and len(err.splitlines()) == 1, err
     assert "tests.table_models.Functional" in err and "pass --allow-pickle" in err, err
+
+
+def test_dynamic_batch_pt2_exports(good, tmp_path, capsys, no_torch_readers):
+    """A .pt2 exported with a symbolic batch (its shape expressions are sympy srepr strings) passes the
+    expression check and exports."""
+    p = tmp_path / "dyn.pt2"
+    ep = T._quiet(
+        torch.export.export, good["module"], T.example(), dynamic_shapes=({0: torch.export.Dim("N")},)
+    )
+    torch.export.save(ep, p)
+    rc = main(["export", str(p), "--features", str(good["spec"]), "--out", str(tmp_path / "o")])
+    assert rc == 0, capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "expr, ok",
+    [
+        ("Symbol('s31', positive=True, integer=True)", True),
+        ("Add(Integer(1), Mul(Integer(2), Symbol('s0', integer=True)))", True),
+        ("Max(1, s0) >= 2", True),
+        ("Float('0.5', precision=53)", True),
+        ("__import__('os').system('true')", False),
+        ("open('x', 'w')", False),
+        ("Symbol('s0').func('x')", False),
+        ("getattr(Symbol, 'x')", False),
+        ("(lambda: 1)()", False),
+        ("Symbol('a b')", False),
+    ],
+)
+def test_shape_expressions(expr, ok):
+    """Shape expressions torch writes pass; anything sympify's eval could turn into another call does not."""
+    from seagen.frontends.archives import plain_sym_expr
+
+    assert plain_sym_expr(expr) is ok

@@ -41,59 +41,26 @@ TS_PICKLE_HELPERS = frozenset(
 )
 STORAGE = re.compile(r"torch\.(Float|Double|Half|BFloat16|Long|Int|Short|Char|Byte|Bool)Storage")
 TARGET = re.compile(r"torch\.ops\.\w+\.\w+(\.\w+)?|_operator\.\w+|math\.\w+|torch\._?sym_\w+")
-# what a shape expression of a torch.export program may hold (torch parses it with sympy, which evals)
-SYM_WORD = re.compile(r"[A-Za-z_]\w*")
-SYM_CHARS = re.compile(r"[\w\s+\-*/%().,<>=!]*")
+# what a shape expression of a torch.export program may hold: torch hands it to sympy.sympify, which
+# evaluates it as Python; it is written by sympy's srepr, e.g. "Add(Integer(1), Symbol('s0', integer=True))"
 SYM_FUNCS = frozenset(
-    {
-        "Max",
-        "Min",
-        "Eq",
-        "Ne",
-        "Lt",
-        "Le",
-        "Gt",
-        "Ge",
-        "And",
-        "Or",
-        "Not",
-        "Mod",
-        "Abs",
-        "floor",
-        "ceiling",
-        "Piecewise",
-        "True",
-        "False",
-        "oo",
-        "zoo",
-        "nan",
-        "Integer",
-        "Rational",
-        "Float",
-        "FloorDiv",
-        "ModularIndexing",
-        "Where",
-        "PythonMod",
-        "CleanDiv",
-        "CeilToInt",
-        "FloorToInt",
-        "CeilDiv",
-        "LShift",
-        "RShift",
-        "PowByNatural",
-        "FloatPow",
-        "FloatTrueDiv",
-        "IntTrueDiv",
-        "IsNonOverlappingAndDenseIndicator",
-        "TruncToFloat",
-        "TruncToInt",
-        "RoundToInt",
-        "RoundDecimal",
-        "ToFloat",
-        "Identity",
-    }  # fmt: skip
+    """Symbol Integer Rational Float Add Mul Pow Mod Max Min Abs floor ceiling Eq Ne Lt Le Gt Ge Equality
+    Unequality StrictLessThan LessThan StrictGreaterThan GreaterThan And Or Not Piecewise ExprCondPair
+    BooleanTrue BooleanFalse true false NegativeOne One Zero Half Infinity NegativeInfinity oo zoo nan NaN
+    ComplexInfinity IntInfinity NegativeIntInfinity int_oo FloorDiv ModularIndexing Where PythonMod CleanDiv
+    CeilToInt FloorToInt CeilDiv LShift RShift PowByNatural FloatPow FloatTrueDiv IntTrueDiv ToFloat Identity
+    IsNonOverlappingAndDenseIndicator TruncToFloat TruncToInt RoundToInt RoundDecimal""".split()  # noqa: SIM905
 )
-SYMBOL = re.compile(r"(s|u|zf|zuf|ps|tmp)\d+")
+SYM_KEYWORDS = frozenset(
+    """positive negative nonnegative nonpositive integer real rational finite infinite zero nonzero even odd
+    commutative precision evaluate""".split()  # noqa: SIM905
+)
+SYM_NODES = (
+    ast.Expression, ast.Call, ast.Name, ast.Load, ast.Constant, ast.keyword, ast.BinOp, ast.UnaryOp,
+    ast.Compare, ast.BoolOp, ast.Add, ast.Sub, ast.Mult, ast.Div, ast.FloorDiv, ast.Mod, ast.Pow, ast.USub,
+    ast.UAdd, ast.Not, ast.And, ast.Or, ast.Eq, ast.NotEq, ast.Lt, ast.LtE, ast.Gt, ast.GtE,
+)  # fmt: skip
+SYMBOL = re.compile(r"[A-Za-z]\w{0,30}")
 
 
 def refuse(p: Path, member: str, why: str) -> UserError:
@@ -294,10 +261,35 @@ def _check_program(p: Path, full: str, doc: dict[str, Any]) -> None:
         if not isinstance(target, str) or not TARGET.fullmatch(target):
             raise refuse(p, full, f"node target {target!r} is not a torch operator")
     for expr in _values(doc, "expr_str"):
-        words = SYM_WORD.findall(expr) if isinstance(expr, str) else [""]
-        bad = [w for w in words if w not in SYM_FUNCS and not SYMBOL.fullmatch(w)]
-        if not isinstance(expr, str) or bad or not SYM_CHARS.fullmatch(expr) or "__" in expr:
+        if not plain_sym_expr(expr):
             raise refuse(p, full, f"shape expression {str(expr)[:60]!r} is not plain arithmetic")
+
+
+def plain_sym_expr(expr: Any) -> bool:
+    """A shape expression built only of sympy's arithmetic (calls of the names above, numbers, symbol
+    names as strings, assumption keywords, operators): nothing sympify's eval could turn into a call of
+    anything else (no attribute, subscript, lambda or other name)."""
+    if not isinstance(expr, str) or len(expr) > 2000 or "__" in expr:
+        return False
+    try:
+        tree = ast.parse(expr, mode="eval")
+    except (SyntaxError, ValueError):
+        return False
+    for n in ast.walk(tree):
+        if not isinstance(n, SYM_NODES):
+            return False
+        if isinstance(n, ast.Call) and not (isinstance(n.func, ast.Name) and n.func.id in SYM_FUNCS):
+            return False  # only sympy's names are called
+        if isinstance(n, ast.Name) and n.id not in SYM_FUNCS and not SYMBOL.fullmatch(n.id):
+            return False
+        if isinstance(n, ast.keyword) and n.arg not in SYM_KEYWORDS:
+            return False
+        if isinstance(n, ast.Constant) and not (
+            isinstance(n.value, bool | int | float)
+            or (isinstance(n.value, str) and re.fullmatch(r"[\w.+\-]{1,64}", n.value))
+        ):
+            return False
+    return True
 
 
 def _values(doc: Any, key: str):
