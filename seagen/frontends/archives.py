@@ -21,23 +21,11 @@ OPT_IN = "only --allow-pickle opens it (with torch, which can run code the file 
 META = frozenset({"byteorder", "version", ".data/version", ".data/serialization_id"})
 TS_PICKLES = frozenset({"data.pkl", "constants.pkl", "traced_inputs.pkl"})
 TS_STORAGES = ("data/", "constants/", "traced_inputs/")  # raw storage bytes, e.g. data/0
+# torch's own helpers a TorchScript pickle names (its C++ unpickler implements them; none imports code)
 TS_PICKLE_HELPERS = frozenset(
-    {
-        "torch._utils._rebuild_tensor_v2",
-        "collections.OrderedDict",
-        *(
-            f"torch.jit._pickle.{n}"
-            for n in (
-                "build_intlist",
-                "build_doublelist",
-                "build_boollist",
-                "build_tensorlist",
-                "build_genericlist",
-                "build_tensor_from_id",
-                "restore_type_tag",
-            )  # fmt: skip
-        ),
-    }
+    ["torch._utils._rebuild_tensor_v2", "collections.OrderedDict"]
+    + [f"torch.jit._pickle.{n}" for n in ("restore_type_tag", "build_tensor_from_id", "build_genericlist")]
+    + [f"torch.jit._pickle.build_{t}list" for t in ("int", "double", "bool", "tensor")]
 )
 STORAGE = re.compile(r"torch\.(Float|Double|Half|BFloat16|Long|Int|Short|Char|Byte|Bool)Storage")
 TARGET = re.compile(r"torch\.ops\.\w+\.\w+(\.\w+)?|_operator\.\w+|math\.\w+|torch\._?sym_\w+")
