@@ -210,7 +210,7 @@ def load_with_original(
     kind = file_kind(p)
     if kind == UNKNOWN:
         raise UserError(
-            f"{p}: not a model file seagen reads (by its content it is neither an ONNX model, a torch zip "
+            f"{p}: not a model file seagen reads (by its content it is neither an ONNX model, a readable zip "
             "archive nor a torch pickle)"
         )
     if kind == ONNX:
