@@ -106,6 +106,8 @@ def prepare(
         onnx_bytes = build_onnx(qm, prefix).SerializeToString()
     options = {"weights": weights, "target": target, "calib": calib, "onnx": with_onnx}
     options["controller"] = controller
+    if allow_pickle:  # recorded only when used: torch's own readers opened the file, past the allow-list
+        options["allow_pickle"] = True
     files[f"{prefix}{SUFFIX}"] = export_manifest(qm, prefix, model_path, options, spec, files, onnx_bytes)
     return Export(loaded, qm, prefix, files, rep, onnx_bytes, summary_lines(qm))
 

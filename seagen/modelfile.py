@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from seagen.errors import UserError, not_a_file
+from seagen.filekind import EXPORT, ONNX, TORCHSCRIPT, file_kind, pickle_globals
 
 FORMAT = "seagen-model/1"
 DIFFERENCE_SCHEME = "backward; d=x[n]-x[n-1], dd=x[n]-2x[n-1]+x[n-2]; warm-up x[-1]=x[-2]=x[0]"
@@ -116,6 +117,7 @@ PICKLE_HINT = (
     "it holds Python objects seagen will not unpickle (loading a pickle can run any code); "
     "if you trust this file, pass --allow-pickle"
 )
+NN_LAYERS = "torch.nn.modules."
 
 
 def safe_load(p: Path, allow_pickle: bool = False) -> Any:
@@ -132,9 +134,49 @@ def safe_load(p: Path, allow_pickle: bool = False) -> Any:
     except Exception as e:  # torch raises many types for corrupt or refused files
         text = str(e)
         if "weights_only" in text or "Unsupported global" in text or "Unpickler" in text:
-            raise UserError(f"{p}: {PICKLE_HINT}") from None
+            raise UserError(f"{p}: {refusal(p)}") from None
         first = text.strip().splitlines()[0] if text.strip() else type(e).__name__
         raise UserError(f"{p}: not a readable torch file: {first}") from None
+
+
+def refusal(p: Path) -> str:
+    """Why weights-only loading refused a file, naming the first class it stopped at (read statically):
+    a torch.nn layer seagen does not export is said to be unsupported (--allow-pickle would not help);
+    anything else is code only --allow-pickle unpickles."""
+    import torch
+
+    try:
+        with zipfile.ZipFile(p) as z:
+            pkl = next(n for n in z.namelist() if n.endswith("/data.pkl") or n == "data.pkl")
+            names = pickle_globals(z.read(pkl))
+    except (zipfile.BadZipFile, StopIteration):
+        try:
+            names = pickle_globals(p.read_bytes())
+        except ValueError:
+            return PICKLE_HINT
+    except (OSError, ValueError):
+        return PICKLE_HINT
+    from torch import _weights_only_unpickler as wo
+
+    with torch.serialization.safe_globals(nn_allowlist()):
+        allowed = {*wo._get_allowed_globals(), *wo._get_user_allowed_globals()}
+    unsafe = [g for g in names if g not in allowed]
+    code = [g for g in unsafe if not g.startswith(NN_LAYERS)]
+    if code:
+        return f"it needs {code[0]}, which is not a torch.nn layer seagen reads; {PICKLE_HINT}"
+    if unsafe:
+        layer = unsafe[0].rsplit(".", 1)[-1]
+        return (
+            f"it holds a torch.nn.{layer} layer, which seagen does not export (--allow-pickle would not "
+            f"change that); supported layers: {', '.join(SUPPORTED)}"
+        )
+    return PICKLE_HINT
+
+
+SUPPORTED = (
+    "Linear", "ReLU", "LeakyReLU", "Hardtanh", "ReLU6", "Tanh", "Sigmoid", "BatchNorm1d", "Dropout",
+    "Identity", "Flatten",
+)  # fmt: skip
 
 
 def load_model(path: str | os.PathLike[str], allow_pickle: bool = False) -> dict[str, Any]:
@@ -142,8 +184,7 @@ def load_model(path: str | os.PathLike[str], allow_pickle: bool = False) -> dict
     p = Path(path)
     if not p.is_file():
         raise UserError(not_a_file(p, "model file"))
-    names = zip_members(p)
-    if p.suffix in (".onnx", ".pt2") or is_torchscript(names) or is_pt2(names):
+    if file_kind(p) in (ONNX, TORCHSCRIPT, EXPORT):
         raise UserError(
             f"{p}: not a seagen model file: this command reads the model.pt of `seagen train` "
             "(`seagen export` and `seagen verify` take TorchScript, .pt2 and .onnx models too)"
@@ -152,21 +193,3 @@ def load_model(path: str | os.PathLike[str], allow_pickle: bool = False) -> dict
     if not isinstance(obj, dict) or obj.get("format") != FORMAT:
         raise UserError(f"{p}: not a seagen model file (no format '{FORMAT}')")
     return obj
-
-
-def zip_members(p: Path) -> list[str]:
-    """Names inside a zip file ([] for anything else)."""
-    if not zipfile.is_zipfile(p):
-        return []
-    with zipfile.ZipFile(p) as z:
-        return z.namelist()
-
-
-def is_torchscript(names: list[str]) -> bool:
-    """TorchScript archives hold a code/ folder and constants.pkl."""
-    return any(n.endswith("constants.pkl") for n in names) and any("/code/" in n for n in names)
-
-
-def is_pt2(names: list[str]) -> bool:
-    """torch.export.save archives hold models/*.json and an archive_format file."""
-    return any(n.endswith("archive_format") for n in names)

@@ -78,9 +78,21 @@ def find_cycle(graph: dict[str, dict[str, str]]) -> list[str]:
 # the drivers on top join them. A package imports only packages listed before it in its own list or in a
 # list below it (BOTTOM for a side; BOTTOM and both sides for the drivers).
 BOTTOM = [
-    "__version__", "errors", "c_runtime", "actuators", "atomic", "workers", "actuator", "geometry", "ir",
-    "plotting", "modelfile", "defaults", "runtime",
-]  # fmt: skip
+    "__version__",
+    "errors",
+    "c_runtime",
+    "actuators",
+    "atomic",
+    "workers",
+    "filekind",
+    "actuator",
+    "geometry",
+    "ir",
+    "plotting",
+    "modelfile",
+    "defaults",
+    "runtime",
+]
 PHYSICS = ["plant", "data", "fit", "discrepancy"]
 COMPILER = ["quant", "frontends", "reference", "codegen", "toolchain"]
 DRIVERS = ["control", "datacheck", "export", "verify", "bench", "testing", "demo", "cli"]
@@ -170,7 +182,7 @@ def test_integer_reference_loads_no_plant_or_torch():
 
 
 def test_unpickling_only_behind_the_opt_in():
-    """`weights_only=False` appears once, in fit.modelfile.safe_load, inside its `if allow_pickle:` branch;
+    """`weights_only=False` appears once, in modelfile.safe_load, inside its `if allow_pickle:` branch;
     every allow_pickle parameter in seagen defaults to False (the CLI flags are store_true: off unless
     given)."""
     unsafe, guarded, defaults = [], [], []
@@ -199,3 +211,36 @@ def test_unpickling_only_behind_the_opt_in():
                         (guarded if any(call is c for c in opt_in) else unsafe).append(where)
     assert guarded == ["modelfile.py:safe_load"] and not unsafe, (guarded, unsafe)
     assert not defaults, f"allow_pickle without a False default: {defaults}"
+
+
+def test_torch_archive_readers_only_behind_the_opt_in_or_the_check():
+    """`torch.export.load` is called only inside an `if allow_pickle:` branch (without it a .pt2 is rebuilt
+    from its checked JSON and raw tensors); `torch.jit.load` only there or after `check_torchscript` in the
+    same function."""
+    found: list[tuple[str, str, bool]] = []
+    for path in sorted(ROOT.rglob("*.py")):
+        tree = ast.parse(path.read_text(), str(path))
+        for fn in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)):
+            opt_in = {
+                id(c)
+                for i in ast.walk(fn)
+                if isinstance(i, ast.If) and isinstance(i.test, ast.Name) and i.test.id == "allow_pickle"
+                for b in i.body
+                for c in ast.walk(b)
+            }
+            checked = [
+                c.lineno
+                for c in ast.walk(fn)
+                if isinstance(c, ast.Call)
+                and isinstance(c.func, ast.Name)
+                and c.func.id == "check_torchscript"
+            ]
+            for call in (c for c in ast.walk(fn) if isinstance(c, ast.Call)):
+                name = ast.unparse(call.func)
+                if name.endswith(("export.load", "jit.load")):
+                    ok = id(call) in opt_in or (
+                        name.endswith("jit.load") and any(line < call.lineno for line in checked)
+                    )
+                    found.append((f"{path.name}:{fn.name}", name, ok))
+    assert {n for _w, n, _ok in found} == {"torch.export.load", "torch.jit.load"}, found
+    assert all(ok for _w, _n, ok in found), found

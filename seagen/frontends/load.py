@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from seagen.errors import UserError, not_a_file
+from seagen.filekind import ONNX, UNKNOWN, file_kind
 from seagen.frontends import Network, read_module, read_onnx
 from seagen.frontends.margin import float32_margin
 from seagen.frontends.torch_files import load_torch
@@ -206,7 +207,13 @@ def load_with_original(
     if not p.is_file():
         raise UserError(not_a_file(p, "model file"))
     extra = features if isinstance(features, dict) else read_features_file(features)
-    if p.suffix == ".onnx":
+    kind = file_kind(p)
+    if kind == UNKNOWN:
+        raise UserError(
+            f"{p}: not a model file seagen reads (by its content it is neither an ONNX model, a readable zip "
+            "archive nor a torch pickle)"
+        )
+    if kind == ONNX:
         if not extra:
             _need_features(p)
         return from_model_dict({"kind": "mlp", **extra}, str(p), ranges, read_onnx(p))
