@@ -148,14 +148,13 @@ def _read_script(sm: Any, p: Path, n_in: int) -> Network:
 def _eval_mode(m: Any, p: Path) -> list[str]:
     """Switch a module saved in training mode to eval mode (what inference runs: Dropout off, BatchNorm on
     its running statistics); the one-line note that says so, or none."""
-    training = [name or "the module" for name, c in m.named_modules() if c.training]
+    training = any(c.training for c in m.modules())
     m.eval()
     if not training:
         return []
     return [
-        f"note: {p.name} was saved in training mode ({training[0]}"
-        f"{f' and {len(training) - 1} more' if len(training) > 1 else ''}); exported its inference "
-        "(eval-mode) behaviour: Dropout off, BatchNorm on running statistics"
+        f"note: {p.name} was saved in training mode; exported its inference (eval-mode) behaviour "
+        "(Dropout off, BatchNorm on running statistics)"
     ]
 
 

@@ -107,9 +107,10 @@ def onnx_items(path: Path, model: Any) -> tuple[list[Item], int]:
             "seagen needs (batch, features)"
         )
     chain = chain_nodes(nodes, set(consts), inputs[0].name, g.output[0].name, where)
+    batch = dims[0] or -1  # a fixed batch size (or -1): a Reshape to (batch, width) keeps the rows
     items: list[Item] = []
     for n in chain:
-        items.extend(_item(n, consts, where))
+        items.extend(_item(n, consts, where, batch))
     return items, dims[1]
 
 
@@ -142,7 +143,7 @@ def _bound(n: Node, consts: dict, k: int, attr: str, where: str) -> float | None
     return float(v.reshape(-1)[0])
 
 
-def _item(n: Node, consts: dict, where: str) -> list[Item]:
+def _item(n: Node, consts: dict, where: str, batch: int = -1) -> list[Item]:
     """One chain node -> zero or more chain items; anything unsupported is refused."""
     op, p, a = n.op, n.path, n.attrs
     if op == "Gemm":
@@ -172,7 +173,7 @@ def _item(n: Node, consts: dict, where: str) -> list[Item]:
         return []
     if op == "Reshape":
         shape = _c(n, consts, 1, where)
-        if shape is not None and shape.size == 2 and shape[0] in (-1, 0):
+        if shape is not None and shape.size == 2 and shape[0] in (-1, 0, batch):
             return [Reshape(op, p, int(shape[1]))]
     raise refuse(where, Item(op, p), "unsupported op")
 
