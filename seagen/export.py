@@ -109,7 +109,7 @@ def prepare(
         onnx_bytes = build_onnx(qm, prefix).SerializeToString()
     options = {"weights": weights, "target": target, "calib": calib, "onnx": with_onnx}
     options["controller"] = controller
-    original = {"runtime": loaded.runtime, "dtype": loaded.dtype, "margin": loaded.margin}
+    original = {"runtime": loaded.runtime, "dtype": loaded.dtype, "margin": float(f"{loaded.margin:.6g}")}
     files[f"{prefix}{SUFFIX}"] = export_manifest(
         qm, prefix, model_path, options, spec, files, onnx_bytes, original
     )

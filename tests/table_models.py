@@ -70,7 +70,8 @@ def ort_original(path: Path, dtype=np.float32) -> Callable[[np.ndarray], np.ndar
     batch = inp.shape[0] if isinstance(inp.shape[0], int) else None
 
     def once(x: np.ndarray) -> np.ndarray:
-        return np.asarray(sess.run(None, {inp.name: np.asarray(x, dtype)})[0], float).reshape(len(x), -1)[:, 0]
+        y = sess.run(None, {inp.name: np.asarray(x, dtype)})[0]
+        return np.asarray(y, float).reshape(len(x), -1)[:, 0]
 
     def run(x: np.ndarray) -> np.ndarray:
         if batch is None:
@@ -227,7 +228,10 @@ def onnx_model(
         "g",
         [helper.make_tensor_value_info("x", elem, [batch, N_IN]), *extra_inputs],
         [helper.make_tensor_value_info(out, elem, [batch, 1])],
-        [numpy_helper.from_array(np.asarray(v, np.int64 if k == "SHAPE" else dtype), k) for k, v in inits.items()],
+        [
+            numpy_helper.from_array(np.asarray(v, np.int64 if k == "SHAPE" else dtype), k)
+            for k, v in inits.items()
+        ],
     )
     return helper.make_model(graph, opset_imports=[helper.make_opsetid("", opset)])
 
