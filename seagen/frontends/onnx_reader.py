@@ -167,6 +167,10 @@ def _item(n: Node, consts: dict, where: str, batch: int = -1) -> list[Item]:
     if op == "BatchNormalization" and not a.get("training_mode", 0):
         g_, b_, m_, v_ = (_c(n, consts, k, where) for k in (1, 2, 3, 4))
         return [batchnorm_affine(op, p, g_, b_, m_, v_, float(a.get("epsilon", 1e-5)))]
+    if op == "Dropout" and _dropout_trains(n, consts, where):
+        raise refuse(where, Item(op, p), "Dropout in training mode (random at inference)")
+    if op == "BatchNormalization":
+        raise refuse(where, Item(op, p), "BatchNormalization in training mode")
     if op in _NOOPS or (op == "Cast" and a.get("to") in _FLOAT):
         return []
     if op == "Flatten" and int(a.get("axis", 1)) == 1:
@@ -176,6 +180,16 @@ def _item(n: Node, consts: dict, where: str, batch: int = -1) -> list[Item]:
         if shape is not None and shape.size == 2 and shape[0] in (-1, 0, batch):
             return [Reshape(op, p, int(shape[1]))]
     raise refuse(where, Item(op, p), "unsupported op")
+
+
+def _dropout_trains(n: Node, consts: dict, where: str) -> bool:
+    """Dropout (opset 12+) whose constant training_mode input is true and whose ratio is not 0; opset < 7
+    Dropout with is_test=0 likewise."""
+    mode = _c(n, consts, 2, where)
+    ratio = _c(n, consts, 1, where)
+    r = float(n.attrs.get("ratio", 0.5)) if ratio is None else float(ratio.reshape(-1)[0])
+    training = bool(mode is not None and mode.reshape(-1)[0]) or n.attrs.get("is_test", 1) == 0
+    return training and r != 0.0
 
 
 def _gemm(n: Node, consts: dict, where: str) -> Dense:
