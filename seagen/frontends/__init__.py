@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import re
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -60,9 +61,15 @@ def narrowest(dtypes: list[str]) -> str:
 
 
 def _first_line(e: BaseException) -> str:
-    """The first line of an exception's message (its type when it has none)."""
-    text = str(e).strip()
-    return text.splitlines()[0] if text else type(e).__name__
+    """The first line of an exception's message (its type when it has none); for an error raised inside a
+    TorchScript forward, its last line (the original exception, after the TorchScript traceback)."""
+    lines = [ln.strip() for ln in str(e).strip().splitlines() if ln.strip()]
+    if not lines:
+        return type(e).__name__
+    if "TorchScript interpreter" in lines[0]:
+        raised = [ln for ln in lines if re.match(r"[\w.]*(Error|Exception): ", ln)]
+        return raised[-1] if raised else lines[-1]
+    return lines[0]
 
 
 def _ort_runner(model: Any, where: str) -> Callable[[np.ndarray], np.ndarray]:
