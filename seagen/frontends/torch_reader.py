@@ -122,7 +122,11 @@ def _item(n: Any, consts: dict, fx: dict, where: str) -> list[Item]:
         return [_batchnorm(n, t, p, consts, where)]
     if t in _NOOPS and (t != "<built-in function getitem>" or n.args[1] == 0):
         return []
-    if t == "aten.dropout.default" and not _arg(n, 2, "train", False, consts):
+    if t == "aten.dropout.default":
+        if _arg(n, 2, "train", False, consts) and _arg(n, 1, "p", 0.5, consts) != 0:
+            raise refuse(
+                where, Item(t, p), "Dropout in training mode (random at inference; export in eval mode)"
+            )
         return []
     if t in ("aten.to.dtype", "aten._to_copy.default", "aten.to.dtype_layout"):
         dtype = n.kwargs.get("dtype", n.args[1] if len(n.args) > 1 else None)
