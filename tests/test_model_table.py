@@ -1,5 +1,5 @@
 """The model table: models from real producers are exported right (checked against the original) or refused
-with a reason (exit code + one-line message); malicious files never run their payload. ~40 s on 2 cores."""
+with a reason (exit code + one-line message); malicious files never run their payload. ~45 s on 2 cores."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """ONNX's backend node tests for the ops seagen claims, symbolic and fixed batch: each is exported within its
 proven bound of ONNX's own expected outputs, or refused with one line (never a traceback, never a failed
-check). One case per operator and batch form runs in `make test` (~15 s); all of them with `-m slow`."""
+check). One case per operator and batch form runs in `make test` (~7 s); all of them with `-m slow`."""
 
 from __future__ import annotations
 
