@@ -131,3 +131,15 @@ def test_training_mode_sequential_says_so(tmp_path, capsys):
                str(tmp_path / "o"), "--prefix", "m"])  # fmt: skip
     out = capsys.readouterr().out
     assert rc == 0 and "train.pt was saved in training mode; exported its inference (eval-mode)" in out
+
+
+def test_random_original_refused():
+    """An original whose outputs differ between two runs on the same inputs is refused before any check."""
+    from seagen.frontends import Network
+    from seagen.frontends.load import _deterministic
+
+    rng = np.random.default_rng(0)
+    net = Network([], 3, lambda x: x[:, :1] + rng.normal(size=(len(x), 1)), "test")
+    with pytest.raises(UserError, match="different outputs for the same inputs on two runs"):
+        _deterministic(net, np.ones(3), "m.onnx")
+    _deterministic(Network([], 3, lambda x: x[:, :1], "test"), np.ones(3), "m.onnx")
