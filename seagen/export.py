@@ -88,7 +88,10 @@ def prepare(
     given = ranges or ((lambda names: calib_ranges(calib, names)) if calib else None)
     spec = features if isinstance(features, dict) else read_features_file(features)
     loaded = load_with_original(model_path, spec, given, allow_pickle)
-    qm = quantize(loaded.model, bits)
+    try:
+        qm = quantize(loaded.model, bits)
+    except UserError as e:  # a range or a weight that cannot be represented: name the file
+        raise UserError(str(e) if str(e).startswith(model_path) else f"{model_path}: {e}") from None
     rep = compare_original(
         f"oracle ({loaded.runtime}) on the box", qm, loaded.original, box_points(qm), loaded.margin
     )
@@ -108,8 +111,11 @@ def prepare(
     options["controller"] = controller
     if allow_pickle:  # recorded only when used: torch's own readers opened the file, past the allow-list
         options["allow_pickle"] = True
-    files[f"{prefix}{SUFFIX}"] = export_manifest(qm, prefix, model_path, options, spec, files, onnx_bytes)
-    return Export(loaded, qm, prefix, files, rep, onnx_bytes, summary_lines(qm))
+    original = {"runtime": loaded.runtime, "dtype": loaded.dtype, "margin": float(f"{loaded.margin:.6g}")}
+    files[f"{prefix}{SUFFIX}"] = export_manifest(
+        qm, prefix, model_path, options, spec, files, onnx_bytes, original
+    )
+    return Export(loaded, qm, prefix, files, rep, onnx_bytes, [*loaded.notes, *summary_lines(qm)])
 
 
 def export_manifest(
@@ -120,9 +126,11 @@ def export_manifest(
     spec: dict[str, Any],
     files: dict[str, str],
     onnx_bytes: bytes | None,
+    original: dict[str, Any] | None = None,
 ) -> str:
     """NAME.seagen.json for the files of this export (the runtime files and NAME.onnx included); `spec`:
-    the --features file as read ({} without one)."""
+    the --features file as read ({} without one); `original`: the oracle's runtime, the original's float
+    type and the margin its rounding is allowed on top of the proven bound."""
     emitted = {name: text.encode() for name, text in files.items()}
     if onnx_bytes is not None:
         emitted[f"{prefix}.onnx"] = onnx_bytes
@@ -133,6 +141,8 @@ def export_manifest(
         "error_bound": qm.error_bound,
         "features": spec or None,
     }
+    if original is not None:
+        resolved["original"] = original
     return manifest_text(prefix, model_path, options, resolved, emitted)
 
 

@@ -16,7 +16,7 @@ import numpy as np
 from seagen.errors import UserError, not_a_file
 from seagen.filekind import ONNX, UNKNOWN, file_kind
 from seagen.frontends import Network, read_module, read_onnx
-from seagen.frontends.margin import float32_margin
+from seagen.frontends.margin import forward_margin
 from seagen.frontends.torch_files import load_torch
 from seagen.ir import FloatLayer, FloatMLP, FloatModel, FloatSF, Signal
 from seagen.modelfile import FORMAT, FeatureSpec
@@ -89,7 +89,9 @@ class Loaded:
     model: FloatModel
     original: Callable[[np.ndarray], np.ndarray]  # physical inputs (N, n_in) float64 -> outputs (N,)
     runtime: str
-    margin: float  # stated allowance for the original's own rounding (float32 forward, float64 polynomial)
+    margin: float  # stated allowance for the original's own rounding (its float type's forward error)
+    dtype: str = "float64"  # the float type the original computes in (the margin derives from it)
+    notes: list[str] = dataclasses.field(default_factory=list)  # how the file was read, when not literally
 
 
 def _sf_model(d: dict[str, Any], where: str, rng: Any, output: Signal, task: str) -> Loaded:
@@ -118,7 +120,7 @@ def _sf_model(d: dict[str, Any], where: str, rng: Any, output: Signal, task: str
     box = [widened(s.lo, s.hi) for s in (a, b)]
     am, bm = (max(abs(lo), abs(hi)) for lo, hi in box)
     size = sum(abs(c) * am**i * bm**j for c, (i, j) in zip(coef, powers, strict=True))
-    return Loaded(model, poly, "float64 polynomial from the coefficients", 2.0**-40 * (1.0 + size))
+    return Loaded(model, poly, "float64 polynomial from the coefficients", 2.0**-40 * (1.0 + size), "float64")
 
 
 def _mlp_model(
@@ -139,8 +141,21 @@ def _mlp_model(
 
     box = np.array(widened_box(model.inputs))
     xmax = np.max(np.abs((box - mean) / std * w), axis=0)
-    margin = float32_margin(net.layers, xmax) * spec.output_std
-    return Loaded(model, original, net.runtime, margin)
+    _deterministic(net, xmax, where)
+    margin = forward_margin(net.layers, xmax, net.dtype, where) * spec.output_std
+    return Loaded(model, original, net.runtime, margin, net.dtype, list(net.notes))
+
+
+def _deterministic(net: Network, xmax: np.ndarray, where: str) -> None:
+    """The original gives the same outputs twice on the same inputs (an oracle that draws random numbers,
+    e.g. Dropout left in training mode, cannot check anything)."""
+    x = np.random.default_rng(0).uniform(-1.0, 1.0, (16, net.n_in)) * np.maximum(xmax, 1e-3)
+    a, b = net.run(x), net.run(x)
+    if not np.array_equal(a, b, equal_nan=True):
+        raise UserError(
+            f"{where}: the model gives different outputs for the same inputs on two runs (Dropout or another "
+            "random op active at inference?); seagen exports deterministic models (save it in eval mode)"
+        )
 
 
 def from_model_dict(d: dict[str, Any], where: str, ranges: Any = None, net: Network | None = None) -> Loaded:

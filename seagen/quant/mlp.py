@@ -97,8 +97,11 @@ def _activation(layer: FloatLayer, pre_frac: int, index: int) -> tuple[tuple[int
 def _act_bounds(act: str, params: tuple[int, ...], table: QTable | None, lo: np.ndarray, hi: np.ndarray):
     if act == "relu":
         return np.maximum(lo, 0), np.maximum(hi, 0)
-    if act == "leaky_relu":
+    if act == "leaky_relu" and params[0] >= 0:
         return np.minimum(lo, 0) * params[0] // 2**15 - 1, hi
+    if act == "leaky_relu":  # a negative slope maps the negative side to [0, alpha * lo]
+        top = -((-np.minimum(lo, 0) * params[0]) // 2**15) + 1
+        return np.zeros_like(lo), np.minimum(np.maximum(hi, top), INT16_MAX)
     if act == "hardtanh":
         return np.clip(lo, params[0], params[1]), np.clip(hi, params[0], params[1])
     if table is not None:
