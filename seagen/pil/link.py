@@ -89,14 +89,16 @@ class Link:
 
     def _fail(self, what: str) -> None:
         """Stop QEMU and raise one line: what happened, QEMU's exit status and its last output line."""
-        code = self.proc.poll()
-        self.close()
+        try:  # a QEMU on its way out: wait for its exit status
+            code: int | None = self.proc.wait(timeout=0.5)
+        except subprocess.TimeoutExpired:
+            code = None
         status = "" if code is None else f" (QEMU exit status {code})"
         last = ""
         if self.log.exists():
             lines = [x for x in self.log.read_text(errors="replace").splitlines() if x.strip()]
             last = f": {lines[-1].strip()}" if lines else ""
-        shutil.rmtree(self.tmp, ignore_errors=True)
+        self.close()
         raise UserError(f"{self.board.machine}: {what}{status}{last}")
 
     def _read(self, n: int, what: str) -> bytes:
@@ -110,7 +112,6 @@ class Link:
             except OSError as e:
                 self._fail(f"serial link lost ({what}: {e})")
             if not chunk:
-                time.sleep(0.05)  # let QEMU finish exiting so its status is known
                 self._fail(f"the board closed the serial link ({what})")
             out += chunk
         return out
@@ -154,3 +155,4 @@ class Link:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
+        shutil.rmtree(self.tmp, ignore_errors=True)
