@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import os
 import signal
-import struct
 
 import numpy as np
 import pytest
@@ -24,7 +23,7 @@ from seagen.export import prepare
 from seagen.pil import link as link_mod
 from seagen.pil.controller import PilController
 from seagen.pil.link import qemu_missing
-from seagen.pil.run import closed_loop
+from seagen.verify.pil import closed_loop
 
 CORES = ("cortex-m4", "cortex-m0plus")
 ANGLES = np.array([8.0, 16.0, 24.0])
@@ -75,12 +74,16 @@ def _unicorn_ticks(core: str, enc, pot, force) -> np.ndarray:
         '#include "ctl_sf_controller.h"\n#include "cal_mlp.h"\n'
         "typedef struct { ctl_sf_controller_t c; cal_mlp_state_t s; } probe_t;\n"
         "void probe_init(probe_t *p, int32_t e, int32_t q);\n"
-        "void probe_init(probe_t *p, int32_t e, int32_t q) { cal_mlp_reset(&p->s); ctl_sf_controller_init(&p->c, e, q); }\n"
+        "void probe_init(probe_t *p, int32_t e, int32_t q)\n"
+        "{ cal_mlp_reset(&p->s); ctl_sf_controller_init(&p->c, e, q); }\n"
         "int16_t probe_tick(probe_t *p, int32_t e, int32_t q, int32_t f, int16_t *est);\n"
         "int16_t probe_tick(probe_t *p, int32_t e, int32_t q, int32_t f, int16_t *est)\n"
         "{ *est = cal_mlp_step(&p->s, e, q); return ctl_sf_controller_tick(&p->c, e, q, f); }\n"
     )
-    m = Machine(build_image({**fw_files(), "probe.c": probe}, core, ("probe_init", "probe_tick"), name="pilprobe"), core)
+    m = Machine(
+        build_image({**fw_files(), "probe.c": probe}, core, ("probe_init", "probe_tick"), name="pilprobe"),
+        core,
+    )
     st = m.call("probe_init", np.zeros(2048, np.uint8), int(enc[0]), int(pot[0]))[0][0]
     counts = []
     for e, q, f in zip(enc, pot, force, strict=True):
@@ -160,12 +163,36 @@ def test_cli_pil_agrees(tmp_path, capsys):
     import json
 
     models = GENERATED / "models"
-    assert main(["export", str(models / "sf_control.pt"), "--prefix", "ctl_sf", "--controller", "--out", str(tmp_path)]) == 0
-    assert main(["export", str(models / "mlp_calibration.pt"), "--prefix", "cal_mlp", "--out", str(tmp_path)]) == 0
+    assert (
+        main(
+            [
+                "export",
+                str(models / "sf_control.pt"),
+                "--prefix",
+                "ctl_sf",
+                "--controller",
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(["export", str(models / "mlp_calibration.pt"), "--prefix", "cal_mlp", "--out", str(tmp_path)])
+        == 0
+    )
     capsys.readouterr()
     junit = tmp_path / "pil.xml"
     args = ["pil", str(tmp_path), "--model", str(models / "sf_control.pt"), "--cal-model"]
-    args += [str(models / "mlp_calibration.pt"), "--core", "cortex-m0plus", "--ticks", "30", "--actuators", "2"]
+    args += [
+        str(models / "mlp_calibration.pt"),
+        "--core",
+        "cortex-m0plus",
+        "--ticks",
+        "30",
+        "--actuators",
+        "2",
+    ]
     assert main([*args, "--json", "--junit", str(junit)]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["ok"] and doc["instructions"]["ticks"] == 90 and doc["instructions"]["instr_mean"] > 1000

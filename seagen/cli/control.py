@@ -28,7 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--impl",
         choices=("c", "py", "pil"),
         default="c",
-        help="controller: C via cffi, the Python twin, or the firmware on an emulated board (QEMU, see --core)",
+        help="controller: C via cffi, the Python twin, or the firmware on an emulated board (QEMU; --core)",
     )
     p.add_argument(
         "--core",

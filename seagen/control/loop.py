@@ -87,7 +87,7 @@ def make_controller(impl: str, pred: McuPredictor | CloudPredictor, c: ControlCo
     if impl == "py":
         return PyController(c)
     if impl.startswith("pil"):
-        from seagen.pil.controller import loop_controller
+        from seagen.control.pil import loop_controller
 
         return loop_controller(impl, pred, c)
     from seagen.control.cbuild import CController, build_control

@@ -4,17 +4,14 @@ set_desired, field): every call is one frame to the firmware of seagen/pil/fw ru
 from __future__ import annotations
 
 import struct
-from dataclasses import replace
 
 import numpy as np
 
-from seagen.control.controller import ControlConfig
 from seagen.errors import UserError
 from seagen.pil.firmware import board, build_firmware, model_header
 from seagen.pil.link import Link
 
 REPLY_FIELDS = ("out", "force_est", "desired", "comp", "pot_avg", "fault")
-CLOUD_SHELL = "ctl_sf"  # the export whose controller (without its predictor) serves the cloud link
 CAL_LOOP_INSTR = 2000  # fw/pil_main.c pil_calibrate: 1,000 x (subs, bne)
 
 
@@ -48,9 +45,10 @@ class PilController:
         assert self.link is not None
         payload = np.ascontiguousarray(np.stack(words, axis=1).astype("<i4")).tobytes()
         body = self.link.exchange(kind, self.n, payload, 20 * self.n + 4, what)
-        rec = np.frombuffer(body[:-4], dtype=np.dtype([("out", "<i2"), ("force_est", "<i2"), *(
-            (f, "<i4") for f in REPLY_FIELDS[2:]
-        )]))
+        rec = np.frombuffer(
+            body[:-4],
+            dtype=np.dtype([("out", "<i2"), ("force_est", "<i2"), *((f, "<i4") for f in REPLY_FIELDS[2:])]),
+        )
         self.state = {f: rec[f].astype(np.int64) for f in REPLY_FIELDS}
         (counts,) = struct.unpack("<I", body[-4:])
         if kind == "T":
@@ -88,28 +86,3 @@ class PilController:
 
     def __del__(self) -> None:
         self.close()
-
-
-def predictor_files(prefix: str, c: ControlConfig) -> dict[str, str]:
-    """The generated predictor `prefix` (generated/), its controller rendered with `c`, and the runtime."""
-    from seagen.codegen.runtime import runtime_sources
-    from seagen.control.cbuild import generated_sources
-    from seagen.control.firmware import controller_files
-    from seagen.control.gentwin import export
-
-    ctl = controller_files(prefix, export(prefix).qmodel, replace(c, predictor=None))
-    return {**runtime_sources("sea_fixed.h", "sea_fixed.c"), **generated_sources(prefix), **ctl}
-
-
-def loop_controller(impl: str, pred: object, c: ControlConfig) -> PilController:
-    """The controller of `impl` 'pil' or 'pil:CORE' for a closed-loop predictor: a generated predictor on
-    the board, or (a cloud predictor) the controller alone, its setpoint set over the link."""
-    from seagen.control.loop import McuPredictor
-
-    core = impl.partition(":")[2] or "cortex-m4"
-    if isinstance(pred, McuPredictor):
-        prefix = pred.c_symbol.removesuffix("_predict_q16")
-        if prefix == pred.c_symbol:
-            raise UserError(f"--impl pil runs generated predictors and the cloud link, not {pred.c_symbol}")
-        return PilController(predictor_files(prefix, c), prefix, core)
-    return PilController(predictor_files(CLOUD_SHELL, c), CLOUD_SHELL, core, onboard=False)

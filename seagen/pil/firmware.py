@@ -16,6 +16,7 @@ from seagen.errors import UserError
 
 FW = Path(__file__).resolve().parent / "fw"
 COMMON = ("pil_board.h", "pil_common.c", "pil_main.c")
+NO_PREDICTOR = "(a)->config.predictor = 0"
 
 
 @dataclass(frozen=True)
@@ -57,7 +58,7 @@ def model_header(ctl: str, cal: str | None, n_max: int, onboard: bool = True) ->
         f"typedef {ctl}_controller_t pil_ctl_t;",
         f"#define PIL_CTL_INIT(a, e, p) {ctl}_controller_init((a), (e), (p))"
         if onboard
-        else f"#define PIL_CTL_INIT(a, e, p) ({ctl}_controller_init((a), (e), (p)), (a)->config.predictor = 0)",
+        else f"#define PIL_CTL_INIT(a, e, p) ({ctl}_controller_init((a), (e), (p)), {NO_PREDICTOR})",
         f"#define PIL_CTL_TICK(a, e, p, f) {ctl}_controller_tick((a), (e), (p), (f))",
         "#define PIL_CTL_STATE(a) (&(a)->state)",
         "#define PIL_CTL_STATE_RW(a) (&(a)->state)",

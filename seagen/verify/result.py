@@ -69,7 +69,9 @@ class Verdict:
         for w in self.warnings:
             ET.SubElement(suite, "system-out").text = f"warning: {w}"
         for i in self.items:
-            case = ET.SubElement(suite, "testcase", classname=f"seagen.{self.command}.{self.prefix}", name=i.name)
+            case = ET.SubElement(
+                suite, "testcase", classname=f"seagen.{self.command}.{self.prefix}", name=i.name
+            )
             if not i.ok:
                 ET.SubElement(case, "failure", message=i.detail[:200]).text = i.detail
         return ET.tostring(suite, encoding="utf-8", xml_declaration=True)

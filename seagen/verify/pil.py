@@ -104,14 +104,13 @@ def closed_loop(
     return None, ticks
 
 
-def _export(folder: Path, model: str, prefix: str | None, allow_pickle: bool, v: Verdict | None):
-    """(files on disk, rebuilt export) of MODEL's export in DIR; drift recorded in `v` when given."""
+def _export(folder: Path, model: str, prefix: str | None, v: Verdict, allow_pickle: bool = False):
+    """(files on disk, rebuilt export, manifest) of MODEL's export in DIR; its drift recorded in `v`."""
     from seagen.verify.drift import check_drift, select
     from seagen.verify.run import disk_files, rebuild
 
     man, matches = select(folder, Path(model), prefix)
-    if v is not None:
-        check_drift(v, folder, man, Path(model), matches)
+    check_drift(v, folder, man, Path(model), matches)
     return disk_files(folder, man), rebuild(man, Path(model), None, allow_pickle), man
 
 
@@ -134,13 +133,15 @@ def run_pil(
         raise UserError(f"--ticks must be >= 1 and --actuators 1..32 (got {ticks}, {actuators})")
     root = Path(folder)
     v = Verdict("", str(root), command="pil")
-    files, ex, man = _export(root, model, prefix, allow_pickle, v)
+    files, ex, man = _export(root, model, prefix, v, allow_pickle)
     if not man.data["options"].get("controller"):
-        raise UserError(f"{man.path}: exported without --controller (re-export with seagen export --controller)")
+        raise UserError(
+            f"{man.path}: exported without --controller (re-export with seagen export --controller)"
+        )
     v.prefix = ex.prefix
     cal_qm, cal = None, None
     if cal_model is not None:
-        cal_files, cal_ex, _ = _export(root, cal_model, None, allow_pickle, v)
+        cal_files, cal_ex, _ = _export(root, cal_model, None, v, allow_pickle)
         cal_qm, cal = cal_ex.qmodel, cal_ex.prefix
         files = {**files, **cal_files}
     board = PilController(files, ex.prefix, core, cal)
