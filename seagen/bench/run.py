@@ -257,7 +257,7 @@ def table(rows: list[Entry]) -> str:
     lines.append("stack: static worst case (-fstack-usage over the call graph) / deepest measured")
     waits = sorted({r.flash_wait for r in rows})
     lines.append(
-        f"cycles: at {', '.join(map(str, waits)) or 0} flash wait state(s) (paid by data reads from flash and "
+        f"cycles: at {', '.join(map(str, waits)) or 0} flash wait state(s) (paid by flash data reads and "
         "refetches after taken branches); instr counts those skipped inside IT blocks (M4)"
     )
     helpers = sorted({h for r in rows for h in r.helpers})
