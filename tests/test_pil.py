@@ -9,7 +9,7 @@ import signal
 import numpy as np
 import pytest
 
-from seagen.build.cortexm import Machine, build_image, toolchain_missing
+from seagen.build.cortexm import toolchain_missing
 from seagen.cli import main
 from seagen.codegen.runtime import runtime_sources
 from seagen.control.cbuild import generated_sources
@@ -68,8 +68,9 @@ def test_closed_loop_bit_identical(core, cal_qm):
     assert done == 60 and len(board.instructions) == 60
 
 
-def _unicorn_ticks(core: str, enc, pot, force) -> np.ndarray:
-    """Instructions of one actuator's tick (cal_mlp_step + ctl_sf_controller_tick) counted by unicorn."""
+def _unicorn_ticks(core: str, enc, pot, force, tmp) -> np.ndarray:
+    """Instructions of one actuator's tick (cal_mlp_step + ctl_sf_controller_tick) traced on unicorn (with
+    the M4's IT-skipped instructions, seagen/build/mcu_trace.py)."""
     probe = (
         '#include "ctl_sf_controller.h"\n#include "cal_mlp.h"\n'
         "typedef struct { ctl_sf_controller_t c; cal_mlp_state_t s; } probe_t;\n"
@@ -80,23 +81,30 @@ def _unicorn_ticks(core: str, enc, pot, force) -> np.ndarray:
         "int16_t probe_tick(probe_t *p, int32_t e, int32_t q, int32_t f, int16_t *est)\n"
         "{ *est = cal_mlp_step(&p->s, e, q); return ctl_sf_controller_tick(&p->c, e, q, f); }\n"
     )
-    m = Machine(
-        build_image({**fw_files(), "probe.c": probe}, core, ("probe_init", "probe_tick"), name="pilprobe"),
-        core,
-    )
+    from seagen.bench.run import _machine
+    from seagen.build import cortexm as cm
+    from seagen.build.host import compile_objects
+    from seagen.build.mcu_trace import disassemble, traced_call
+
+    flags = cm.cpu_flags(core)
+    srcs = {**fw_files(), "probe.c": probe}
+    objs = compile_objects(srcs, tmp, (*flags, *cm.FREESTANDING), cc=cm.GCC, pic=False)
+    (tmp / "link.ld").write_text(cm.LINKER_SCRIPT)
+    elf = cm.link(tmp, objs, flags, ("probe_init", "probe_tick"), "probe")
+    m, code = _machine(elf, core), disassemble(elf)
     st = m.call("probe_init", np.zeros(2048, np.uint8), int(enc[0]), int(pot[0]))[0][0]
     counts = []
     for e, q, f in zip(enc, pot, force, strict=True):
-        back, n = m.call("probe_tick", st, int(e), int(q), int(f), np.zeros(1, np.int16), count=True)
+        back, t = traced_call(m, code, "probe_tick", st, int(e), int(q), int(f), np.zeros(1, np.int16))
         st = back[0]
-        counts.append(n)
+        counts.append(t.instructions)
     return np.array(counts)
 
 
 @pytest.mark.parametrize("core", CORES)
-def test_instruction_count_matches_unicorn(core):
-    """The firmware's own count per tick (SysTick under -icount, frame handling excluded) is within a few
-    percent of unicorn's count of the same calls; QEMU also counts the M4's IT-skipped instructions."""
+def test_instruction_count_matches_unicorn(core, tmp_path):
+    """The firmware's own count per tick (SysTick under -icount, frame handling excluded) is within 0.5 % of
+    the unicorn trace of the same calls (both count the M4's instructions skipped inside IT blocks)."""
     enc, pot, force = sensor_walk(5, 40, start=(300, 1200))
     board = PilController(fw_files(), "ctl_sf", core, "cal_mlp")
     try:
@@ -106,8 +114,8 @@ def test_instruction_count_matches_unicorn(core):
     finally:
         board.close()
     pil = np.mean(board.instructions)
-    uni = np.mean(_unicorn_ticks(core, enc, pot, force))
-    tol = 0.03
+    uni = np.mean(_unicorn_ticks(core, enc, pot, force, tmp_path))
+    tol = 0.005
     print(f"{core}: firmware {pil:.1f}, unicorn {uni:.1f} instructions per tick ({pil / uni - 1:+.2%})")
     assert abs(pil - uni) <= tol * uni, (pil, uni)
 

@@ -294,13 +294,21 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m seagen.bench.compare", description=__doc__.splitlines()[0])
     ap.add_argument("--json", action="store_true", help="print the rows as JSON")
     ap.add_argument("--readme", metavar="FILE", help="write the table between the bench markers of FILE")
+    ap.add_argument(
+        "--flash-wait",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also price the glove's tick at N flash wait states (1: a SAMD21-class M0+ at 48 MHz, no cache)",
+    )
     args = ap.parse_args(argv)
     if msg := cm.toolchain_missing():
         print(f"error: {msg}", file=sys.stderr)
         return 2
     rows = [r for name in ("mlp_calibration", "sf_calibration") for r in bench_model(name)]
     fw = firmware_rows()
-    glove = [G.glove_load(*cfg) for cfg in G.CONFIGS]
+    waits = sorted({0, max(args.flash_wait, 0)})
+    glove = [G.glove_load(*cfg, flash_wait=w) for w in waits for cfg in G.CONFIGS]
     text = (
         table(rows)
         + "\n\nThe glove's load: `examples/firmware` built from exports with the core's `--target`, mean of "
