@@ -58,9 +58,10 @@ format: venv
 	$(VENV)/bin/ruff check --fix .
 
 # seagen's kernels (portable and per core) against emlearn's float MLP and a plain float loop, on emulated
-# Cortex-M4 and M0+; writes the tables between the bench markers of docs/benchmarks.md (~2.5 min).
+# Cortex-M4 and M0+ (the glove also at one flash wait state); writes the tables between the bench markers of
+# docs/benchmarks.md (~2.5 min).
 bench: venv
-	$(PY) -m seagen.bench.compare --readme docs/benchmarks.md
+	$(PY) -m seagen.bench.compare --readme docs/benchmarks.md --flash-wait 1
 
 clean:
 	rm -rf $(DEMO) build dist *.egg-info .pytest_cache

@@ -13,6 +13,7 @@ from seagen.pil.link import Link
 
 REPLY_FIELDS = ("out", "force_est", "desired", "comp", "pot_avg", "fault")
 CAL_LOOP_INSTR = 2000  # fw/pil_main.c pil_calibrate: 1,000 x (subs, bne)
+MAX_ACTUATORS = 20  # a tick frame (6 + 12 n bytes) fits the firmware's 256-byte receive queue
 
 
 class PilController:
@@ -31,6 +32,8 @@ class PilController:
 
     def _start(self, n: int) -> None:
         """Build the firmware for n actuators, boot it, read its SysTick calibration."""
+        if not 1 <= n <= MAX_ACTUATORS:
+            raise UserError(f"the firmware serves 1..{MAX_ACTUATORS} actuators, not {n}")
         elf = build_firmware(self.files, model_header(self.ctl, self.cal, n, self.onboard), self.core)
         self.link = Link(elf, self.board, self.timeout_s)
         empty, loop = struct.unpack("<II", self.link.exchange("C", 0, b"", 8, "calibration"))

@@ -11,7 +11,7 @@ import numpy as np
 from seagen.control.controller import q16
 from seagen.control.loop import PLANT_STEPS_PER_TICK, PyController
 from seagen.errors import UserError
-from seagen.pil.controller import PilController
+from seagen.pil.controller import MAX_ACTUATORS, PilController
 from seagen.verify.result import Verdict
 
 COMPARED = ("out", "desired", "comp", "pot_avg", "fault")  # the command (mV) and the controller state
@@ -129,8 +129,8 @@ def run_pil(
     from seagen.control.firmware import shipped_config
     from seagen.control.gentwin import StepTwin
 
-    if ticks < 1 or not 1 <= actuators <= 32:
-        raise UserError(f"--ticks must be >= 1 and --actuators 1..32 (got {ticks}, {actuators})")
+    if ticks < 1 or not 1 <= actuators <= MAX_ACTUATORS:
+        raise UserError(f"--ticks must be >= 1 and --actuators 1..{MAX_ACTUATORS} (got {ticks}, {actuators})")
     root = Path(folder)
     v = Verdict("", str(root), command="pil")
     files, ex, man = _export(root, model, prefix, v, allow_pickle)
