@@ -105,11 +105,11 @@ def _unicorn_ticks(core: str, enc, pot, force, tmp) -> np.ndarray:
 def test_instruction_count_matches_unicorn(core, tmp_path):
     """The firmware's own count per tick (SysTick under -icount, frame handling excluded) is within 0.5 % of
     the unicorn trace of the same calls (both count the M4's instructions skipped inside IT blocks)."""
-    enc, pot, force = sensor_walk(5, 40, start=(300, 1200))
+    enc, pot, force = sensor_walk(5, 15, start=(300, 1200))
     board = PilController(fw_files(), "ctl_sf", core, "cal_mlp")
     try:
         board.reset(enc[:1], pot[:1])
-        for k in range(40):
+        for k in range(15):
             board.step(enc[k : k + 1], pot[k : k + 1], force[k : k + 1])
     finally:
         board.close()
