@@ -3,6 +3,7 @@ set_desired, field): every call is one frame to the firmware of seagen/pil/fw ru
 
 from __future__ import annotations
 
+import contextlib
 import struct
 
 import numpy as np
@@ -88,4 +89,5 @@ class PilController:
             self.link = None
 
     def __del__(self) -> None:
-        self.close()
+        with contextlib.suppress(Exception):  # at interpreter exit the modules may be gone
+            self.close()
