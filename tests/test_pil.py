@@ -3,6 +3,7 @@ closes the force loop with the plant bit-identical to the Python twins; a broken
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 
@@ -168,7 +169,6 @@ def test_qemu_missing_exits_2(monkeypatch, capsys):
 def test_cli_pil_agrees(tmp_path, capsys):
     """seagen pil on an export folder (control SF + its controller, calibration MLP): exit 0, JSON and JUnit
     with the firmware's instruction count."""
-    import json
 
     models = GENERATED / "models"
     assert (
@@ -205,3 +205,19 @@ def test_cli_pil_agrees(tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     assert doc["ok"] and doc["instructions"]["ticks"] == 90 and doc["instructions"]["instr_mean"] > 1000
     assert b"seagen.pil.ctl_sf" in junit.read_bytes()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("core", CORES)
+def test_paper_experiment_on_the_board(core, tmp_path, capsys):
+    """The whole experiment (10 contact angles x 5/10/15 N x 6 s) with the MLP exports built with the core's
+    kernels: every tick of every actuator bit-identical to the twins (about a minute per core)."""
+    models = GENERATED / "models"
+    ctl, cal = str(models / "mlp_control.pt"), str(models / "mlp_calibration.pt")
+    out = ["--target", core, "--out", str(tmp_path)]
+    assert main(["export", ctl, "--prefix", "ctl_mlp", "--controller", *out]) == 0
+    assert main(["export", cal, "--prefix", "cal_mlp", *out]) == 0
+    capsys.readouterr()
+    assert main(["pil", str(tmp_path), "--model", ctl, "--cal-model", cal, "--core", core, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["ok"] and doc["instructions"]["ticks"] == 3 * 600
