@@ -141,6 +141,27 @@ def test_corrupted_frame_is_rejected(monkeypatch):
         board.close()
 
 
+def test_corrupted_reply_is_named(monkeypatch):
+    """A reply corrupted on the way back fails the host's Fletcher check: one clear error."""
+    board = PilController(fw_files(), "ctl_sf", "cortex-m0plus", "cal_mlp")
+    try:
+        board.reset(np.array([300]), np.array([1200]))
+        assert board.link is not None
+        read = board.link._read
+
+        def flip(n: int, what: str) -> bytes:
+            out = bytearray(read(n, what))
+            if n > 4:  # the reply's body
+                out[3] ^= 0x01
+            return bytes(out)
+
+        monkeypatch.setattr(board.link, "_read", flip)
+        with pytest.raises(UserError, match="corrupted frame from the board"):
+            board.step(np.array([300]), np.array([1200]), np.array([655360]))
+    finally:
+        board.close()
+
+
 @pytest.mark.parametrize("fault", ["silent", "crash"])
 def test_board_fault_is_one_clear_error(fault):
     """A guest that stops answering times out; a QEMU that dies is named with its exit status."""
