@@ -60,6 +60,9 @@ def test_wheel_carries_templates_runtime_and_defaults(wheel):
         "seagen/generated/ctl_sf.h",
         "seagen/generated/cal_mlp.c",
         "seagen/generated/models/mlp_calibration.pt",
+        "seagen/pil/fw/pil_main.c",
+        "seagen/pil/fw/pil_board.h",
+        "seagen/pil/fw/pil.ld",
     ):
         assert f in names, f
     sources = {f"seagen/{p.relative_to(ROOT / 'seagen')}" for p in (ROOT / "seagen").rglob("*.py")}

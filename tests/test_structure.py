@@ -94,7 +94,7 @@ BOTTOM = [
     "runtime",
 ]
 PHYSICS = ["plant", "data", "fit", "discrepancy"]
-COMPILER = ["quant", "frontends", "reference", "codegen", "toolchain"]
+COMPILER = ["quant", "frontends", "reference", "codegen", "toolchain", "pil"]
 DRIVERS = ["control", "datacheck", "export", "verify", "bench", "testing", "demo", "cli"]
 
 

@@ -52,6 +52,8 @@ class Entry:
     helpers: list[str]
     float_helpers: list[str]
     isa_violations: list[str]
+    flash_wait: int = 0  # wait states priced into cycles_mean (seagen/toolchain/mcu_trace.py)
+    it_skipped_mean: float = 0.0  # of instr_mean: skipped inside IT blocks (M4)
 
 
 def find_models(d: Path) -> list[str]:
@@ -134,7 +136,7 @@ def _calls(prefix: str, entry: str, header: str, box: tuple[np.ndarray, np.ndarr
     ]
 
 
-def _run(machine, code, setup, calls) -> list[Trace]:
+def _run(machine, code, setup, calls, flash_wait: int = 0) -> list[Trace]:
     """Run the set-up calls, then trace each measured call; 'state' is one RAM block carried through."""
     state = np.zeros(1024, np.uint8)  # first argument everywhere: it stays at the same RAM address
 
@@ -147,7 +149,7 @@ def _run(machine, code, setup, calls) -> list[Trace]:
             state = back[0].copy()
     traces = []
     for sym, a in calls:
-        back, t = traced_call(machine, code, sym, *args(a))
+        back, t = traced_call(machine, code, sym, *args(a), flash_wait=flash_wait)
         if isinstance(a[0], str):
             state = back[0].copy()
         traces.append(t)
@@ -178,7 +180,7 @@ ROOTS = {
 }
 
 
-def bench_model(d: Path, prefix: str, cpu: str) -> list[Entry]:
+def bench_model(d: Path, prefix: str, cpu: str, flash_wait: int = 0) -> list[Entry]:
     """Measure every entry point of model `prefix` in export folder d on `cpu`."""
     if msg := cm.toolchain_missing():
         raise UserError(msg)
@@ -200,7 +202,7 @@ def bench_model(d: Path, prefix: str, cpu: str) -> list[Entry]:
             keep = (ROOTS[e][0].format(p=prefix), measured) if e == "tick" else (measured,)
             alone = cm.link(work, objs, flags, keep, e)
             setup, calls = _calls(prefix, e, sources[f"{prefix}.h"], box)
-            traces = _run(machine, code, setup, calls)
+            traces = _run(machine, code, setup, calls, flash_wait)
             n = np.array([t.instructions for t in traces])
             sections = cm._sections(alone)
             helpers = library_helpers(alone, objs)
@@ -220,6 +222,8 @@ def bench_model(d: Path, prefix: str, cpu: str) -> list[Entry]:
                     helpers,
                     [h for h in helpers if FLOAT_HELPER.match(h)],
                     sorted(set().union(*(t.violations for t in traces))),
+                    flash_wait,
+                    float(np.mean([t.it_skipped for t in traces])),
                 )
             )
         return out
@@ -227,11 +231,13 @@ def bench_model(d: Path, prefix: str, cpu: str) -> list[Entry]:
         shutil.rmtree(work, ignore_errors=True)
 
 
-def bench_dir(d: Path, cpus: tuple[str, ...]) -> list[Entry]:
-    """Every model of the export folder on every named core."""
+def bench_dir(d: Path, cpus: tuple[str, ...], flash_wait: int = 0) -> list[Entry]:
+    """Every model of the export folder on every named core, cycles at `flash_wait` wait states."""
     if not d.is_dir():
         raise UserError(f"{d}: not a directory")
-    return [e for prefix in find_models(d) for cpu in cpus for e in bench_model(d, prefix, cpu)]
+    if not 0 <= flash_wait <= 15:
+        raise UserError(f"--flash-wait must be 0..15 wait states, got {flash_wait}")
+    return [e for prefix in find_models(d) for cpu in cpus for e in bench_model(d, prefix, cpu, flash_wait)]
 
 
 def table(rows: list[Entry]) -> str:
@@ -249,6 +255,11 @@ def table(rows: list[Entry]) -> str:
             f"{', '.join(r.float_helpers) or 'none':>13} {'ok' if not r.isa_violations else 'BAD':>4}"
         )
     lines.append("stack: static worst case (-fstack-usage over the call graph) / deepest measured")
+    waits = sorted({r.flash_wait for r in rows})
+    lines.append(
+        f"cycles: at {', '.join(map(str, waits)) or 0} flash wait state(s) (paid by flash data reads and "
+        "refetches after taken branches); instr counts those skipped inside IT blocks (M4)"
+    )
     helpers = sorted({h for r in rows for h in r.helpers})
     lines.append(f"library helpers linked: {', '.join(helpers) or 'none'}")
     return "\n".join(lines)

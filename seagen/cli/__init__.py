@@ -19,6 +19,7 @@ COMMAND_MODULES = (
     "seagen.cli.discrepancy",
     "seagen.cli.verify",
     "seagen.cli.bench",
+    "seagen.cli.pil",
     "seagen.demo",
 )
 

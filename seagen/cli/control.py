@@ -24,7 +24,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--plots", metavar="DIR", help="write a step-response plot per configuration (first seed)")
     p.add_argument("--config", action="append", choices=sorted(CONFIGS), help="configurations (default all)")
     p.add_argument("--latency", type=float, default=0.1, help="cloud round-trip latency, s (default 0.1)")
-    p.add_argument("--impl", choices=("c", "py"), default="c", help="controller: C via cffi or Python twin")
+    p.add_argument(
+        "--impl",
+        choices=("c", "py", "pil"),
+        default="c",
+        help="controller: C via cffi, the Python twin, or the firmware on an emulated board (QEMU; --core)",
+    )
+    p.add_argument(
+        "--core",
+        choices=("cortex-m4", "cortex-m0plus"),
+        default="cortex-m4",
+        help="with --impl pil: the board's core (mps2-an386 or microbit; default cortex-m4)",
+    )
     p.add_argument("--seed", type=int, default=0, help="plant noise seed (default 0)")
     p.add_argument(
         "--seeds",
@@ -45,14 +56,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.seeds < 1:
         raise UserError(f"--seeds must be >= 1, got {args.seeds}")
     names = tuple(args.config or TABLE2_CONFIGS)
+    impl = f"pil:{args.core}" if args.impl == "pil" else args.impl
     if args.seeds == 1:
-        table = simulate(names, args.latency, args.impl, args.seed, args.plots)
+        table = simulate(names, args.latency, impl, args.seed, args.plots)
     else:
         from tqdm import tqdm
 
         with tqdm(total=args.seeds, desc="seeds", unit="seed", disable=args.json) as bar:
             table = sweep(
-                names, args.seeds, args.latency, args.impl, args.seed, lambda _k: bar.update(), args.plots
+                names, args.seeds, args.latency, impl, args.seed, lambda _k: bar.update(), args.plots
             )
     print(json.dumps(table, indent=2) if args.json else format_table2(table))
     return 0

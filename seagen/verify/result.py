@@ -25,6 +25,7 @@ class Verdict:
     folder: str
     items: list[Item] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    command: str = "verify"  # the seagen command that ran the checks (named in the text and JUnit)
 
     @property
     def ok(self) -> bool:
@@ -47,7 +48,7 @@ class Verdict:
             lines.append(f"  {mark} {i.name}" + (f": {i.detail}" if i.detail else ""))
         bad = sum(not i.ok for i in self.items)
         head = "agrees" if self.ok else f"DISAGREES ({bad} of {len(self.items)} checks failed)"
-        lines.append(f"seagen verify: {self.folder} ({self.prefix}) {head}")
+        lines.append(f"seagen {self.command}: {self.folder} ({self.prefix}) {head}")
         return "\n".join(lines)
 
     def to_json(self) -> str:
@@ -60,7 +61,7 @@ class Verdict:
         """JUnit XML: one test case per check, failures carry the detail line."""
         suite = ET.Element(
             "testsuite",
-            name=f"seagen verify {self.prefix}",
+            name=f"seagen {self.command} {self.prefix}",
             tests=str(len(self.items)),
             failures=str(sum(not i.ok for i in self.items)),
             errors="0",
@@ -68,7 +69,9 @@ class Verdict:
         for w in self.warnings:
             ET.SubElement(suite, "system-out").text = f"warning: {w}"
         for i in self.items:
-            case = ET.SubElement(suite, "testcase", classname=f"seagen.verify.{self.prefix}", name=i.name)
+            case = ET.SubElement(
+                suite, "testcase", classname=f"seagen.{self.command}.{self.prefix}", name=i.name
+            )
             if not i.ok:
                 ET.SubElement(case, "failure", message=i.detail[:200]).text = i.detail
         return ET.tostring(suite, encoding="utf-8", xml_declaration=True)
