@@ -45,9 +45,9 @@ def cal_qm():
 
 def fw_files(ctl: str = "ctl_sf") -> dict[str, str]:
     """The control export with its controller and the calibration export, as one folder holds them."""
-    files = {**runtime_sources("sea_fixed.h", "sea_fixed.c"), **generated_sources(ctl)}
+    files = {**runtime_sources("sea_fixed.h", "sea_fixed.c"), **generated_sources(ctl, GENERATED)}
     files.update(controller_files(ctl, default_ir(ctl).qmodel))
-    return {**files, **generated_sources("cal_mlp")}
+    return {**files, **generated_sources("cal_mlp", GENERATED)}
 
 
 def twin_cfg(ctl: str = "ctl_sf") -> ControlConfig:
