@@ -18,6 +18,7 @@ COMMAND_MODULES = (
     "seagen.cli.discrepancy",
     "seagen.cli.verify",
     "seagen.cli.bench",
+    "seagen.cli.models",
     "seagen.demo",
 )
 

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from seagen.atomic import atomic_path, writable_place
 from seagen.build.targets import NAMES
+from seagen.defaults import model_arg
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -23,7 +24,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "dir", metavar="DIR", help="folder holding the export (NAME.c, NAME.h, NAME.seagen.json, ...)"
     )
-    p.add_argument("--model", required=True, help="the model file the C was exported from")
+    p.add_argument(
+        "--model",
+        required=True,
+        type=model_arg,
+        help="the model file the C was exported from, or default:NAME (see seagen models)",
+    )
     p.add_argument("--prefix", metavar="NAME", help="which export of DIR (default: the one made from MODEL)")
     p.add_argument(
         "--data", metavar="DIR", help="data folder: also check its test/validation rows and trials"

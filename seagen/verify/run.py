@@ -11,6 +11,7 @@ import numpy as np
 from seagen.build.equivalence import check_data_dir, compare, edge_inputs, random_inputs, step_problem
 from seagen.build.targets import NAMES, build_target
 from seagen.codegen.manifest import Manifest
+from seagen.defaults import resolve_model
 from seagen.errors import CheckFailed, UserError
 from seagen.reference import onnx_ref
 from seagen.verify.constants import constants_problem
@@ -192,7 +193,7 @@ def verify(
         raise UserError(f"--target must be one of {', '.join(NAMES)}, not {core!r}")
     if vectors < 0:
         raise UserError(f"--vectors must be >= 0, got {vectors}")
-    root, mpath = Path(folder), Path(model)
+    root, mpath = Path(folder), Path(resolve_model(model))
     man, matches = select(root, mpath, prefix)
     v = Verdict(man.prefix, str(root))
     check_version(v, man)
