@@ -136,3 +136,44 @@ def test_wheel_lists_models_and_runs_the_readme_default_commands(installed, tmp_
             if toolchain_missing():
                 continue
         seagen_cmd(installed, tmp_path, *args)
+
+
+def test_wheel_requires_ranges_and_keeps_the_installed_torch(wheel):
+    """The wheel asks for version ranges (torch not pinned) that hold the tested versions, and installing it
+    where torch 2.13.0 is present (this venv) installs no torch: pip resolves offline, from what is here."""
+    from importlib.metadata import version
+
+    from packaging.requirements import Requirement
+
+    meta = zipfile.ZipFile(wheel).read("seagen-0.1.0.dist-info/METADATA").decode()
+    reqs = [
+        Requirement(ln.split(":", 1)[1].strip())
+        for ln in meta.splitlines()
+        if ln.startswith("Requires-Dist:")
+    ]
+    runtime = {r.name: r for r in reqs if r.marker is None}
+    torch = runtime["torch"]
+    assert not any(s.operator == "==" for s in torch.specifier), torch
+    assert {s.operator for s in torch.specifier} == {">=", "<"}, torch
+    for name, req in runtime.items():
+        assert req.specifier.contains(version(name).split("+")[0]), f"{name} {version(name)} not in {req}"
+    res = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "--dry-run",
+            "--no-index",
+            "--report",
+            "-",
+            "-q",
+            str(wheel),
+        ],
+        capture_output=True,
+        text=True,
+    )
+    assert res.returncode == 0, res.stderr[-2000:]
+    report = json.loads(res.stdout)
+    installing = {i["metadata"]["name"].lower() for i in report["install"]}
+    assert installing == {"seagen"}, installing
