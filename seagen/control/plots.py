@@ -13,6 +13,7 @@ def step_plot(name: str, results: dict[str, dict], path: Path, angle_index: int 
 
     fig = figure(figsize=(6, 3.5))
     ax = fig.add_subplot()
+    angle_index = min(angle_index, len(CONTACT_DEG) - 1)
     for target, r in results.items():
         rec = r["trace"]
         f = smoothed(rec["force_n"])[:, angle_index]
@@ -29,6 +30,7 @@ def comparison_plot(results: dict[str, dict[str, dict]], path: Path, angle_index
 
     fig = figure(figsize=(7, 4))
     ax = fig.add_subplot()
+    angle_index = min(angle_index, len(CONTACT_DEG) - 1)
     styles = dict(zip(results, ("-", "--", ":", "-."), strict=False))
     for (name, res), color in zip(results.items(), ("C0", "C1", "C2", "C3"), strict=False):
         for k, (target, r) in enumerate(res.items()):

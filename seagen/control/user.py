@@ -1,0 +1,97 @@
+"""The paper's experiment on a user's own models: a control model exported to C (the MCU set-up) and as its
+float model behind the Bluetooth link (the cloud set-up); a calibration model, if given, estimates the force
+from the recorded sensors of every run, as the glove's firmware would."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from seagen.control.controller import ControlConfig
+from seagen.control.loop import CloudPredictor, McuPredictor
+from seagen.errors import UserError
+
+Setup = tuple[McuPredictor | CloudPredictor, ControlConfig]
+
+
+def exported(model: str, features: str | None, allow_pickle: bool, prefix: str | None = None):
+    """`seagen export`'s in-memory result for MODEL (checked against the original by the oracle)."""
+    from seagen.export import prepare
+
+    return prepare(model, prefix, features=features, allow_pickle=allow_pickle)
+
+
+def control_setups(
+    model: str, features: str | None = None, allow_pickle: bool = False
+) -> tuple[dict[str, Callable[[float], Setup]], str]:
+    """{NAME_mcu, NAME_cloud: factory(latency_s) -> (predictor, controller configuration)} for a control
+    model file, and the paper's row (SF or MLP) its kind compares with."""
+    from seagen.codegen.runtime import cdef_of, runtime_sources
+    from seagen.control.cbuild import NN_SOURCES, generated_ctx
+    from seagen.control.firmware import shipped_config
+    from seagen.control.gentwin import StepTwin, float_features
+    from seagen.ir import QMLP
+    from seagen.quant.features import has_pipeline, is_predictor
+    from seagen.reference import float_ref
+
+    ex = exported(model, features, allow_pickle)
+    qm, p = ex.qmodel, ex.prefix
+    if not is_predictor(qm) or not has_pipeline(qm):
+        raise UserError(
+            f"{model}: --model needs a control model (desired force + sensor features -> compression_mm, "
+            f"e.g. seagen train --task control), not one computing {qm.output.name}"
+        )
+    cdef = cdef_of(*runtime_sources("sea_features.h").values(), ex.files[f"{p}.h"])
+    sources = {**runtime_sources(*NN_SOURCES), f"{p}.h": ex.files[f"{p}.h"], f"{p}.c": ex.files[f"{p}.c"]}
+    cfg = shipped_config(qm)
+    fm = ex.float_model
+    names = [s.name for s in fm.inputs]
+
+    def mcu(_latency_s: float) -> Setup:
+        pred = McuPredictor(
+            f"{p}_predict_q16", generated_ctx(p), lambda: StepTwin(p, qm), 1, cdef, sources, stateful=True
+        )
+        return pred, cfg
+
+    def cloud_fn(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
+        return float_ref.predict(fm, float_features(names, enc, pot, force_n))
+
+    def cloud(latency_s: float) -> Setup:
+        return CloudPredictor(cloud_fn, latency_s, 10.0), ControlConfig()
+
+    return {f"{p}_mcu": mcu, f"{p}_cloud": cloud}, "MLP" if isinstance(qm, QMLP) else "SF"
+
+
+@dataclass
+class ForceEstimator:
+    """A calibration model's export run as NAME_step (host C) over each actuator's recorded sensors."""
+
+    prefix: str
+    target: Any  # a seagen.build.target.Target
+    out_frac: int
+
+    def __call__(self, rec: dict[str, np.ndarray]) -> np.ndarray:
+        """Estimated force (N), ticks x actuators, from the enc/pot the controller saw."""
+        enc, pot = rec["enc"].T.ravel(), rec["pot"].T.ravel()
+        n_ticks, n_act = rec["enc"].shape
+        trial = np.repeat(np.arange(n_act), n_ticks)
+        out = np.asarray(self.target.step(enc, pot, trial), dtype=np.float64)
+        return np.asarray(out * 2.0**-self.out_frac).reshape(n_act, n_ticks).T
+
+
+def force_estimator(model: str, allow_pickle: bool = False) -> ForceEstimator:
+    """The calibration model's C (exported in memory, built for the host) as a force estimator."""
+    from seagen.build.model import CModel
+    from seagen.quant.features import external_inputs, has_pipeline
+
+    ex = exported(model, None, allow_pickle)
+    qm = ex.qmodel
+    if qm.output.name != "force_n" or not has_pipeline(qm) or external_inputs(qm):
+        raise UserError(
+            f"{model}: --calibration needs a calibration model (sensor features -> force_n, e.g. seagen "
+            f"train --task calibration), not one computing {qm.output.name}"
+        )
+    return ForceEstimator(ex.prefix, CModel(ex.files, ex.prefix, qm), qm.out_frac)
