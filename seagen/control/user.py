@@ -4,8 +4,10 @@ from the recorded sensors of every run, as the glove's firmware would."""
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -17,11 +19,37 @@ from seagen.errors import UserError
 Setup = tuple[McuPredictor | CloudPredictor, ControlConfig]
 
 
-def exported(model: str, features: str | None, allow_pickle: bool, prefix: str | None = None):
-    """`seagen export`'s in-memory result for MODEL (checked against the original by the oracle)."""
-    from seagen.export import prepare
+@dataclass
+class Exported:
+    """A model file as `seagen export` would write it, in memory: float and quantized IR, the C files."""
 
-    return prepare(model, prefix, features=features, allow_pickle=allow_pickle)
+    float_model: Any
+    qmodel: Any
+    prefix: str
+    files: dict[str, str]
+
+
+def exported(model: str, features: str | None = None, allow_pickle: bool = False) -> Exported:
+    """MODEL read, quantized, checked against its original by the oracle (CheckFailed beyond the bound) and
+    rendered to C: the in-memory core of `seagen export` (no manifest, nothing written)."""
+    from seagen.codegen.cfmt import assert_valid_prefix
+    from seagen.codegen.render import RUNTIME, render
+    from seagen.codegen.runtime import runtime_sources
+    from seagen.errors import CheckFailed
+    from seagen.frontends.load import load_with_original, read_features_file
+    from seagen.quant.model import quantize
+    from seagen.reference.oracle import box_points, compare_original
+
+    loaded = load_with_original(model, read_features_file(features), None, allow_pickle)
+    qm = quantize(loaded.model)
+    rep = compare_original(
+        f"oracle ({loaded.runtime}) on the box", qm, loaded.original, box_points(qm), loaded.margin
+    )
+    if not rep.ok:
+        raise CheckFailed(f"{model}: {rep.line()}")
+    stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(model).stem)
+    prefix = assert_valid_prefix(stem if stem[:1].isalpha() and not stem.startswith("sea") else f"m_{stem}")
+    return Exported(loaded.model, qm, prefix, {**render(qm, prefix), **runtime_sources(*RUNTIME)})
 
 
 def control_setups(
@@ -87,7 +115,7 @@ def force_estimator(model: str, allow_pickle: bool = False) -> ForceEstimator:
     from seagen.build.model import CModel
     from seagen.quant.features import external_inputs, has_pipeline
 
-    ex = exported(model, None, allow_pickle)
+    ex = exported(model, allow_pickle=allow_pickle)
     qm = ex.qmodel
     if qm.output.name != "force_n" or not has_pipeline(qm) or external_inputs(qm):
         raise UserError(
