@@ -315,6 +315,7 @@ TAMPERS = [
         2,
         "written by seagen 9.0, newer than this seagen",
     ),
+    ("unknown default model", lambda o: None, 2, "default:nope: no shipped model 'nope'"),
     (
         "manifest not JSON",
         lambda o: (o / "cal_mlp.seagen.json").write_text("{"),
@@ -347,7 +348,8 @@ def test_tamper_table(tamper, code, message, tmp_path, capsys):
     out = one_export(tmp_path)
     tamper(out)
     junit = tmp_path / "verify.xml"
-    got = main(["verify", str(out), "--model", str(CAL), "--vectors", "200", "--json", "--junit", str(junit)])
+    model = "default:nope" if "default:nope" in message else "default:mlp_calibration"
+    got = main(["verify", str(out), "--model", model, "--vectors", "200", "--json", "--junit", str(junit)])
     stdout, stderr = capsys.readouterr()
     doc = json.loads(stdout)
     suite = ET.parse(junit).getroot()

@@ -7,7 +7,6 @@ from pathlib import Path
 
 from seagen.atomic import atomic_path, writable_place
 from seagen.build.targets import NAMES
-from seagen.defaults import model_arg
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -27,7 +26,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--model",
         required=True,
-        type=model_arg,
         help="the model file the C was exported from, or default:NAME (see seagen models)",
     )
     p.add_argument("--prefix", metavar="NAME", help="which export of DIR (default: the one made from MODEL)")
