@@ -42,6 +42,15 @@ def files(tmp_path_factory) -> dict[str, Path]:
     sf["sf"]["coef"] = sf["sf"]["coef"][:-1]
     torch.save(sf, d / "sf_short.pt")
     out["sf_short"] = d / "sf_short.pt"
+    net = T.seq(torch.nn.ReLU())
+    opt = torch.optim.Adam(net.parameters())
+    torch.save(
+        {"model_state_dict": net.state_dict(), "optimizer_state_dict": opt.state_dict(), "epoch": 3},
+        d / "ckpt.pt",
+    )
+    torch.save(net.state_dict(), d / "sd.pt")
+    torch.save({"weights": [1.0, 2.0]}, d / "other_dict.pt")
+    out |= {"ckpt": d / "ckpt.pt", "sd": d / "sd.pt", "other_dict": d / "other_dict.pt"}
     (d / "a_dir.pt").mkdir()
     out["a_dir"] = d / "a_dir.pt"
     (d / "a_file").write_text("keep")
@@ -69,6 +78,16 @@ BAD = {  # case: (arguments with {placeholders}, expected text, the file the mes
         "twice.json",
     ),
     "model is a folder": (["{a_dir}", *OUT], "is a folder, not a model file", "a_dir"),
+    "training checkpoint": (
+        ["{ckpt}", "--features", "{spec}", *OUT],
+        "a training checkpoint (model_state_dict, optimizer_state_dict, epoch): weights without the "
+        "architecture, which seagen cannot read; pass the network itself: torch.save(model) of an "
+        "nn.Sequential, torch.jit.script(model).save(...), torch.export.save(...) (.pt2) or "
+        "torch.onnx.export",
+        "ckpt.pt",
+    ),
+    "bare state_dict": (["{sd}", *OUT], "a bare state_dict (4 tensors such as '0.weight')", "sd.pt"),
+    "other dict": (["{other_dict}", *OUT], "a dict but not a seagen model file", "other_dict.pt"),
 }
 
 

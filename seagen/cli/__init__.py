@@ -20,6 +20,7 @@ COMMAND_MODULES = (
     "seagen.cli.verify",
     "seagen.cli.bench",
     "seagen.cli.pil",
+    "seagen.cli.models",
     "seagen.demo",
 )
 

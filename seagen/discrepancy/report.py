@@ -47,6 +47,8 @@ def residual_maps(res: Result, path: Path) -> None:
     """Mean residual (noise sigmas) over measured force x contact angle, per channel, before and after."""
     import matplotlib
 
+    from seagen.plotting import masked_cmap
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -63,11 +65,13 @@ def residual_maps(res: Result, path: Path) -> None:
             n, _, _ = np.histogram2d(force, angle, [fe, ae])
             mean = np.where(n > 0, s / np.maximum(n, 1), np.nan)
             lim = max(3.0, float(np.nanmax(np.abs(mean)))) if row == 0 else 3.0
-            im = axes[row, col].pcolormesh(fe, ae, mean.T, cmap="RdBu_r", vmin=-lim, vmax=lim)
+            cells = np.ma.masked_invalid(mean.T)  # no data: grey, not the white of a zero residual
+            im = axes[row, col].pcolormesh(fe, ae, cells, cmap=masked_cmap("RdBu_r"), vmin=-lim, vmax=lim)
             axes[row, col].set_title(f"{c} residual, {title}")
             axes[row, col].set_xlabel("measured force at the shaft (N)")
             axes[row, col].set_ylabel("contact angle (deg)")
             fig.colorbar(im, ax=axes[row, col], label="mean residual (noise sigma)")
+    fig.suptitle("grey cells: no samples there (not a zero residual)", fontsize=9)
     fig.savefig(path, dpi=90)
     plt.close(fig)
 

@@ -236,7 +236,9 @@ def load_with_original(
     if isinstance(obj, dict) and obj.get("format") == FORMAT:
         return from_model_dict({**obj, **extra}, str(p), ranges)
     if isinstance(obj, dict):
-        raise UserError(f"{p}: a dict but not a seagen model file (no format '{FORMAT}')")
+        from seagen.frontends.checkpoint import describe_dict
+
+        raise UserError(describe_dict(obj, p, FORMAT))
     if not extra:
         _need_features(p)
     return from_model_dict({"kind": "mlp", **extra, "module": obj}, str(p), ranges)

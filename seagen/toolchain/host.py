@@ -35,6 +35,16 @@ SANITIZE_FLAGS = (
     "-fno-omit-frame-pointer",
     "-g",
 )
+
+
+class CompileError(UserError):
+    """A C file did not compile: its name and the compiler's messages."""
+
+    def __init__(self, source: str, stderr: str) -> None:
+        super().__init__(f"C compilation of {source} failed:\n{stderr}")
+        self.source, self.stderr = source, stderr
+
+
 CACHE = Path(os.environ.get("SEAGEN_BUILD_CACHE", Path(tempfile.gettempdir()) / "seagen-cffi"))
 
 
@@ -60,7 +70,7 @@ def compile_objects(
         cmd = [cc, *STRICT_CFLAGS, *extra, *fpic, "-I", str(c.parent), "-c", str(c), "-o", str(obj)]
         res = subprocess.run(cmd, capture_output=True, text=True)
         if res.returncode != 0:
-            raise UserError(f"C compilation of {c.name} failed:\n{res.stderr}")
+            raise CompileError(c.name, res.stderr)
         objs.append(obj)
     return objs
 

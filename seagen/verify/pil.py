@@ -106,11 +106,23 @@ def closed_loop(
 
 def _export(folder: Path, model: str, prefix: str | None, v: Verdict, allow_pickle: bool = False):
     """(files on disk, rebuilt export, manifest) of MODEL's export in DIR; its drift recorded in `v`."""
-    from seagen.verify.drift import check_drift, select
+    from seagen.defaults import resolve_model
+    from seagen.verify.drift import (
+        changed_files,
+        check_files,
+        check_model,
+        check_stray,
+        check_version,
+        select,
+    )
     from seagen.verify.run import disk_files, rebuild
 
+    model = resolve_model(model)
     man, matches = select(folder, Path(model), prefix)
-    check_drift(v, folder, man, Path(model), matches)
+    check_version(v, man)
+    check_model(v, man, Path(model), matches)
+    check_files(v, folder, man, changed_files(folder, man), None)
+    check_stray(v, folder, man)
     return disk_files(folder, man), rebuild(man, Path(model), None, allow_pickle), man
 
 

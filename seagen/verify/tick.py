@@ -53,4 +53,9 @@ def check_controller(v: Verdict, files: dict[str, str], prefix: str, qm) -> None
         problem = (
             f"tick {k} (enc {enc[k]}, pot {pot[k]}, force_q16 {force[k]}): C {got[k]} vs twin {want[k]} mV"
         )
-    v.add(f"{prefix}_controller_tick over {len(enc)} ticks (host) == controller twin", problem)
+    v.add(tick_name(prefix), problem, info=f"{len(enc)} ticks")
+
+
+def tick_name(prefix: str) -> str:
+    """The stable name of the controller check."""
+    return f"{prefix}_controller_tick over the synthetic sequence (host) == controller twin"
