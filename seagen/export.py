@@ -88,13 +88,20 @@ def prepare(
     given = ranges or ((lambda names: calib_ranges(calib, names)) if calib else None)
     spec = features if isinstance(features, dict) else read_features_file(features)
     loaded = load_with_original(model_path, spec, given, allow_pickle)
-    qm = quantize(loaded.model, bits)
+    try:
+        qm = quantize(loaded.model, bits)
+    except UserError as e:  # a model the formats cannot hold: name the file it came from
+        raise UserError(f"{model_path}: {e}") from None
     rep = compare_original(
         f"oracle ({loaded.runtime}) on the box", qm, loaded.original, box_points(qm), loaded.margin
     )
     if not rep.ok:
         raise CheckFailed(f"{model_path}: {rep.line()}")
-    files = {**render(qm, prefix, target), **runtime_sources(*RUNTIME, *TARGET_RUNTIME[check_target(target)])}
+    try:
+        rendered = render(qm, prefix, target)
+    except UserError as e:  # a name or text the C cannot hold (the loaders refuse these first)
+        raise UserError(f"{model_path}: {e}") from None
+    files = {**rendered, **runtime_sources(*RUNTIME, *TARGET_RUNTIME[check_target(target)])}
     if controller:
         from seagen.control.firmware import controller_files
 
