@@ -38,7 +38,16 @@ SETTINGS = {
 }
 ODD = [math.nan, math.inf, -math.inf, "1.5", True, None, [1.0], 1e300]  # not a finite number
 NAMES = [["a", "b"], ["pot", "enc"], ["angle_deg", "compression_mm"], ["x_1", "Y"]]
-BAD_NAMES: list[Any] = [["a", "A"], ["x", "x"], "ab", ["a b", "c"], ["a"], ["1x", "y"], [3, "y"], ["a\n", "b"]]
+BAD_NAMES: list[Any] = [
+    ["a", "A"],
+    ["x", "x"],
+    "ab",
+    ["a b", "c"],
+    ["a"],
+    ["1x", "y"],
+    [3, "y"],
+    ["a\n", "b"],
+]
 PLAIN = ["N", "mm", "N*m", "m/s^2", "", "a / *b", '"q" #x', "deg?", "(1/s)"]  # safe in a C comment
 HOSTILE = ["*/", "/*", "x\\", "??/", "y\n", "\t", "\r", "\u2028", "\u00b0C", "z" * 80]
 
@@ -60,7 +69,9 @@ def box(draw: st.DrawFn, n: int) -> list[list[float]]:
 
 def bad_pair(draw: st.DrawFn) -> Any:
     """A range a user may get wrong: empty, reversed, non-finite, misshapen."""
-    return draw(st.sampled_from([[1.0, 1.0], [2.0, 1.0], [0.0, math.nan], [0.0, math.inf], [1.0], "0..1", None]))
+    return draw(
+        st.sampled_from([[1.0, 1.0], [2.0, 1.0], [0.0, math.nan], [0.0, math.inf], [1.0], "0..1", None])
+    )
 
 
 @st.composite
@@ -106,9 +117,12 @@ def run_export(args: list[str]) -> tuple[int, str, Any]:
         return real(ex, out_dir)
 
     err = io.StringIO()
-    with mock.patch.object(seagen.export, "write", spy), contextlib.redirect_stderr(err):
-        with contextlib.redirect_stdout(io.StringIO()):
-            rc = main(["export", *args])
+    with (
+        mock.patch.object(seagen.export, "write", spy),
+        contextlib.redirect_stderr(err),
+        contextlib.redirect_stdout(io.StringIO()),
+    ):
+        rc = main(["export", *args])
     return rc, err.getvalue(), seen.get("ex")
 
 
@@ -151,7 +165,11 @@ def sf_dicts(draw: st.DrawFn, fault: str | None) -> dict[str, Any]:
     powers = draw(st.lists(st.sampled_from(POWERS), min_size=1, max_size=10, unique_by=tuple))
     coef: list[Any] = [draw(st.sampled_from([-1.0, 1.0])) * draw(finite(0.05, 5.0)) for _ in powers]
     names = draw(st.sampled_from(NAMES))
-    d: dict[str, Any] = {"format": FORMAT, "kind": "sf", "task": draw(st.sampled_from(["calibration", "control"]))}
+    d: dict[str, Any] = {
+        "format": FORMAT,
+        "kind": "sf",
+        "task": draw(st.sampled_from(["calibration", "control"])),
+    }
     d |= {"input_range": draw(box(2)), **plain_texts(draw, 2)}
     k = draw(st.integers(0, len(powers) - 1))
     fs = draw(faults(fault, SF_FAULTS))
@@ -181,7 +199,9 @@ def sf_dicts(draw: st.DrawFn, fault: str | None) -> dict[str, Any]:
 
 def sf_oracle(d: dict[str, Any]) -> Any:
     """The polynomial of the dict as written, evaluated here in float64: sum c * a^i * b^j."""
-    terms = [(float(c), float(i), float(j)) for c, (i, j) in zip(d["sf"]["coef"], d["sf"]["powers"], strict=True)]
+    terms = [
+        (float(c), float(i), float(j)) for c, (i, j) in zip(d["sf"]["coef"], d["sf"]["powers"], strict=True)
+    ]
 
     def f(x: np.ndarray) -> tuple[np.ndarray, float]:
         a, b = x[:, 0], x[:, 1]
@@ -210,7 +230,12 @@ def check_sf(d: dict[str, Any]) -> None:
         assert_refused_or_within(rc, err, ex, ["sf.pt"], out, lambda x: sf_oracle(d)(x))
 
 
-ACTS = {"relu": torch.nn.ReLU, "tanh": torch.nn.Tanh, "sigmoid": torch.nn.Sigmoid, "hardtanh": torch.nn.Hardtanh}
+ACTS = {
+    "relu": torch.nn.ReLU,
+    "tanh": torch.nn.Tanh,
+    "sigmoid": torch.nn.Sigmoid,
+    "hardtanh": torch.nn.Hardtanh,
+}
 
 
 MLP_FAULTS = [
@@ -324,7 +349,11 @@ SPEC_VALUES: dict[str, list[Any]] = {
 @st.composite
 def spec_files(draw: st.DrawFn) -> tuple[str, bytes]:
     """A --features file: JSON of generated fields, a JSON list, binary bytes, bad UTF-8 or a TOML table."""
-    d = {k: draw(st.sampled_from(v)) for k, v in SPEC_VALUES.items() if draw(st.integers(0, 3)) or k == "inputs"}
+    d = {
+        k: draw(st.sampled_from(v))
+        for k, v in SPEC_VALUES.items()
+        if draw(st.integers(0, 3)) or k == "inputs"
+    }
     d = {k: v for k, v in d.items() if v is not None or draw(st.booleans())}
     form = draw(st.sampled_from(["json"] * 6 + ["list", "binary", "latin1", "toml"]))
     if form == "list":

@@ -56,7 +56,12 @@ def assert_valid_prefix(prefix: str) -> str:
     outside the runtime's own `sea` namespace."""
     if not prefix:
         raise UserError("--prefix is empty: give a C identifier such as cal_mlp")
-    if not IDENT.fullmatch(prefix) or not prefix[0].isalpha() or prefix in _C_KEYWORDS or keyword.iskeyword(prefix):
+    if (
+        not IDENT.fullmatch(prefix)
+        or not prefix[0].isalpha()
+        or prefix in _C_KEYWORDS
+        or keyword.iskeyword(prefix)
+    ):
         raise UserError(
             f"invalid prefix {prefix!r}: use a C identifier of letters, digits and '_', starting "
             "with a letter, at most 31 characters, not a C keyword"

@@ -57,8 +57,8 @@ class FeatureSpec:
 
     @staticmethod
     def from_dict(d: dict[str, Any], where: str = "feature spec") -> FeatureSpec:
-        """Parse and check a feature spec (from a model file or a --features JSON/TOML): every field of its
-        type, every number finite, every std > 0, input names distinct C identifiers; errors name the field."""
+        """Parse and check a feature spec (a model file's or a --features JSON/TOML): each field of its type,
+        every number finite, every std > 0, input names distinct C identifiers; errors name the field."""
         import seagen.fields as F
         from seagen.codegen.cfmt import is_identifier, name_clashes
 
@@ -81,7 +81,11 @@ class FeatureSpec:
                 where, "inputs", f"names {a!r} and {b!r}, which differ only in case (one C macro for both)"
             )
         vec = {}
-        for key, default, check in (("mean", 0.0, F.real), ("std", 1.0, F.positive), ("weight", None, F.real)):
+        for key, default, check in (
+            ("mean", 0.0, F.real),
+            ("std", 1.0, F.positive),
+            ("weight", None, F.real),
+        ):
             if key not in d:
                 vec[key] = () if default is None else (default,) * n
                 continue

@@ -104,9 +104,7 @@ def _mlp_model(
     """A network with its feature normalisation folded in; the original runs the network between the
     normalisation and de-normalisation the spec states."""
     layers = fold_normalization(net.layers, spec, where)
-    model = FloatMLP(
-        signals(spec, rng, d.get("input_units"), where), out, tuple(layers), task
-    )
+    model = FloatMLP(signals(spec, rng, d.get("input_units"), where), out, tuple(layers), task)
     mean, std = np.array(spec.mean), np.array(spec.std)
     w = np.array(spec.weights())
 
@@ -147,7 +145,9 @@ def read_features_file(path: str | None) -> dict[str, Any]:
     try:
         content = p.read_bytes().decode("utf-8")
     except UnicodeDecodeError as e:
-        raise UserError(f"{p}: not a text file (JSON or TOML in UTF-8): byte {e.start} is not UTF-8") from None
+        raise UserError(
+            f"{p}: not a text file (JSON or TOML in UTF-8): byte {e.start} is not UTF-8"
+        ) from None
     except OSError as e:
         raise UserError(f"{p}: cannot read: {e.strerror or e}") from None
     try:

@@ -98,7 +98,7 @@ def sf_fields(sf: Any, where: str) -> tuple[tuple[str, str], tuple[tuple[int, in
             raise F.bad(where, f"sf.inputs[{i}]", f"{n!r} is not a C identifier (letters, digits, _)")
     if names[0].upper() == names[1].upper():
         raise F.bad(where, "sf.inputs", f"names {names[0]!r} and {names[1]!r}: one C macro for both")
-    powers = []
+    powers: list[tuple[int, int]] = []
     for k, p in enumerate(F.seq(sf["powers"], where, "sf.powers")):
         ij = tuple(F.integer(x, where, f"sf.powers[{k}]") for x in F.seq(p, where, f"sf.powers[{k}]"))
         if len(ij) != 2 or min(ij) < 0 or sum(ij) > SF_MAX_DEGREE:
@@ -108,7 +108,9 @@ def sf_fields(sf: Any, where: str) -> tuple[tuple[str, str], tuple[tuple[int, in
                 f"is {list(ij)}; each power is [i, j], non-negative integers with i + j <= {SF_MAX_DEGREE}",
             )
         if ij in powers:
-            raise F.bad(where, f"sf.powers[{k}]", f"repeats {list(ij)} (at {powers.index(ij)}): give each once")
+            raise F.bad(
+                where, f"sf.powers[{k}]", f"repeats {list(ij)} (at {powers.index(ij)}): give each once"
+            )
         powers.append((ij[0], ij[1]))
     coef = F.reals(sf["coef"], where, "sf.coef")
     if not powers or len(coef) != len(powers):
