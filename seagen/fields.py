@@ -55,7 +55,10 @@ def text(v: Any, where: str, name: str) -> str:
 
 
 def seq(v: Any, where: str, name: str) -> Sequence[Any]:
-    """A list or tuple (a string is not a list of its characters)."""
+    """A list or tuple, or a 1-D numpy array or torch tensor as its list (a string is not a list of its
+    characters)."""
+    if type(v).__name__ in ("ndarray", "Tensor") and getattr(v, "ndim", 0) >= 1:
+        v = v.tolist()
     if not isinstance(v, list | tuple):
         raise bad(where, name, f"must be a list, not {_what(v)}")
     return v
