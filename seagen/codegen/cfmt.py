@@ -12,6 +12,14 @@ from seagen.errors import UserError
 
 # The one C identifier rule for user names (inputs, the prefix): letters, digits, _, at most 31 characters.
 IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,30}")
+# What user text printed into a /* */ comment must not contain, and why (newlines and other control
+# characters are refused separately).
+COMMENT_BREAKERS = {
+    "*/": "would end the comment",
+    "/*": "would open a comment inside one",
+    "\\": "could continue the line",
+    "??": "could start a trigraph (??/ is a backslash)",
+}
 SIGNIFICANT = 63  # initial characters of a macro or internal identifier that C99 guarantees to distinguish
 _C_KEYWORDS = {
     "auto",
@@ -120,9 +128,9 @@ def comment_problem(text: str) -> str | None:
     odd = next((c for c in text if not " " <= c <= "~"), None)
     if odd is not None:
         return f"contains {odd!r} (only printable ASCII: no newline, tab or control character)"
-    for seq in ("*/", "/*", "\\", "??"):
+    for seq, why in COMMENT_BREAKERS.items():
         if seq in text:
-            return f"contains {seq!r}, which C reads inside a comment"
+            return f"contains {seq!r}, which {why} in the generated C"
     return None
 
 

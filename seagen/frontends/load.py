@@ -155,7 +155,9 @@ def read_features_file(path: str | None) -> dict[str, Any]:
     except (json.JSONDecodeError, tomllib.TOMLDecodeError, RecursionError) as e:
         raise UserError(f"{p}: cannot parse: {e}") from None
     if not isinstance(raw, dict):
-        raise UserError(f"{p}: the feature specification must be a JSON object or TOML table, not a list")
+        raise UserError(
+            f"{p}: the feature specification must be a JSON object or TOML table, not a {type(raw).__name__}"
+        )
     keys = D.SPEC_KEYS
     out = {k: raw[k] for k in keys if k in raw}
     out["features"] = {k: v for k, v in raw.items() if k not in keys}

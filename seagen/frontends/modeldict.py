@@ -97,7 +97,11 @@ def sf_fields(sf: Any, where: str) -> tuple[tuple[str, str], tuple[tuple[int, in
         if not is_identifier(n):
             raise F.bad(where, f"sf.inputs[{i}]", f"{n!r} is not a C identifier (letters, digits, _)")
     if names[0].upper() == names[1].upper():
-        raise F.bad(where, "sf.inputs", f"names {names[0]!r} and {names[1]!r}: one C macro for both")
+        raise F.bad(
+            where,
+            "sf.inputs",
+            f"names {names[0]!r} and {names[1]!r}, which differ only in case (one C macro for both)",
+        )
     powers: list[tuple[int, int]] = []
     for k, p in enumerate(F.seq(sf["powers"], where, "sf.powers")):
         ij = tuple(F.integer(x, where, f"sf.powers[{k}]") for x in F.seq(p, where, f"sf.powers[{k}]"))
