@@ -29,7 +29,7 @@ from seagen.frontends.load import read_features_file
 from seagen.reference import numpy_ref
 from seagen.reference.float_ref import quantize_features
 
-VALID_EXAMPLES = 5  # valid cases drawn per example of the fault-free parametrisation
+VALID_EXAMPLES = 6  # valid cases drawn per example of the fault-free parametrisation
 SETTINGS = {
     "derandomize": True,
     "deadline": None,
@@ -212,10 +212,10 @@ def sf_oracle(d: dict[str, Any]) -> Any:
 
 
 @pytest.mark.parametrize("fault", [None, *SF_FAULTS])
-@settings(max_examples=3, **SETTINGS)  # type: ignore[call-overload]
+@settings(max_examples=2, **SETTINGS)  # type: ignore[call-overload]
 @given(data=st.data())
 def test_sf_model_dicts_export_within_bound_or_refused(fault, data):
-    """Every SF model dict, valid (VALID_EXAMPLES) or with each fault (3 each): exported within the bound
+    """Every SF model dict, valid (VALID_EXAMPLES) or with each fault (2 each): exported within the bound
     of its polynomial, or exit 2 in one line."""
     for _ in range(VALID_EXAMPLES if fault is None else 1):
         check_sf(data.draw(sf_dicts(fault)))
@@ -367,7 +367,7 @@ def spec_files(draw: st.DrawFn) -> tuple[str, bytes]:
     return ".json", json.dumps(d).encode()
 
 
-@settings(max_examples=150, **SETTINGS)  # type: ignore[call-overload]
+@settings(max_examples=100, **SETTINGS)  # type: ignore[call-overload]
 @given(spec_files())
 def test_feature_spec_files_read_or_refused_in_one_line(case):
     """Reading a --features file: a spec whose every number is finite, every std > 0, input names distinct
