@@ -11,6 +11,7 @@ import copy
 import json
 import math
 import tempfile
+import warnings
 from pathlib import Path
 from typing import Any
 from unittest import mock
@@ -118,10 +119,12 @@ def run_export(args: list[str]) -> tuple[int, str, Any]:
 
     err = io.StringIO()
     with (
+        warnings.catch_warnings(),  # a numpy RuntimeWarning would be a second line on the console
         mock.patch.object(seagen.export, "write", spy),
         contextlib.redirect_stderr(err),
         contextlib.redirect_stdout(io.StringIO()),
     ):
+        warnings.simplefilter("error", RuntimeWarning)
         rc = main(["export", *args])
     return rc, err.getvalue(), seen.get("ex")
 
@@ -155,7 +158,8 @@ def assert_refused_or_within(rc: int, err: str, ex: Any, names: list[str], out: 
 POWERS = [[i, j] for d in range(4) for i in range(d, -1, -1) for j in [d - i]]
 SF_FAULTS = [
     "fractional", "negative", "degree", "repeat", "bool", "short", "nan", "inf", "text", "empty", "names",
-    "task", "not_a_dict", "output_name", "output_units", "input_units", "input_range",
+    "task", "not_a_dict", "output_name", "output_units", "input_units", "input_range", "huge_coef",
+    "huge_range",
 ]  # fmt: skip
 
 
@@ -190,6 +194,12 @@ def sf_dicts(draw: st.DrawFn, fault: str | None) -> dict[str, Any]:
             names = draw(st.sampled_from(BAD_NAMES))
         elif f == "task":
             d["task"] = draw(st.sampled_from(["other", 1, None]))
+        elif f == "huge_coef":
+            coef[k] = draw(st.sampled_from([1e300, -1e30, 1e-300]))
+        elif f == "huge_range":
+            d["input_range"][draw(st.integers(0, 1))] = draw(
+                st.sampled_from([[-1e300, 1e300], [0.0, 1e-300]])
+            )
         else:
             break_texts(draw, d, f)
     sf = {"inputs": names, "powers": powers, "coef": coef}
@@ -240,7 +250,7 @@ ACTS = {
 
 MLP_FAULTS = [
     "names", "case", "mean_len", "mean", "std_zero", "std_neg", "std", "weight", "output_mean", "output_std",
-    "output_std_inf", "output_name", "output_units", "input_units", "input_range",
+    "output_std_inf", "output_name", "output_units", "input_units", "input_range", "huge",
 ]  # fmt: skip
 
 
@@ -277,6 +287,15 @@ def mlp_cases(draw: st.DrawFn, fault: str | None) -> tuple[torch.nn.Sequential, 
             spec["weight"] = [draw(st.sampled_from(ODD))] * n
         elif f in ("output_mean", "output_std"):
             spec[f] = draw(st.sampled_from(ODD))
+        elif f == "huge":
+            key = draw(st.sampled_from(["mean", "std", "output_mean", "output_std", "input_range"]))
+            big = {"mean": 1e300, "std": 1e-200, "output_mean": 1e300, "output_std": 1e300}.get(
+                key, [0.0, 1e300]
+            )
+            if key in ("mean", "std", "input_range"):
+                spec[key][k] = big
+            else:
+                spec[key] = big
         elif f == "output_std_inf":
             spec["output_std"] = draw(st.sampled_from([math.inf, 0.0, -2.0]))
         else:
