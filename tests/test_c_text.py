@@ -171,3 +171,22 @@ def test_prefix_must_be_a_whole_identifier(prefix, capsys, tmp_path):
     """--prefix is matched whole (a trailing newline is not an identifier character)."""
     assert main(["export", str(SF), "--out", str(tmp_path / "o"), "--prefix", prefix]) == 2
     assert "invalid prefix" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "name", ["case.pt", "sea_x.pt", "1.pt", "a" * 40 + ".pt", "my model (v2).onnx", "SEA.pt", "\u00e9.pt"]
+)
+def test_default_prefix_is_always_a_valid_one(name):
+    """Without --prefix, any file name gives a prefix the checks accept (no refusal of a name the user
+    did not choose)."""
+    from seagen.export import default_prefix
+
+    assert cfmt.assert_valid_prefix(default_prefix(name)) == default_prefix(name)
+
+
+def test_default_prefix_from_a_keyword_file_name_exports(tmp_path):
+    """A model file named after a C keyword exports with m_ before the name."""
+    p = tmp_path / "case.pt"
+    shutil.copy(SF, p)
+    assert main(["export", str(p), "--out", str(tmp_path / "out")]) == 0
+    assert (tmp_path / "out" / "m_case.h").is_file()

@@ -81,6 +81,15 @@ def assert_valid_prefix(prefix: str) -> str:
     return prefix
 
 
+def identifier_from(text: str) -> str:
+    """A prefix made from any text (a file name): other characters become _, m_ goes before a name that does
+    not start with a letter or is a C keyword or the runtime's sea/sea_*, at most 31 characters."""
+    s = re.sub(r"[^A-Za-z0-9_]", "_", text)
+    if not s[:1].isalpha() or s in _C_KEYWORDS or s.lower() == "sea" or s.lower().startswith("sea_"):
+        s = f"m_{s}"
+    return s[:31]
+
+
 def c_int(v: int, bits: int = 32) -> str:
     """An integer literal valid for a C99 int{bits}_t, including the most negative value."""
     v = int(v)
