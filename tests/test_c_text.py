@@ -190,3 +190,18 @@ def test_default_prefix_from_a_keyword_file_name_exports(tmp_path):
     shutil.copy(SF, p)
     assert main(["export", str(p), "--out", str(tmp_path / "out")]) == 0
     assert (tmp_path / "out" / "m_case.h").is_file()
+
+
+def test_every_user_text_placeholder_in_the_templates_is_filtered():
+    """Each template placeholder printing a user name or text (input and output names and units, external
+    argument names, the model summary) goes through c_ident or c_comment."""
+    import re
+
+    root = Path(__file__).resolve().parents[1] / "templates"
+    user = re.compile(r"signal\.|output\.(name|unit)|externals|\bf\.name|^\s*line\s*$")
+    unfiltered = []
+    for t in sorted(root.glob("*.j2")):
+        for expr in re.findall(r"\{\{(.*?)\}\}", t.read_text()):
+            if user.search(expr) and not re.search(r"\|\s*(c_ident|c_comment)|map\('c_ident'\)", expr):
+                unfiltered.append(f"{t.name}: {{{{{expr}}}}}")
+    assert not unfiltered, unfiltered
