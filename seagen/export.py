@@ -4,7 +4,6 @@ atomically. A driver at the top of the package graph (it uses frontends, quant, 
 from __future__ import annotations
 
 import os
-import re
 import shutil
 import tempfile
 from dataclasses import dataclass, field
@@ -12,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from seagen.atomic import locked_folder, writable_place
-from seagen.codegen.cfmt import assert_valid_prefix
+from seagen.codegen.cfmt import assert_valid_prefix, identifier_from
 from seagen.codegen.manifest import SUFFIX, manifest_text
 from seagen.codegen.quant_summary import summary_lines
 from seagen.codegen.render import RUNTIME, model_hash, render
@@ -58,8 +57,7 @@ def calib_ranges(data_dir: str, names: list[str]) -> list[list[float]]:
 
 def default_prefix(model_path: str) -> str:
     """A C identifier from the model file name (e.g. mlp_calibration.pt -> mlp_calibration)."""
-    stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(model_path).stem)
-    return stem if stem[:1].isalpha() else f"m_{stem}"
+    return identifier_from(Path(model_path).stem)
 
 
 def prepare(
@@ -97,7 +95,11 @@ def prepare(
     )
     if not rep.ok:
         raise CheckFailed(f"{model_path}: {rep.line()}")
-    files = {**render(qm, prefix, target), **runtime_sources(*RUNTIME, *TARGET_RUNTIME[check_target(target)])}
+    try:
+        rendered = render(qm, prefix, target)
+    except UserError as e:  # a name or text the C cannot hold (the loaders refuse these first)
+        raise UserError(f"{model_path}: {e}") from None
+    files = {**rendered, **runtime_sources(*RUNTIME, *TARGET_RUNTIME[check_target(target)])}
     if controller:
         from seagen.codegen.controller import controller_files
 

@@ -58,34 +58,55 @@ class FeatureSpec:
 
     @staticmethod
     def from_dict(d: dict[str, Any], where: str = "feature spec") -> FeatureSpec:
-        """Parse and check a feature spec (from a model file or a --features JSON/TOML)."""
-        try:
-            spec = FeatureSpec(
-                inputs=tuple(d["inputs"]),
-                mean=tuple(float(v) for v in d.get("mean", [0.0] * len(d["inputs"]))),
-                std=tuple(float(v) for v in d.get("std", [1.0] * len(d["inputs"]))),
-                weight=tuple(float(v) for v in d.get("weight", ())),
-                output_mean=float(d.get("output_mean", 0.0)),
-                output_std=float(d.get("output_std", 1.0)),
-                raw=tuple(d.get("raw", ("enc", "pot"))),
-                differences=str(d.get("differences", DIFFERENCE_SCHEME)),
-                sample_rate_hz=float(d.get("sample_rate_hz", 100.0)),
-                extra=dict(d.get("extra", {})),
-            )
-        except (KeyError, TypeError, ValueError) as e:
-            raise UserError(f"{where}: invalid feature specification: {e}") from None
-        n = len(spec.inputs)
-        twice = sorted({x for x in spec.inputs if spec.inputs.count(x) > 1})
+        """Parse and check a feature spec (a model file's or a --features JSON/TOML): each field of its type,
+        every number finite, every std > 0, input names distinct C identifiers; errors name the field."""
+        import seagen.fields as F
+        from seagen.codegen.cfmt import is_identifier, name_clashes
+
+        d = F.mapping(d, where, "features")
+        if "inputs" not in d:
+            raise F.bad(where, "inputs", "is missing (the model's input names, in order)")
+        names = F.texts(d["inputs"], where, "inputs")
+        n = len(names)
+        if n == 0:
+            raise F.bad(where, "inputs", "is empty")
+        for i, name in enumerate(names):
+            if not is_identifier(name):
+                raise F.bad(where, f"inputs[{i}]", f"{name!r} is not a C identifier (letters, digits, _)")
+        twice = sorted({x for x in names if names.count(x) > 1})
         if twice:
             raise UserError(f"{where}: 'inputs' names {', '.join(map(repr, twice))} more than once")
-        for name, vals in (("mean", spec.mean), ("std", spec.std)):
-            if len(vals) != n:
-                raise UserError(f"{where}: '{name}' has {len(vals)} values for {n} inputs")
-        if spec.weight and len(spec.weight) != n:
-            raise UserError(f"{where}: 'weight' has {len(spec.weight)} values for {n} inputs")
-        if any(s <= 0 for s in spec.std) or spec.output_std <= 0:
-            raise UserError(f"{where}: every std must be > 0")
-        return spec
+        if clash := name_clashes(list(names)):
+            a, b = clash[0]
+            raise F.bad(
+                where, "inputs", f"names {a!r} and {b!r}, which differ only in case (one C macro for both)"
+            )
+        vec = {}
+        for key, default, check in (
+            ("mean", 0.0, F.real),
+            ("std", 1.0, F.positive),
+            ("weight", None, F.real),
+        ):
+            if key not in d:
+                vec[key] = () if default is None else (default,) * n
+                continue
+            vals = tuple(check(v, where, f"{key}[{i}]") for i, v in enumerate(F.seq(d[key], where, key)))
+            if len(vals) != n and (key != "weight" or vals):
+                raise UserError(f"{where}: '{key}' has {len(vals)} values for {n} inputs")
+            vec[key] = vals
+        extra = F.mapping(d.get("extra", {}), where, "extra")
+        return FeatureSpec(
+            inputs=names,
+            mean=vec["mean"],
+            std=vec["std"],
+            weight=vec["weight"],
+            output_mean=F.real(d.get("output_mean", 0.0), where, "output_mean"),
+            output_std=F.positive(d.get("output_std", 1.0), where, "output_std"),
+            raw=F.texts(d.get("raw", ("enc", "pot")), where, "raw"),
+            differences=F.text(d.get("differences", DIFFERENCE_SCHEME), where, "differences"),
+            sample_rate_hz=F.positive(d.get("sample_rate_hz", 100.0), where, "sample_rate_hz"),
+            extra=dict(extra),
+        )
 
 
 def save_model(obj: dict[str, Any], path: str | os.PathLike[str]) -> None:

@@ -33,11 +33,17 @@ def files(tmp_path_factory) -> dict[str, Path]:
         "bare": {"inputs": ["x0", "x1", "x2"]},
         "typo": {"ouptut_std": 2.0},
         "twice": {"inputs": ["x0", "x0", "x2"]},
+        "str_inputs": {"inputs": "u"},
+        "nan_mean": {"mean": [float("nan"), 0.0, 0.0]},
+        "inf_std": {"output_std": float("inf")},
+        "case": {"inputs": ["a", "A", "x2"]},
     }.items():
         out[name] = d / f"{name}.json"
         out[name].write_text(json.dumps({**spec, **change}))
     (d / "broken.json").write_text("{inputs: nope")
     out["broken"] = d / "broken.json"
+    (d / "binary.json").write_bytes(bytes(range(256)))
+    out["binary"] = d / "binary.json"
     sf = load_model(SF)
     sf["sf"]["coef"] = sf["sf"]["coef"][:-1]
     torch.save(sf, d / "sf_short.pt")
@@ -51,6 +57,11 @@ def files(tmp_path_factory) -> dict[str, Path]:
     torch.save(net.state_dict(), d / "sd.pt")
     torch.save({"weights": [1.0, 2.0]}, d / "other_dict.pt")
     out |= {"ckpt": d / "ckpt.pt", "sd": d / "sd.pt", "other_dict": d / "other_dict.pt"}
+    for name, power in {"sf_frac": [0.5, 1], "sf_neg": [-1, 0], "sf_dup": [0, 0], "sf_deg": [4, 0]}.items():
+        sf = load_model(SF)
+        sf["sf"]["powers"][1] = power
+        torch.save(sf, d / f"{name}.pt")
+        out[name] = d / f"{name}.pt"
     (d / "a_dir.pt").mkdir()
     out["a_dir"] = d / "a_dir.pt"
     (d / "a_file").write_text("keep")
@@ -66,9 +77,9 @@ BAD = {  # case: (arguments with {placeholders}, expected text, the file the mes
     "empty prefix": (["{sf}", *OUT, "--prefix", ""], "--prefix is empty", ""),
     "prefix sea": (["{sf}", *OUT, "--prefix", "sea"], "belong to the C runtime", ""),
     "prefix sea_": (["{sf}", *OUT, "--prefix", "sea_cal"], "belong to the C runtime", ""),
-    "range lo == hi": (["{seq}", "--features", "{flat}", *OUT], "needs lo < hi", "seq.pt"),
+    "range lo == hi": (["{seq}", "--features", "{flat}", *OUT], "needs lo < hi", "flat.json"),
     "sf lengths": (["{sf_short}", *OUT], "coefficients for", "sf_short.pt"),
-    "bad input name": (["{seq}", "--features", "{badname}", *OUT], "not a C identifier", "seq.pt"),
+    "bad input name": (["{seq}", "--features", "{badname}", *OUT], "not a C identifier", "badname.json"),
     "unparsable features": (["{seq}", "--features", "{broken}", *OUT], "cannot parse", "broken.json"),
     "unknown spec key": (["{seq}", "--features", "{typo}", *OUT], "unknown key(s) ouptut_std", "typo.json"),
     "no features": (["{seq}", *OUT], "needs --features", "seq.pt"),
@@ -88,6 +99,23 @@ BAD = {  # case: (arguments with {placeholders}, expected text, the file the mes
     ),
     "bare state_dict": (["{sd}", *OUT], "a bare state_dict (4 tensors such as '0.weight')", "sd.pt"),
     "other dict": (["{other_dict}", *OUT], "a dict but not a seagen model file", "other_dict.pt"),
+    "sf fractional power": (["{sf_frac}", *OUT], "field 'sf.powers[1]' must be an integer", "sf_frac.pt"),
+    "sf negative power": (["{sf_neg}", *OUT], "field 'sf.powers[1]' is [-1, 0]", "sf_neg.pt"),
+    "sf repeated power": (["{sf_dup}", *OUT], "field 'sf.powers[1]' repeats [0, 0]", "sf_dup.pt"),
+    "sf degree 4": (["{sf_deg}", *OUT], "i + j <= 3", "sf_deg.pt"),
+    "inputs a string": (["{seq}", "--features", "{str_inputs}", *OUT], "must be a list", "str_inputs.json"),
+    "mean NaN": (
+        ["{seq}", "--features", "{nan_mean}", *OUT],
+        "field 'mean[0]' must be finite",
+        "nan_mean.json",
+    ),
+    "output std Inf": (
+        ["{seq}", "--features", "{inf_std}", *OUT],
+        "'output_std' must be finite",
+        "inf_std.json",
+    ),
+    "names differ in case": (["{seq}", "--features", "{case}", *OUT], "differ only in case", "case.json"),
+    "binary features": (["{seq}", "--features", "{binary}", *OUT], "not a text file", "binary.json"),
 }
 
 

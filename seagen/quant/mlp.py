@@ -51,12 +51,20 @@ def quantize_layer(
     """One layer: weight format, integer weights and bias, accumulator width, output format, activation."""
     w_frac = frac_for(float(np.max(np.abs(w_eff))), wmax)
     w_q = quantize(w_eff, w_frac)
+    if int(np.max(np.abs(w_q))) > wmax:
+        raise UserError(
+            f"layer {index}: weights up to {float(np.max(np.abs(w_eff))):.3g} do not fit "
+            f"int{wmax.bit_length() + 1} even at Q{w_frac} (with the normalisation folded in)"
+        )
     acc_frac = w_frac + in_frac
     b_q = quantize(layer.bias, acc_frac)
     mn, mx, per_neuron = acc_interval(w_q, b_q, lo, hi)
     worst = max(per_neuron)
     if worst >= 2**62:
-        raise UserError(f"layer {index}: accumulator bound 2^{int(worst).bit_length()} exceeds int64")
+        raise UserError(
+            f"layer {index}: accumulator bound 2^{int(worst).bit_length()} exceeds int64 (weights and bias "
+            "too large for the input box, with the normalisation folded in)"
+        )
     out_frac = _out_frac(mn, mx, acc_frac, layer.activation)
     shift = acc_frac - out_frac
     # the interval end points fit int64 (|acc| < 2^62 was checked above)
