@@ -18,7 +18,7 @@ from seagen.frontends import Network, read_module, read_onnx
 from seagen.frontends import modeldict as D
 from seagen.frontends.margin import forward_margin
 from seagen.frontends.torch_files import load_torch
-from seagen.ir import FloatLayer, FloatMLP, FloatModel, FloatSF, Signal
+from seagen.ir import FloatLayer, FloatMLP, FloatModel, FloatSF, Signal, poly2
 from seagen.modelfile import FORMAT, FeatureSpec
 from seagen.quant.qformat import widened, widened_box
 
@@ -93,11 +93,11 @@ def _sf_model(d: dict[str, Any], where: str, rng: Any, output: Signal, task: str
 
     def poly(x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=np.float64)
-        return sum(c * x[:, 0] ** i * x[:, 1] ** j for c, (i, j) in zip(coef, powers, strict=True))
+        return poly2(powers, coef, x[:, 0], x[:, 1])
 
     box = [widened(s.lo, s.hi) for s in (a, b)]
     am, bm = (max(abs(lo), abs(hi)) for lo, hi in box)
-    size = sum(abs(c) * am**i * bm**j for c, (i, j) in zip(coef, powers, strict=True))
+    size = float(poly2(powers, np.abs(coef), am, bm))  # the largest term magnitudes over the box
     return Loaded(model, poly, "float64 polynomial from the coefficients", 2.0**-40 * (1.0 + size), "float64")
 
 
