@@ -85,6 +85,7 @@ BOTTOM = [
     "atomic",
     "workers",
     "filekind",
+    "fields",
     "actuator",
     "geometry",
     "ir",
