@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from seagen.atomic import locked_folder, writable_place
-from seagen.codegen.cfmt import assert_valid_prefix, identifier_from
+from seagen.cnames import assert_valid_prefix, identifier_from
 from seagen.codegen.manifest import SUFFIX, manifest_text
 from seagen.codegen.quant_summary import summary_lines
 from seagen.codegen.render import RUNTIME, model_hash, render

@@ -61,7 +61,7 @@ class FeatureSpec:
         """Parse and check a feature spec (a model file's or a --features JSON/TOML): each field of its type,
         every number finite, every std > 0, input names distinct C identifiers; errors name the field."""
         import seagen.fields as F
-        from seagen.codegen.cfmt import is_identifier, name_clashes
+        from seagen.cnames import is_identifier, name_clashes
 
         d = F.mapping(d, where, "features")
         if "inputs" not in d:

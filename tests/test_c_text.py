@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 import torch
 
+from seagen import cnames
 from seagen.cli import main
 from seagen.codegen import cfmt
 from seagen.codegen.render import render
@@ -181,7 +182,7 @@ def test_default_prefix_is_always_a_valid_one(name):
     did not choose)."""
     from seagen.export import default_prefix
 
-    assert cfmt.assert_valid_prefix(default_prefix(name)) == default_prefix(name)
+    assert cnames.assert_valid_prefix(default_prefix(name)) == default_prefix(name)
 
 
 def test_default_prefix_from_a_keyword_file_name_exports(tmp_path):

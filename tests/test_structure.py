@@ -86,6 +86,7 @@ BOTTOM = [
     "workers",
     "filekind",
     "fields",
+    "cnames",
     "actuator",
     "geometry",
     "ir",

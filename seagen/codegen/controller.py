@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import fields
 
 from seagen import __version__
-from seagen.codegen.cfmt import assert_valid_prefix
+from seagen.cnames import assert_valid_prefix
 from seagen.codegen.render import environment, model_hash
 from seagen.codegen.runtime import CONTROL_RUNTIME, runtime_sources
 from seagen.errors import UserError

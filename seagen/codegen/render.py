@@ -10,15 +10,8 @@ import jinja2
 import numpy as np
 
 from seagen import __version__
-from seagen.codegen.cfmt import (
-    assert_valid_prefix,
-    c_array,
-    c_comment,
-    c_ident,
-    c_int,
-    check_input_macros,
-    input_macro,
-)
+from seagen.cnames import assert_valid_prefix, check_input_macros, input_macro
+from seagen.codegen.cfmt import c_array, c_comment, c_ident, c_int
 from seagen.codegen.quant_summary import buffer_width, summary_lines
 from seagen.codegen.targets import kernel_context
 from seagen.ir import QMLP, QSF, QLayer, QModel

@@ -32,7 +32,7 @@ class Exported:
 def exported(model: str, features: str | None = None, allow_pickle: bool = False) -> Exported:
     """MODEL read, quantized, checked against its original by the oracle (CheckFailed beyond the bound) and
     rendered to C: the in-memory core of `seagen export` (no manifest, nothing written)."""
-    from seagen.codegen.cfmt import assert_valid_prefix
+    from seagen.cnames import assert_valid_prefix
     from seagen.codegen.render import RUNTIME, render
     from seagen.codegen.runtime import runtime_sources
     from seagen.errors import CheckFailed

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 import seagen.fields as F
-from seagen.codegen.cfmt import comment_problem, is_identifier
+from seagen.cnames import comment_problem, is_identifier
 from seagen.errors import UserError
 from seagen.ir import Signal
 

@@ -9,7 +9,7 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from seagen.codegen.cfmt import assert_valid_prefix
+from seagen.cnames import assert_valid_prefix
 from seagen.errors import UserError
 from seagen.toolchain import cortexm as cm
 from seagen.toolchain.host import CACHE, STRICT_CFLAGS, _key, compile_objects
