@@ -41,6 +41,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="unpickle a .pt holding arbitrary Python objects (RUNS CODE from the file: trusted files only)",
     )
+    p.add_argument(
+        "--misra",
+        action="store_true",
+        help="also check the folder's C with cppcheck 2.10's MISRA C:2012 addon (findings outside seagen's "
+        "deviation record fail; suppressions in the files are refused; skipped without cppcheck 2.10)",
+    )
     p.add_argument("--junit", metavar="FILE", help="also write a JUnit XML report (one test case per check)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.set_defaults(func=cmd_verify)
@@ -62,7 +68,9 @@ def cmd_verify(args: argparse.Namespace) -> int:
         args.core,
         args.features,
         args.allow_pickle,
+        misra=args.misra,
     )
+
     print(verdict.to_json() if args.json else verdict.text())
     if args.junit:
         with atomic_path(Path(args.junit)) as tmp:

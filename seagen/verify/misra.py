@@ -221,3 +221,19 @@ def _parse(xml_text: str) -> list[Finding]:
         rule = ident.removeprefix("misra-c2012-")
         out.append(Finding(rule, file, line, "" if ident.startswith("misra") else err.get("msg", "")))
     return out
+
+
+def check_folder(v, folder: Path, target: str) -> None:
+    """`seagen verify --misra`: every export's C in `folder` (with a generated caller of their API) under
+    cppcheck's MISRA addon, recorded in the verdict `v`; skipped (with the reason) without cppcheck VERSION."""
+    name = f"MISRA C:2012 (cppcheck {VERSION} misra addon): 0 findings outside seagen's deviation record"
+    if why := skip_reason():
+        v.add(name, None, f"skipped: {why}", kind="skipped")
+        return
+    files = {
+        p.name: p.read_text() for p in sorted(folder.iterdir()) if p.suffix in (".c", ".h") and p.is_file()
+    }
+    files = {n: t for n, t in files.items() if not n.endswith(("_driver.c", "_driver.h", "_bench.c"))}
+    found = run_cppcheck(files, target if target in DEFINES else "portable")
+    head = "; ".join(f.line_text() for f in found[:5])
+    v.add(name, f"{len(found)} finding(s): {head}" if found else None, f"{len(files)} files")

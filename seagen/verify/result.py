@@ -71,4 +71,7 @@ class Verdict:
             case = ET.SubElement(suite, "testcase", classname=f"seagen.verify.{self.prefix}", name=i.name)
             if not i.ok:
                 ET.SubElement(case, "failure", message=i.detail[:200]).text = i.detail
+            elif i.kind == "skipped":
+                ET.SubElement(case, "skipped", message=i.detail[:200])
+
         return ET.tostring(suite, encoding="utf-8", xml_declaration=True)

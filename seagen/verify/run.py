@@ -94,6 +94,7 @@ def verify(
     core: str = "host",
     features: str | None = None,
     allow_pickle: bool = False,
+    misra: bool = False,
 ) -> Verdict:
     """Every check of `seagen verify`, in order: drift first, then numbers (see the README, "Use in CI")."""
     from seagen.codegen.render import model_hash
@@ -107,6 +108,11 @@ def verify(
     man, matches = select(root, mpath, prefix)
     v = Verdict(man.prefix, str(root))
     check_drift(v, root, man, mpath, matches)
+    if misra:
+        from seagen.verify.misra import check_folder
+
+        check_folder(v, root, man.data["options"].get("target", "portable"))
+
     if not matches or any(not (root / n).is_file() for n in man.files):
         return v  # numbers against another model, or without every file, say nothing more
     try:
