@@ -30,7 +30,9 @@ def test_firmware_example_exports_clean(target):
 def test_added_finding_and_suppression_comment_fail():
     """A finding added by editing the C fails, and a suppression comment does not hide it."""
     files = glove_files("portable")
-    files["cal_mlp.c"] += "\nint32_t cal_mlp_extra(int32_t a, int32_t b) /* cppcheck-suppress misra-c2012-12.1 */\n"
+    files["cal_mlp.c"] += (
+        "\n/* cppcheck-suppress misra-c2012-12.1 */\nint32_t cal_mlp_extra(int32_t a, int32_t b)\n"
+    )
     files["cal_mlp.c"] += "{\n    return a + b * 2 - a;\n}\n"
     rules = {f.rule for f in run_cppcheck(files, "portable", calls=GLOVE)}
     assert "suppression-comment" in rules

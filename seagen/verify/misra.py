@@ -1,4 +1,4 @@
-"""MISRA C:2012 check of exported C with cppcheck's addon: any finding outside seagen's deviation record fails.
+"""MISRA C:2012 check of exported C with cppcheck's addon: a finding outside seagen's deviation record fails.
 
 The suppression list comes from seagen's own record (seagen/verify/misra_record.py, docs/misra.md), located
 in the checked files by each deviation's code pattern; suppressions written in the checked files are never
@@ -6,7 +6,6 @@ honoured (no --inline-suppr) and a `cppcheck-suppress` comment is itself a findi
 
 from __future__ import annotations
 
-import fnmatch
 import re
 import shutil
 import subprocess
@@ -102,12 +101,12 @@ def cppcheck_id(rule: str) -> str:
 
 
 def suppressions(files: dict[str, str], record: tuple[Deviation, ...] = RECORD) -> list[str]:
-    """cppcheck suppressions (id:file:line) for every line of `files` that a deviation of the record covers."""
+    """cppcheck suppressions (id:file:line) for each line of `files` that a deviation of the record covers."""
     out = []
     for dev in record:
         pattern = re.compile(dev.match)
         for name in sorted(files):
-            if not fnmatch.fnmatchcase(name, dev.files):
+            if not re.fullmatch(dev.files, name):
                 continue
             for n, line in enumerate(files[name].splitlines(), 1):
                 if pattern.search(line):
@@ -225,7 +224,7 @@ def _parse(xml_text: str) -> list[Finding]:
 
 def check_folder(v, folder: Path, target: str) -> None:
     """`seagen verify --misra`: every export's C in `folder` (with a generated caller of their API) under
-    cppcheck's MISRA addon, recorded in the verdict `v`; skipped (with the reason) without cppcheck VERSION."""
+    cppcheck's MISRA addon, added to the verdict; skipped (with the reason) without cppcheck VERSION."""
     name = f"MISRA C:2012 (cppcheck {VERSION} misra addon): 0 findings outside seagen's deviation record"
     if why := skip_reason():
         v.add(name, None, f"skipped: {why}", kind="skipped")
