@@ -235,4 +235,4 @@ def check_folder(v, folder: Path, target: str) -> None:
     files = {n: t for n, t in files.items() if not n.endswith(("_driver.c", "_driver.h", "_bench.c"))}
     found = run_cppcheck(files, target if target in DEFINES else "portable")
     head = "; ".join(f.line_text() for f in found[:5])
-    v.add(name, f"{len(found)} finding(s): {head}" if found else None, f"{len(files)} files")
+    v.add(name, f"{len(found)} finding(s): {head}" if found else None, f"{len(files)} files", kind="misra")

@@ -14,7 +14,7 @@ class Item:
     name: str
     ok: bool
     detail: str = ""
-    kind: str = "numbers"  # "drift" (files, model, version) or "numbers"
+    kind: str = "numbers"  # "drift" (files, model, version), "numbers", "misra" or "skipped" (not run)
 
 
 @dataclass
