@@ -111,17 +111,3 @@ int16_t sea_control_step(const sea_control_config *c, sea_control_state *s, int3
     s->out = sea_pid_step(&c->pid, &s->pid, s->desired, s->comp);
     return s->out;
 }
-
-void sea_control_set_desired(sea_control_state *s, int32_t desired_q16)
-{
-    s->desired = desired_q16;
-}
-
-int32_t sea_predict_kinematic(void *ctx, int32_t enc, int32_t pot, int32_t force_q16)
-{
-    const sea_kin_params *k = (const sea_kin_params *)ctx;
-    int64_t f = sea_sat32((int64_t)force_q16 + k->friction_q16); /* |f| < 2^31: product < 2^62 */
-    (void)enc;
-    (void)pot;
-    return sea_sat32(sea_rshift_rne_s64(f * k->inv_k_q16, SEA_FORCE_FRAC_BITS));
-}

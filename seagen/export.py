@@ -17,8 +17,8 @@ from seagen.codegen.manifest import SUFFIX, manifest_text
 from seagen.codegen.render import RUNTIME, model_hash, render
 from seagen.codegen.runtime import runtime_sources
 from seagen.codegen.summary import summary_lines
+from seagen.codegen.targets import OMIT, check_target
 from seagen.codegen.targets import RUNTIME as TARGET_RUNTIME
-from seagen.codegen.targets import check_target
 from seagen.errors import CheckFailed, UserError
 from seagen.frontends.load import Loaded, load_with_original, read_features_file
 from seagen.ir import FloatModel, QModel
@@ -94,7 +94,9 @@ def prepare(
     )
     if not rep.ok:
         raise CheckFailed(f"{model_path}: {rep.line()}")
-    files = {**render(qm, prefix, target), **runtime_sources(*RUNTIME, *TARGET_RUNTIME[check_target(target)])}
+    shipped = [n for n in RUNTIME if n not in OMIT[check_target(target)]]
+    files = {**render(qm, prefix, target), **runtime_sources(*shipped, *TARGET_RUNTIME[target])}
+
     if controller:
         from seagen.control.firmware import controller_files
 

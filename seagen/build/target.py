@@ -24,7 +24,7 @@ TICK_FIELDS = (
     *((f, "int32_t") for f in ("predict_every", "pred_avg", "force_min", "force_max")),
     *((f, "int32_t") for f in ("enc_jump_max", "pot_stuck_ticks")),
 )
-CONTROL_RUNTIME = ("sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c")
+CONTROL_RUNTIME = ("sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c", "sea_fixed_ctrl.c")
 
 
 def driver_sources(prefix: str, qm: QModel) -> dict[str, str]:

@@ -48,4 +48,4 @@ def cdef_of(*headers: str) -> str:
     return "\n".join(out)
 
 
-FIXED = ("sea_fixed.h", "sea_fixed.c")
+FIXED = ("sea_fixed.h", "sea_fixed.c", "sea_fixed_ctrl.c")

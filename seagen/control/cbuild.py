@@ -13,7 +13,16 @@ from seagen.codegen.runtime import cdef_of, runtime_sources
 from seagen.control.controller import ControlConfig, KinParams
 from seagen.defaults import GENERATED
 
-SOURCES = ("sea_fixed.h", "sea_fixed.c", "sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c")
+SOURCES = (
+    "sea_fixed.h",
+    "sea_fixed.c",
+    "sea_fixed_ctrl.c",
+    "sea_pid.h",
+    "sea_pid.c",
+    "sea_control.h",
+    "sea_control.c",
+    "sea_control_extra.c",
+)
 NN_SOURCES = ("sea_nn.h", "sea_nn.c", "sea_features.h", "sea_features.c")
 CDEF = cdef_of(*runtime_sources("sea_fixed.h", "sea_pid.h", "sea_control.h").values()) + "\n"
 

@@ -33,7 +33,7 @@ RECORD: tuple[Deviation, ...] = (
     *_d(
         "D1",
         "10.1",
-        "sea_fixed.c",
+        r"sea_fixed(_ctrl)?\.c",
         r"q = v >> s;",
         r"r = \(int32_t\)\(v - \(q \* \(\(int32_t\)1 << s\)\)\);",
         r"half = \(int(32|64)_t\)1 << \(s - 1\);",
@@ -44,7 +44,7 @@ RECORD: tuple[Deviation, ...] = (
         r"v = \(a \* \(\(int64_t\)1 << SEA_LINK_TABLE_SHIFT\)\)",
         r"if \(SEA_ABS_BELOW\(",
     ),
-    *_d("D1", "shiftNegativeLHS", "sea_fixed.c", r"q = v >> s;"),
+    *_d("D1", "shiftNegativeLHS", r"sea_fixed(_ctrl)?\.c", r"q = v >> s;"),
     *_d(
         "D1",
         "10.1",
@@ -112,7 +112,7 @@ RECORD: tuple[Deviation, ...] = (
     *_d("D4", "20.7", "sea_nn.c", r"^#define SEA_DENSE_BODY\(ACC, SHIFT_FN\)"),
     # D5 (11.5, advisory): the predictor callback's void *ctx back to its state type.
     *_d("D5", "11.5", MODEL_C, r"_step\(\(\w+_state_t \*\)ctx, enc, pot"),
-    *_d("D5", "11.5", "sea_control.c", r"const sea_kin_params \*k = \(const sea_kin_params \*\)ctx;"),
+    *_d("D5", "11.5", "sea_control_extra.c", r"const sea_kin_params \*k = \(const sea_kin_params \*\)ctx;"),
     # D6 (18.4, advisory): the target kernels step their weight pointer by a constant stride.
     *_d("D6", "18.4", MODEL_C, r"^ +[uw] \+= \d+;$"),
     # D7 (8.9, advisory): constant tables at file scope (one per layer, as the portable kernel's).
@@ -125,7 +125,7 @@ RECORD: tuple[Deviation, ...] = (
     ),
     # D8 (8.7, advisory): the public API (the link table and sea_linkage_q16) has external linkage.
     *_d("D8", "8.7", MODEL_C, r"^const int32_t \w+_link_q16\[SEA_LINK_TABLE_LEN\] = \{"),
-    *_d("D8", "8.7", "sea_fixed.c", r"^int32_t sea_linkage_q16\("),
+    *_d("D8", "8.7", r"sea_fixed(_ctrl)?\.c", r"^int32_t sea_linkage_q16\("),
     # D9 (2.5, advisory): documented constants of the runtime API that a given export does not use.
     *_d("D9", "2.5", "sea_control.h", r"^#define SEA_CTRL_(ENC_JUMP_MAX|POT_STUCK_TICKS) "),
     *_d("D9", "2.5", "sea_features.h", r"^#define SEA_FEAT_(ANGLE_FRAC_BITS|EXTERNAL) "),
@@ -137,7 +137,7 @@ RECORD: tuple[Deviation, ...] = (
     *_d(
         "D11",
         "15.5",
-        "sea_fixed.c",
+        r"sea_fixed(_ctrl)?\.c",
         r"^        return (v|0|INT16_MAX|INT16_MIN|INT32_MAX|INT32_MIN);$",
         r"^        return sea_rshift_rne_s32\(\(int32_t\)v, s\);",
     ),
@@ -150,22 +150,14 @@ RECORD: tuple[Deviation, ...] = (
     ),
     *_d("D11", "15.5", "sea_features.h", r"^        return "),
     *_d("D11", "15.5", "sea_control.c", r"^        return( 0)?;"),
-    # D12 (17.8, advisory): sea_clamp_s64 clamps its parameter in place.
-    *_d("D12", "17.8", "sea_fixed.c", r"^        v = (hi|lo);$"),
-    # D13 (12.1, advisory): remaining precedence findings on fully bracketed conditional expressions.
-    *_d("D13", "12.1", "sea_fixed.c", r"r = \(ra != 0u\) \? \(d - ra\) : 0u;"),
-    *_d("D13", "12.1", "sea_nn.c", r"k = \(k < 0\) \? 0 : \(\(k > \(len - 1\)\)"),
-    *_d("D13", "12.1", "sea_pid.c", r"return \(\(r > half\) \|\| \(\(r == half\)"),
-    # D14 (2.2, required): a `1 * n` array length in the portable kernel's last layer.
-    *_d("D14", "2.2", MODEL_C, r"^static const int(8|16)_t \w+_w\d+\[1 \* \d+\] = \{"),
-    # D15 (unusedFunction): runtime functions not called by the folder's exports (shipped whole per file).
-    *_d("D15", "unusedFunction", "sea_nn.c", r"^(void|int32_t) sea_\w+\("),
-    *_d(
-        "D15",
-        "unusedFunction",
-        "sea_control.c",
-        r"^(void sea_control_set_desired|int32_t sea_predict_kinematic)\(",
-    ),
+    # D12 (12.1, advisory): remaining precedence findings on fully bracketed conditional expressions.
+    *_d("D12", "12.1", r"sea_fixed(_ctrl)?\.c", r"r = \(ra != 0u\) \? \(d - ra\) : 0u;"),
+    *_d("D12", "12.1", "sea_nn.c", r"k = \(k < 0\) \? 0 : \(\(k > \(len - 1\)\)"),
+    *_d("D12", "12.1", "sea_pid.c", r"return \(\(r > half\) \|\| \(\(r == half\)"),
+    # D13 (2.2, required): a `1 * n` array length in the portable kernel's last layer.
+    *_d("D13", "2.2", MODEL_C, r"^static const int(8|16)_t \w+_w\d+\[1 \* \d+\] = \{"),
+    # D14 (unusedFunction): runtime functions not called by the folder's exports (shipped whole per file).
+    *_d("D14", "unusedFunction", "sea_nn.c", r"^(void|int32_t) sea_\w+\("),
     # D3 (10.7/10.8): found once the 10.1 findings of the same lines are recorded.
     *_d("D3", "10.7", "sea_dsp.h", r"if \(\(\(uint64_t\)v << \(64 - s\)\) == 0u\)"),
     *_d(
@@ -174,13 +166,18 @@ RECORD: tuple[Deviation, ...] = (
         "sea_dsp.h",
         r"return \(int32_t\)\(\(\(int64_t\)\(x \* \(1 << \(32 - s\)\)\) \* r\) >> 32\);",
     ),
-    *_d("D3", "10.8", "sea_fixed.c", r"r = \(int64_t\)\(\(uint64_t\)v & \(\(\(uint64_t\)1 << s\) - 1u\)\);"),
-    *_d("D3", "10.7", "sea_fixed.c", r"half = \(int64_t\)1 << \(s - 1\);"),
+    *_d(
+        "D3",
+        "10.8",
+        r"sea_fixed(_ctrl)?\.c",
+        r"r = \(int64_t\)\(\(uint64_t\)v & \(\(\(uint64_t\)1 << s\) - 1u\)\);",
+    ),
+    *_d("D3", "10.7", r"sea_fixed(_ctrl)?\.c", r"half = \(int64_t\)1 << \(s - 1\);"),
     *_d("D3", "10.7", "sea_nn.h", r"return sea_sat32\(v \* \(\(int64_t\)1 << \(to_frac - from_frac\)\)\);"),
     *_d("D3", "10.8", "sea_pid.c", r"const int64_t mid = \(int64_t\)\(ah \* \(int32_t\)bl\)"),
     # D11 (15.5): more early returns.
     *_d("D11", "15.5", "sea_nn.h", r"^        return \(int16_t\)\(\(int32_t\)v \* \(1 << k\)\);$"),
-    *_d("D11", "15.5", "sea_fixed.c", r"^        return sea_rshift_rne_s32\(\(a32 \* "),
+    *_d("D11", "15.5", r"sea_fixed(_ctrl)?\.c", r"^        return sea_rshift_rne_s32\(\(a32 \* "),
     *_d("D11", "15.5", "sea_nn.h", r"^        return sea_sat32\(v \* \(\(int64_t\)1 << "),
     *_d(
         "D11",
