@@ -1,7 +1,7 @@
-/* sea_control_extra.c -- the controller API for hand-written firmware (declared in sea_control.h): an outside
+/* sea_control_extra.c -- the controller API for hand-written firmware (sea_control_extra.h): an outside
  * desired compression and the kinematic predictor. Not part of an export (its generated controller does not
  * call them); twin: seagen/control/controller.py. */
-#include "sea_control.h"
+#include "sea_control_extra.h"
 
 void sea_control_set_desired(sea_control_state *s, int32_t desired_q16)
 {

@@ -36,7 +36,6 @@ CONTROL_FILES = (
     "sea_control.h",
     "sea_control.c",
     "sea_fixed_ctrl.c",
-    "sea_control_extra.c",
 )
 N_CALLS = 40
 
