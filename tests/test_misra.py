@@ -29,6 +29,17 @@ def test_firmware_example_exports_clean(target):
 
 
 @needs_cppcheck
+def test_one_export_alone_clean():
+    """A folder holding one portable export without the controller (the runtime files it ships, no more)."""
+    from seagen.defaults import GENERATED
+    from seagen.export import prepare
+
+    ex = prepare(str(GENERATED / "models" / "sf_calibration.pt"), prefix="cal_sf")
+    found = run_cppcheck({k: v for k, v in ex.files.items() if k.endswith((".c", ".h"))}, "portable")
+    assert not found, "\n".join(f.line_text() for f in found)
+
+
+@needs_cppcheck
 def test_added_finding_and_suppression_comment_fail():
     """A finding added by editing the C fails, and a suppression comment does not hide it."""
     files = glove_files("portable")
