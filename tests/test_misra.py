@@ -71,19 +71,24 @@ def test_record_never_suppresses_everything():
 @pytest.mark.parametrize("weights", ["int16", "int8"])
 @pytest.mark.parametrize("target", ["portable", "cortex-m4", "cortex-m0plus"])
 def test_option_matrix_clean(target, weights):
-    """All four shipped models (SF and MLP, the control ones with --controller) in one folder."""
+    """All four shipped models (SF and MLP, the control ones with --controller) in one folder, and each
+    export alone (the control ones also without --controller)."""
     from seagen.control.firmware import controller_files
     from seagen.defaults import GENERATED
     from seagen.export import prepare
 
-    files = {}
+    files, alone = {}, {}
     for m in ("sf_calibration", "mlp_calibration", "sf_control", "mlp_control"):
         e = prepare(str(GENERATED / "models" / f"{m}.pt"), prefix=m, target=target, weights=weights)
-        files.update(e.files)
+        alone[m] = {**e.files, **(controller_files(m, e.qmodel) if "control" in m else {})}
         if "control" in m:
-            files.update(controller_files(m, e.qmodel))
+            alone[f"{m} without --controller"] = e.files
+        files.update(alone[m])
     found = run_cppcheck({k: v for k, v in files.items() if k.endswith((".c", ".h"))}, target)
     assert not found, "\n".join(f.line_text() for f in found)
+    for m, ex in alone.items():  # each export alone in its folder: the runtime files it ships, no more
+        found = run_cppcheck({k: v for k, v in ex.items() if k.endswith((".c", ".h"))}, target)
+        assert not found, m + ":\n" + "\n".join(f.line_text() for f in found)
 
 
 def _export(tmp_path, target: str = "cortex-m4"):

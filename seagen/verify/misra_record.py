@@ -130,6 +130,7 @@ RECORD: tuple[Deviation, ...] = (
     *_d("D9", "2.5", "sea_control.h", r"^#define SEA_CTRL_(ENC_JUMP_MAX|POT_STUCK_TICKS) "),
     *_d("D9", "2.5", "sea_features.h", r"^#define SEA_FEAT_(ANGLE_FRAC_BITS|EXTERNAL) "),
     *_d("D9", "2.5", "sea_pid.h", r"^#define SEA_MOTOR_MAX_MV "),
+    *_d("D9", "2.5", "sea_fixed.h", r"^#define SEA_FORCE_FRAC_BITS "),
     *_d("D9", "2.5", "sea_dsp.h", r"^#define SEA_OPAQUE\(p\) "),
     # D10 (2.3, advisory): the compile-time check of the arithmetic right shift.
     *_d("D10", "2.3", "sea_fixed.h", r"^typedef char sea_check_arith_shift\["),
