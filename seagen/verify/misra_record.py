@@ -128,7 +128,7 @@ RECORD: tuple[Deviation, ...] = (
     *_d("D8", "8.7", r"sea_fixed(_ctrl)?\.c", r"^int32_t sea_linkage_q16\("),
     # D9 (2.5, advisory): documented constants of the runtime API that a given export does not use.
     *_d("D9", "2.5", "sea_control.h", r"^#define SEA_CTRL_(ENC_JUMP_MAX|POT_STUCK_TICKS) "),
-    *_d("D9", "2.5", "sea_features.h", r"^#define SEA_FEAT_(ANGLE_FRAC_BITS|EXTERNAL) "),
+    *_d("D9", "2.5", "sea_features.h", r"^#define SEA_FEAT_(ANGLE_FRAC_BITS|EXTERNAL|BASE) "),
     *_d("D9", "2.5", "sea_pid.h", r"^#define SEA_MOTOR_MAX_MV "),
     *_d("D9", "2.5", "sea_fixed.h", r"^#define SEA_FORCE_FRAC_BITS "),
     *_d("D9", "2.5", "sea_dsp.h", r"^#define SEA_OPAQUE\(p\) "),
