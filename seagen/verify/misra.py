@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from seagen.verify.misra_record import RECORD, Deviation
+from seagen.verify.result import Verdict
 
 VERSION = "2.10"  # the cppcheck whose addon the record was made with (Debian 12's)
 FLAGS = (
@@ -222,7 +223,7 @@ def _parse(xml_text: str) -> list[Finding]:
     return out
 
 
-def check_folder(v, folder: Path, target: str) -> None:
+def check_folder(v: Verdict, folder: Path, target: str) -> None:
     """`seagen verify --misra`: every export's C in `folder` (with a generated caller of their API) under
     cppcheck's MISRA addon, added to the verdict; skipped (with the reason) without cppcheck VERSION."""
     name = f"MISRA C:2012 (cppcheck {VERSION} misra addon): 0 findings outside seagen's deviation record"
@@ -230,9 +231,17 @@ def check_folder(v, folder: Path, target: str) -> None:
         v.add(name, None, f"skipped: {why}", kind="skipped")
         return
     files = {
-        p.name: p.read_text() for p in sorted(folder.iterdir()) if p.suffix in (".c", ".h") and p.is_file()
+        p.name: p.read_text(errors="replace")
+        for p in sorted(folder.iterdir())
+        if p.suffix in (".c", ".h")
+        and p.is_file()
+        and not p.name.endswith(("_driver.c", "_driver.h", "_bench.c"))
     }
-    files = {n: t for n, t in files.items() if not n.endswith(("_driver.c", "_driver.h", "_bench.c"))}
-    found = run_cppcheck(files, target if target in DEFINES else "portable")
+    try:
+        found = run_cppcheck(files, target if target in DEFINES else "portable")
+    except (OSError, RuntimeError, subprocess.SubprocessError, ET.ParseError) as e:
+        v.add(name, f"cppcheck did not complete: {e}", kind="misra")
+        return
     head = "; ".join(f.line_text() for f in found[:5])
+
     v.add(name, f"{len(found)} finding(s): {head}" if found else None, f"{len(files)} files", kind="misra")
