@@ -43,7 +43,8 @@ class Verdict:
         """Console report: warnings, one line per check, then the verdict."""
         lines = [f"warning: {w}" for w in self.warnings]
         for i in self.items:
-            mark = "ok  " if i.ok else "FAIL"
+            mark = ("skip" if i.kind == "skipped" else "ok  ") if i.ok else "FAIL"
+
             lines.append(f"  {mark} {i.name}" + (f": {i.detail}" if i.detail else ""))
         bad = sum(not i.ok for i in self.items)
         head = "agrees" if self.ok else f"DISAGREES ({bad} of {len(self.items)} checks failed)"
