@@ -91,6 +91,24 @@ def test_option_matrix_clean(target, weights):
         assert not found, m + ":\n" + "\n".join(f.line_text() for f in found)
 
 
+@needs_cppcheck
+@pytest.mark.slow
+@pytest.mark.parametrize("target", ["portable", "cortex-m4", "cortex-m0plus"])
+def test_odd_sizes_and_wide_accumulators_clean(target):
+    """tests/test_target_kernels.py's odd widths, one-layer nets and 64-bit accumulators, each alone."""
+    from seagen.codegen.render import RUNTIME, render
+    from seagen.codegen.runtime import runtime_sources
+    from seagen.codegen.targets import OMIT
+    from seagen.codegen.targets import RUNTIME as EXTRA
+    from tests.test_target_kernels import SMALL, _odd_mlp, quantize_mlp
+
+    runtime = runtime_sources(*[n for n in RUNTIME if n not in OMIT[target]], *EXTRA[target])
+    for k, case in enumerate(SMALL):
+        files = {**render(quantize_mlp(_odd_mlp(*case)), f"odd{k}", target), **runtime}
+        found = run_cppcheck(files, target)
+        assert not found, f"{case}:\n" + "\n".join(f.line_text() for f in found)
+
+
 def _export(tmp_path, target: str = "cortex-m4"):
     """The control MLP exported with --controller for `target` into a fresh folder (the CLI)."""
     from seagen.cli import main

@@ -85,8 +85,8 @@ RECORD: tuple[Deviation, ...] = (
         r"return \(int32_t\)\(\(\(int64_t\)\(x \* \(1 << \(32 - s\)\)\) \* r\) >> 32\);",
         r"return \(int32_t\)\(\(\(int64_t\)x \* r\) >> s\);",
     ),
-    # D2 (10.4, required): the M0+ kernel's offset-weight product u * x in modular uint32 arithmetic.
-    *_d("D2", "10.4", MODEL_C, r"^ +[ab] \+= \(uint32_t\)\(u\[\d+\] \* xv\);$"),
+    # D2 (10.4, required): the M0+ kernel's offset-weight product u * x into an int64 accumulator.
+    *_d("D2", "10.4", MODEL_C, r"^ +[ab] \+= u\[\d+\] \* xv;$"),
     # D3 (10.8, required): composite expressions cast to another essential type (exact reinterpretations).
     *_d(
         "D3",
@@ -188,4 +188,6 @@ RECORD: tuple[Deviation, ...] = (
     ),
     # D1 (10.1): the Cortex-M surface-fit kernel's addend floor(r / 2^k) (sf_horner.c.j2).
     *_d("D1", "10.1", MODEL_C, r"^    r\d+ = sea_mulshr_s32\(x\d+, r\d+, \d+\) \+ \(r\d+ >> \d+\);$"),
+    # D15 (cppcheck variableScope, style): a one-layer network's kernel declares at function scope.
+    *_d("D15", "variableScope", MODEL_C, r"^    int j;$", r"^    int32_t h\d+\[\d+\];$"),
 )
