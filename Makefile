@@ -28,6 +28,14 @@ toolchain:
 	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq gcc-arm-none-eabi libnewlib-arm-none-eabi >/dev/null; \
 	  else echo "warning: arm-none-eabi-gcc missing and not root; Cortex-M tests will be skipped"; fi; \
 	fi
+	@# cppcheck (Debian 12's 2.10, with its MISRA C:2012 addon) for tests/test_misra.py and verify --misra.
+	@if ! command -v cppcheck >/dev/null 2>&1; then \
+	  if [ "$$(id -u)" = "0" ]; then \
+	    echo "installing cppcheck"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq cppcheck >/dev/null; \
+	  else echo "warning: cppcheck missing and not root; the MISRA checks will be skipped"; fi; \
+	fi
+
 
 # QEMU's Arm system emulator (processor-in-the-loop boards), from Debian, when root and missing.
 .PHONY: qemu

@@ -36,21 +36,21 @@ static int32_t sea_control_check(const sea_control_config *c, sea_control_state 
                                  int32_t force_q16)
 {
     int32_t bits = SEA_FAULT_NONE;
-    int32_t need = c->pot_stuck_ticks < 1 ? 1 : c->pot_stuck_ticks;
+    int32_t need = (c->pot_stuck_ticks < 1) ? 1 : c->pot_stuck_ticks;
     int64_t jump = (int64_t)enc - s->enc_prev;
     s->enc_prev = enc;
-    if (jump > c->enc_jump_max || -jump > c->enc_jump_max) {
+    if ((jump > c->enc_jump_max) || (-jump > c->enc_jump_max)) {
         bits |= SEA_FAULT_ENC_JUMP;
     }
-    s->stuck_lo = pot <= 0 ? (s->stuck_lo < need ? s->stuck_lo + 1 : need) : 0;
-    s->stuck_hi = pot >= SEA_POT_MAX ? (s->stuck_hi < need ? s->stuck_hi + 1 : need) : 0;
+    s->stuck_lo = (pot <= 0) ? ((s->stuck_lo < need) ? (s->stuck_lo + 1) : need) : 0;
+    s->stuck_hi = (pot >= SEA_POT_MAX) ? ((s->stuck_hi < need) ? (s->stuck_hi + 1) : need) : 0;
     if (s->stuck_lo >= need) {
         bits |= SEA_FAULT_POT_STUCK_LOW;
     }
     if (s->stuck_hi >= need) {
         bits |= SEA_FAULT_POT_STUCK_HIGH;
     }
-    if (force_q16 < c->force_min || force_q16 > c->force_max) {
+    if ((force_q16 < c->force_min) || (force_q16 > c->force_max)) {
         bits |= SEA_FAULT_FORCE_RANGE;
     }
     return bits;
@@ -77,10 +77,11 @@ static void sea_control_pot(sea_control_state *s, int32_t pot)
 static void sea_control_predict(const sea_control_config *c, sea_control_state *s, int32_t pred)
 {
     int64_t sum = 0;
-    int32_t i, n = c->pred_avg < 1 ? 1 : c->pred_avg;
-    n = n > SEA_CTRL_PRED_AVG_MAX ? SEA_CTRL_PRED_AVG_MAX : n;
+    int32_t i;
+    int32_t n = (c->pred_avg < 1) ? 1 : c->pred_avg;
+    n = (n > SEA_CTRL_PRED_AVG_MAX) ? SEA_CTRL_PRED_AVG_MAX : n;
     s->pred_buf[s->pred_idx] = pred;
-    s->pred_idx = s->pred_idx + 1 < n ? s->pred_idx + 1 : 0;
+    s->pred_idx = ((s->pred_idx + 1) < n) ? (s->pred_idx + 1) : 0;
     for (i = 0; i < n; i++) {
         sum += s->pred_buf[i];
     }
@@ -90,7 +91,8 @@ static void sea_control_predict(const sea_control_config *c, sea_control_state *
 int16_t sea_control_step(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot,
                          int32_t force_q16)
 {
-    int32_t bits, every = c->predict_every < 1 ? 1 : c->predict_every;
+    int32_t bits;
+    int32_t every = (c->predict_every < 1) ? 1 : c->predict_every;
     if (s->fault != SEA_FAULT_NONE) {
         return 0; /* latched safe state */
     }
@@ -101,24 +103,11 @@ int16_t sea_control_step(const sea_control_config *c, sea_control_state *s, int3
     }
     sea_control_pot(s, pot);
     s->comp = sea_compression_q16(c->link_table, enc, s->pot_avg);
-    if (c->predictor != NULL && s->pred_count == 0) {
+    if ((c->predictor != NULL) && (s->pred_count == 0)) {
         sea_control_predict(c, s, c->predictor(c->predictor_ctx, enc, pot, force_q16));
     }
-    s->pred_count = s->pred_count + 1 < every ? s->pred_count + 1 : 0;
+    s->pred_count = ((s->pred_count + 1) < every) ? (s->pred_count + 1) : 0;
+
     s->out = sea_pid_step(&c->pid, &s->pid, s->desired, s->comp);
     return s->out;
-}
-
-void sea_control_set_desired(sea_control_state *s, int32_t desired_q16)
-{
-    s->desired = desired_q16;
-}
-
-int32_t sea_predict_kinematic(void *ctx, int32_t enc, int32_t pot, int32_t force_q16)
-{
-    const sea_kin_params *k = (const sea_kin_params *)ctx;
-    int64_t f = sea_sat32((int64_t)force_q16 + k->friction_q16); /* |f| < 2^31: product < 2^62 */
-    (void)enc;
-    (void)pot;
-    return sea_sat32(sea_rshift_rne_s64(f * k->inv_k_q16, SEA_FORCE_FRAC_BITS));
 }

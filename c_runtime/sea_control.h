@@ -74,16 +74,4 @@ void sea_control_reset(const sea_control_config *c, sea_control_state *s, int32_
 int16_t sea_control_step(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot,
                          int32_t force_q16);
 
-/* Desired compression (Q16 mm) from outside (the "cloud" predictor); kept until the next call.
- * With a predictor configured, the predictor overwrites it at its next call. */
-void sea_control_set_desired(sea_control_state *s, int32_t desired_q16);
-
-/* The kinematic inverse as a predictor: compression = (F + friction) * inv_k, rounded half to even. */
-typedef struct {
-    int32_t friction_q16; /* actuator friction, Q16 N (2.7 N = 176947) */
-    int32_t inv_k_q16;    /* 1 / spring rate, Q16 mm per N (1 / 4.2 = 15604) */
-} sea_kin_params;
-
-int32_t sea_predict_kinematic(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);
-
 #endif

@@ -43,7 +43,8 @@ static inline int32_t sea_hi16(int32_t w)
 /* Pack two int16 values (lo first) into one word: hi * 2^16 + (lo mod 2^16), never overflows. */
 static inline int32_t sea_pack16x2(int32_t lo, int32_t hi)
 {
-    return hi * 65536 + (int32_t)((uint32_t)lo & 0xFFFFu);
+    return (hi * 65536) + (int32_t)((uint32_t)lo & 0xFFFFu);
+
 }
 
 #if defined(__ARM_FEATURE_SIMD32)
@@ -62,7 +63,7 @@ static inline int64_t sea_smlald(int32_t x, int32_t w, int64_t acc)
 /* Portable SMLAD: the same exact sum (the generator's bound rules out any overflow). */
 static inline int32_t sea_smlad(int32_t x, int32_t w, int32_t acc)
 {
-    return acc + sea_lo16(x) * sea_lo16(w) + sea_hi16(x) * sea_hi16(w);
+    return acc + (sea_lo16(x) * sea_lo16(w)) + (sea_hi16(x) * sea_hi16(w));
 }
 
 /* Portable SMLALD. */
@@ -99,26 +100,26 @@ static inline int32_t sea_relu_sat16(int32_t q)
 #if defined(__ARM_FEATURE_SAT)
     return (int32_t)__usat(q, 15);
 #else
-    return q < 0 ? 0 : (q > 32767 ? 32767 : q);
+    return (q < 0) ? 0 : ((q > 32767) ? 32767 : q);
 #endif
 }
 
 /* Saturation to int16 of an int32 value (gcc emits SSAT #16 for this on cores that have it). */
 static inline int32_t sea_sat16_s32(int32_t q)
 {
-    return q < -32768 ? -32768 : (q > 32767 ? 32767 : q);
+    return (q < -32768) ? -32768 : ((q > 32767) ? 32767 : q);
 }
 
 /* Saturation to int16 of an int64 value. */
 static inline int32_t sea_sat16_s64(int64_t q)
 {
-    return q < -32768 ? -32768 : (q > 32767 ? 32767 : (int32_t)q);
+    return (q < -32768) ? -32768 : ((q > 32767) ? 32767 : (int32_t)q);
 }
 
 /* ReLU then saturation to int16 of an int64 value. */
 static inline int32_t sea_relu_sat16_s64(int64_t q)
 {
-    return q < 0 ? 0 : (q > 32767 ? 32767 : (int32_t)q);
+    return (q < 0) ? 0 : ((q > 32767) ? 32767 : (int32_t)q);
 }
 
 /* Narrowing of a value the generator proved to lie in int16 (the layer's output format was chosen so that
@@ -137,19 +138,19 @@ static inline int32_t sea_proven16_s64(int64_t q)
 /* ReLU of a value proven to be at most INT16_MAX (the upper saturation would not act): max(q, 0). */
 static inline int32_t sea_relu_proven_s32(int32_t q)
 {
-    return q < 0 ? 0 : q;
+    return (q < 0) ? 0 : q;
 }
 
 /* The same for a 64-bit accumulator's shifted value. */
 static inline int32_t sea_relu_proven_s64(int64_t q)
 {
-    return q < 0 ? 0 : (int32_t)q;
+    return (q < 0) ? 0 : (int32_t)q;
 }
 
 /* Clamp an input to its calibrated box [lo, hi] (sea_clamp_s16 on one value). */
 static inline int32_t sea_clamp_s32(int32_t v, int32_t lo, int32_t hi)
 {
-    return v < lo ? lo : (v > hi ? hi : v);
+    return (v < lo) ? lo : ((v > hi) ? hi : v);
 }
 
 /* floor(x * r / 2^s) for an int16 x and int32 r, 16 <= s <= 46 (the surface-fit planner's MIN_SHIFT), by a
@@ -159,7 +160,7 @@ static inline int32_t sea_mulshr_split_s32(int32_t x, int32_t r, int s)
 {
     const int32_t rh = r >> 16;
     const int32_t rl = (int32_t)((uint32_t)r & 0xFFFFu);
-    return (x * rh + ((x * rl) >> 16)) >> (s - 16);
+    return ((x * rh) + ((x * rl) >> 16)) >> (s - 16);
 }
 
 /* The same through a 64-bit product: for s <= 32 the high word of (x * 2^(32 - s)) * r (one SMMUL, or SMMLA
@@ -187,7 +188,7 @@ static inline int32_t sea_mulshr_s32(int32_t x, int32_t r, int s)
  * compiles to nothing. Used by the M0+ kernel, whose accumulators are uint32 sums proven to end in int32. */
 static inline int32_t sea_u32_to_s32(uint32_t u)
 {
-    return u <= 0x7FFFFFFFu ? (int32_t)u : (int32_t)(u - 0x80000000u) - 0x7FFFFFFF - 1;
+    return (u <= 0x7FFFFFFFu) ? (int32_t)u : ((int32_t)(u - 0x80000000u) - 0x7FFFFFFF - 1);
 }
 
 #endif

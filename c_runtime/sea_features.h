@@ -61,9 +61,10 @@ static inline int64_t sea_features_value(const sea_features_out *f, int kind, in
     case SEA_FEAT_D:
         return (int64_t)f->b[index] - f->p1[index];
     case SEA_FEAT_DD:
-        return (int64_t)f->b[index] - 2 * (int64_t)f->p1[index] + f->p2[index];
+        return ((int64_t)f->b[index] - (2 * (int64_t)f->p1[index])) + f->p2[index];
     case SEA_FEAT_ANGLE:
-        return (int64_t)f->b[SEA_FEAT_POT] * SEA_POT_DEG_Q24 + SEA_POT_OFFSET_Q24;
+        return ((int64_t)f->b[SEA_FEAT_POT] * SEA_POT_DEG_Q24) + SEA_POT_OFFSET_Q24;
+
     default:
         return f->b[index];
     }

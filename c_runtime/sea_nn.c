@@ -6,18 +6,19 @@ void sea_clamp_s16(const int16_t *x, const int16_t *lo, const int16_t *hi, int n
 {
     int i;
     for (i = 0; i < n; ++i) {
-        out[i] = x[i] < lo[i] ? lo[i] : (x[i] > hi[i] ? hi[i] : x[i]);
+        out[i] = (x[i] < lo[i]) ? lo[i] : ((x[i] > hi[i]) ? hi[i] : x[i]);
     }
 }
 
 /* The four dense kernels share one body: W (int8/int16) times x (int16) accumulated from the bias in ACC
  * (int32 where the generator proved every partial sum fits, else int64), then shifted and saturated. */
 #define SEA_DENSE_BODY(ACC, SHIFT_FN)                                        \
-    int i, j;                                                                \
+    int i;                                                                   \
+    int j;                                                                   \
     for (j = 0; j < n_out; ++j) {                                            \
         ACC acc = b[j];                                                      \
         for (i = 0; i < n_in; ++i) {                                         \
-            acc += (ACC)((int32_t)w[j * n_in + i] * (int32_t)x[i]);          \
+            acc += (ACC)((int32_t)w[(j * n_in) + i] * (int32_t)x[i]);        \
         }                                                                    \
         y[j] = sea_sat16(SHIFT_FN(acc, shift));                              \
     }
@@ -70,7 +71,7 @@ void sea_hardtanh_s16(int16_t *y, int n, int16_t lo, int16_t hi)
 {
     int i;
     for (i = 0; i < n; ++i) {
-        y[i] = y[i] < lo ? lo : (y[i] > hi ? hi : y[i]);
+        y[i] = (y[i] < lo) ? lo : ((y[i] > hi) ? hi : y[i]);
     }
 }
 
@@ -79,7 +80,7 @@ void sea_table_s16(int16_t *y, int n, const int16_t *table, int32_t len, int in_
     int i;
     for (i = 0; i < n; ++i) {
         int32_t k = sea_rshift_rne_s32(y[i], in_shift) + offset;
-        k = k < 0 ? 0 : (k > len - 1 ? len - 1 : k);
+        k = (k < 0) ? 0 : ((k > (len - 1)) ? (len - 1) : k);
         y[i] = table[k];
     }
 }
@@ -87,6 +88,7 @@ void sea_table_s16(int16_t *y, int n, const int16_t *table, int32_t len, int in_
 int32_t sea_horner_s32(int16_t x, int32_t t, int32_t add, int align, int shift)
 {
     int64_t p = ((int64_t)x * t) >> shift; /* floor: arithmetic shift (c_runtime/README.md, item 7) */
-    int64_t a = align >= 0 ? (int64_t)add * ((int64_t)1 << align) : (int64_t)add >> -align;
+    int64_t a = (align >= 0) ? ((int64_t)add * ((int64_t)1 << align)) : ((int64_t)add >> -align);
+
     return sea_sat32(p + a);
 }

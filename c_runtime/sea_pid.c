@@ -10,14 +10,18 @@
  * calls no helper. Inline: s is a constant at every call. */
 static inline int64_t sea_pid_mul_rne(int32_t a, int32_t b, int s)
 {
-    const int32_t ah = a >> 16, bh = b >> 16; /* arithmetic shift: checked in sea_fixed.h */
-    const uint32_t al = (uint32_t)a & 0xFFFFu, bl = (uint32_t)b & 0xFFFFu;
+    const int32_t ah = a >> 16; /* arithmetic shift: checked in sea_fixed.h */
+    const int32_t bh = b >> 16;
+    const uint32_t al = (uint32_t)a & 0xFFFFu;
+    const uint32_t bl = (uint32_t)b & 0xFFFFu;
     /* |ah bl|, |al bh| < 2^31; |ah bh| <= 2^30; al bl < 2^32 */
-    const int64_t mid = (int64_t)(ah * (int32_t)bl) + (int32_t)al * bh;
-    const int64_t p = (int64_t)(ah * bh) * 4294967296 + mid * 65536 + (int64_t)(al * bl);
+    const int64_t mid = (int64_t)(ah * (int32_t)bl) + ((int32_t)al * bh);
+
+    const int64_t p = ((int64_t)(ah * bh) * 4294967296) + (mid * 65536) + (int64_t)(al * bl);
     const int64_t q = p >> s; /* floor */
-    const uint32_t r = (uint32_t)p & (((uint32_t)1 << s) - 1u), half = (uint32_t)1 << (s - 1);
-    return (r > half || (r == half && (q & 1) != 0)) ? q + 1 : q;
+    const uint32_t r = (uint32_t)p & (((uint32_t)1 << s) - 1u);
+    const uint32_t half = (uint32_t)1 << (s - 1);
+    return ((r > half) || ((r == half) && ((q & 1) != 0))) ? (q + 1) : q;
 }
 
 void sea_pid_reset(const sea_pid_params *p, sea_pid_state *s, int32_t meas, int16_t out)
@@ -35,7 +39,7 @@ static int32_t sea_pid_rate(const sea_pid_params *p, const sea_pid_state *s, int
     int64_t alpha = sea_clamp_s64(p->d_alpha, 0, (int64_t)1 << SEA_PID_ALPHA_FRAC);
     int64_t x = sea_sat32((int64_t)meas - s->meas_prev);
     int64_t diff = x - s->d_filt;
-    int64_t step = diff >= INT32_MIN && diff <= INT32_MAX
+    int64_t step = ((diff >= INT32_MIN) && (diff <= INT32_MAX))
                        ? sea_pid_mul_rne((int32_t)alpha, (int32_t)diff, SEA_PID_ALPHA_FRAC)
                        : sea_rshift_rne_s64(alpha * diff, SEA_PID_ALPHA_FRAC);
     return sea_sat32(s->d_filt + step);
@@ -45,13 +49,17 @@ int16_t sea_pid_step(const sea_pid_params *p, sea_pid_state *s, int32_t setpoint
 {
     const int64_t lo = (int64_t)p->out_min * SEA_PID_ONE_MV; /* Q16 mV */
     const int64_t hi = (int64_t)p->out_max * SEA_PID_ONE_MV;
-    int32_t margin = p->margin < 0 ? 0 : p->margin;
+    int32_t margin = (p->margin < 0) ? 0 : p->margin;
     int32_t e = sea_sat32((int64_t)setpoint - meas);
-    int64_t pterm, dterm, inc, integ, u;
+    int64_t pterm;
+    int64_t dterm;
+    int64_t inc;
+    int64_t integ;
+    int64_t u;
 
     s->d_filt = sea_pid_rate(p, s, meas);
     s->meas_prev = meas;
-    if (e >= -margin && e <= margin) {
+    if ((e >= -margin) && (e <= margin)) {
         e = 0; /* inside the control margin: no P action and the integrator is held */
     }
     /* |gain| < 2^31 and |e|, |d_filt| < 2^31: products < 2^62; terms < 2^50 after the shift. */
@@ -60,7 +68,8 @@ int16_t sea_pid_step(const sea_pid_params *p, sea_pid_state *s, int32_t setpoint
     inc = sea_pid_mul_rne(p->ki, e, SEA_PID_TERM_SHIFT);
     integ = sea_clamp_s64((int64_t)s->integ + inc, lo, hi);
     u = pterm + integ + dterm;
-    if ((u > hi && inc > 0) || (u < lo && inc < 0)) {
+    if (((u > hi) && (inc > 0)) || ((u < lo) && (inc < 0))) {
+
         integ = s->integ; /* anti-windup: no integration deeper into saturation */
         u = pterm + integ + dterm;
     }

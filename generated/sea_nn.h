@@ -46,7 +46,8 @@ static inline int16_t sea_to_s16(int64_t v, int from_frac, int to_frac)
     if (to_frac >= from_frac) { /* sat16(v * 2^k), decided before scaling: no 64-bit multiply */
         const int k = to_frac - from_frac;
         if (k > 15) {
-            return (int16_t)(v > 0 ? INT16_MAX : (v < 0 ? INT16_MIN : 0));
+            return (int16_t)((v > 0) ? INT16_MAX : ((v < 0) ? INT16_MIN : 0));
+
         }
         if (v > (INT16_MAX >> k)) {
             return INT16_MAX;

@@ -16,8 +16,8 @@ from seagen.codegen.manifest import SUFFIX, manifest_text
 from seagen.codegen.quant_summary import summary_lines
 from seagen.codegen.render import RUNTIME, model_hash, render
 from seagen.codegen.runtime import runtime_sources
+from seagen.codegen.targets import OMIT, check_target
 from seagen.codegen.targets import RUNTIME as TARGET_RUNTIME
-from seagen.codegen.targets import check_target
 from seagen.errors import CheckFailed, UserError
 from seagen.frontends.load import Loaded, load_with_original, read_features_file
 from seagen.ir import FloatModel, QModel
@@ -99,7 +99,8 @@ def prepare(
         rendered = render(qm, prefix, target)
     except UserError as e:  # a name or text the C cannot hold (the loaders refuse these first)
         raise UserError(f"{model_path}: {e}") from None
-    files = {**rendered, **runtime_sources(*RUNTIME, *TARGET_RUNTIME[check_target(target)])}
+    shipped = [n for n in RUNTIME if n not in OMIT[check_target(target)]]
+    files = {**rendered, **runtime_sources(*shipped, *TARGET_RUNTIME[target])}
     if controller:
         from seagen.codegen.controller import controller_files
 

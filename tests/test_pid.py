@@ -59,7 +59,7 @@ HARNESS_CDEF = """
 void pid_run(const sea_pid_params *p, int32_t n, const int32_t *sp, const int32_t *meas, const int32_t *reset,
              const int16_t *rout, int16_t *out, int32_t *integ, int32_t *dfilt);
 """
-SOURCES = ("sea_fixed.h", "sea_fixed.c", "sea_pid.h", "sea_pid.c")
+SOURCES = ("sea_fixed.h", "sea_fixed.c", "sea_fixed_ctrl.c", "sea_pid.h", "sea_pid.c")
 CDEF = cdef_of(*runtime_sources("sea_fixed.h", "sea_pid.h").values()) + "\n"
 I32 = (-(2**31), 2**31 - 1)
 

@@ -13,7 +13,7 @@ from seagen.runtime import fixed as P
 from seagen.toolchain.host import build
 
 HEADERS = ("sea_fixed.h", "sea_nn.h", "sea_features.h")
-SOURCES = (*HEADERS, "sea_fixed.c", "sea_nn.c", "sea_features.c")
+SOURCES = (*HEADERS, "sea_fixed.c", "sea_fixed_ctrl.c", "sea_nn.c", "sea_features.c")
 I32 = (-(2**31), 2**31 - 1)
 
 

@@ -23,7 +23,8 @@ EDGE16 = np.array([I16[0], I16[1], 0, 1, -1, 2, -2, I16[0] + 1, I16[1] - 1])
 def c():
     """sea_fixed and sea_nn built with the strict flags; declarations from the headers."""
     return build(
-        cdef_of(*runtime_sources(*HEADERS).values()), runtime_sources(*HEADERS, "sea_fixed.c", "sea_nn.c")
+        cdef_of(*runtime_sources(*HEADERS).values()),
+        runtime_sources(*HEADERS, "sea_fixed.c", "sea_fixed_ctrl.c", "sea_nn.c"),
     )
 
 

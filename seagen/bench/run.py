@@ -30,7 +30,13 @@ FLOAT_HELPER = re.compile(  # soft-float helpers of libgcc (AEABI and GCC names)
     r"^__(aeabi_([fd][a-z0-9]+|u?[il]2[fd])|(add|sub|mul|div|neg)[sdt]f3|(eq|ne|lt|le|gt|ge|un|cmp)[sdt]f2"
     r"|fix\w*|float\w*|extend\w*|trunc\w*)$"
 )
-CONTROL_FILES = ("sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c")
+CONTROL_FILES = (
+    "sea_pid.h",
+    "sea_pid.c",
+    "sea_control.h",
+    "sea_control.c",
+    "sea_fixed_ctrl.c",
+)
 N_CALLS = 40
 
 

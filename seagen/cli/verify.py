@@ -49,6 +49,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="unpickle a .pt holding arbitrary Python objects (RUNS CODE from the file: trusted files only)",
     )
     p.add_argument(
+        "--misra",
+        action="store_true",
+        help="also check the folder's C with cppcheck 2.10's MISRA C:2012 addon (findings outside seagen's "
+        "deviation record fail; suppressions in the files are refused; skipped without cppcheck 2.10)",
+    )
+    p.add_argument(
         "--junit",
         metavar="FILE",
         help="also write a JUnit XML report (one test case per check; bad input: one errored case)",
@@ -76,6 +82,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
             args.core,
             args.features,
             args.allow_pickle,
+            misra=args.misra,
         )
     except UserError as e:
         failed = Verdict(args.prefix or "?", args.dir, error=str(e))

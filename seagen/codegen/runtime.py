@@ -8,7 +8,7 @@ from importlib import resources
 from seagen.c_runtime import COMMENT, define_of
 
 # The C runtime of the controller: what NAME_controller.c and a controller tick link against.
-CONTROL_RUNTIME = ("sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c")
+CONTROL_RUNTIME = ("sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c", "sea_fixed_ctrl.c")
 
 
 def runtime_sources(*names: str) -> dict[str, str]:
@@ -51,4 +51,4 @@ def cdef_of(*headers: str) -> str:
     return "\n".join(out)
 
 
-FIXED = ("sea_fixed.h", "sea_fixed.c")
+FIXED = ("sea_fixed.h", "sea_fixed.c", "sea_fixed_ctrl.c")

@@ -25,6 +25,9 @@ from seagen.runtime.fixed import rshift_rne
 TARGETS = ("portable", "cortex-m0plus", "cortex-m4")
 TEMPLATES = {"cortex-m4": "mlp_cortex_m4.c.j2", "cortex-m0plus": "mlp_cortex_m0plus.c.j2"}
 RUNTIME = {"portable": (), "cortex-m4": ("sea_dsp.h",), "cortex-m0plus": ("sea_dsp.h",)}
+# Runtime files a target's export leaves out: the Cortex-M kernels call nothing of sea_nn.c (no dead code).
+OMIT = {"portable": (), "cortex-m4": ("sea_nn.c",), "cortex-m0plus": ("sea_nn.c",)}
+
 FUSED = ("relu", "linear")
 INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
 

@@ -12,9 +12,22 @@ from seagen.codegen.runtime import cdef_of, runtime_sources
 from seagen.runtime.control import ControlConfig, KinParams
 from seagen.toolchain import host
 
-SOURCES = ("sea_fixed.h", "sea_fixed.c", "sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c")
+SOURCES = (
+    "sea_fixed.h",
+    "sea_fixed.c",
+    "sea_fixed_ctrl.c",
+    "sea_pid.h",
+    "sea_pid.c",
+    "sea_control.h",
+    "sea_control.c",
+    "sea_control_extra.h",
+    "sea_control_extra.c",
+)
 NN_SOURCES = ("sea_nn.h", "sea_nn.c", "sea_features.h", "sea_features.c")
-CDEF = cdef_of(*runtime_sources("sea_fixed.h", "sea_pid.h", "sea_control.h").values()) + "\n"
+CDEF = (
+    cdef_of(*runtime_sources("sea_fixed.h", "sea_pid.h", "sea_control.h", "sea_control_extra.h").values())
+    + "\n"
+)
 
 
 def build_control(extra_cdef: str = "", extra_sources: dict[str, str] | None = None) -> ModuleType:

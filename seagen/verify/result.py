@@ -60,10 +60,6 @@ class Verdict:
         """Record a check that was not run, and why."""
         self.items.append(Item(stable_name(name)[0], True, why, kind, skipped=True))
 
-    def first_failure(self) -> Item | None:
-        """The first failing check, if any."""
-        return next((i for i in self.items if not i.ok), None)
-
     def text(self) -> str:
         """Console report: warnings, notes, one line per check, then the verdict."""
         lines = [f"warning: {w}" for w in self.warnings] + [f"note: {n}" for n in self.notes]

@@ -183,6 +183,7 @@ def verify(
     core: str = "host",
     features: str | None = None,
     allow_pickle: bool = False,
+    misra: bool = False,
 ) -> Verdict:
     """Every check of `seagen verify`, in order: drift first (model, files, manifest, quantization), then
     numbers (header constants, NAME_infer, the oracle, NAME_step, the controller); checks after a failure
@@ -199,6 +200,10 @@ def verify(
     v = Verdict(man.prefix, str(root))
     check_version(v, man)
     check_model(v, man, mpath, matches)
+    if misra:
+        from seagen.verify.misra import check_folder
+
+        check_folder(v, root, man.data["options"].get("target", "portable"))
     changed = changed_files(root, man)
     later = numbers_names(root, man, core, data)
     if not matches or "missing" in changed.values():
