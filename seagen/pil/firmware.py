@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from seagen.cnames import assert_valid_prefix
+from seagen.codegen.runtime import runtime_sources
 from seagen.errors import UserError
 from seagen.toolchain import cortexm as cm
 from seagen.toolchain.host import CACHE, STRICT_CFLAGS, _key, compile_objects
@@ -52,7 +53,7 @@ def model_header(ctl: str, cal: str | None, n_max: int, onboard: bool = True) ->
         "/* pil_model.h -- written by seagen pil: the models of this firmware. */",
         "#ifndef PIL_MODEL_H",
         "#define PIL_MODEL_H",
-        '#include "sea_control.h"',
+        '#include "sea_control_extra.h"',
         f'#include "{ctl}_controller.h"',
         f"#define PIL_N_MAX {int(n_max)}u",
         f"typedef {ctl}_controller_t pil_ctl_t;",
@@ -78,8 +79,10 @@ def model_header(ctl: str, cal: str | None, n_max: int, onboard: bool = True) ->
 
 
 def fw_sources(b: Board) -> dict[str, str]:
-    """The firmware's own C (start-up, frame loop, the board's UART driver)."""
-    return {f: (FW / f).read_text() for f in (*COMMON, b.driver)}
+    """The firmware's own C (start-up, frame loop, the board's UART driver) and the runtime's
+    sea_control_extra (the setpoint over the link), which an export does not ship."""
+    own = {f: (FW / f).read_text() for f in (*COMMON, b.driver)}
+    return {**runtime_sources("sea_control_extra.h", "sea_control_extra.c"), **own}
 
 
 def build_firmware(files: dict[str, str], model_h: str, core: str) -> Path:
