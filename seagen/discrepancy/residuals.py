@@ -73,10 +73,10 @@ def _bins(x: np.ndarray, edges: list[float], names: list[str]) -> np.ndarray:
 def region_labels(runs: Runs) -> dict[str, np.ndarray]:
     """Region of every sample by contact angle, force level, direction, speed and estimated current."""
     enc = runs.meas["enc"]
-    v = np.gradient(enc, axis=1) * g.MM_PER_COUNT * 100.0  # nut speed, mm/s
+    v = runs.speed("enc") * g.MM_PER_COUNT  # nut speed, mm/s
     m = runs.mask
     vmax = 32300.0 / 60.0 * 12 * g.MM_PER_COUNT
-    cur = np.abs(np.nan_to_num(runs.volts) / 12.0 - np.nan_to_num(v) / vmax)
+    cur = np.abs(np.nan_to_num(runs.applied) / 12.0 - v / vmax)
     speed = np.abs(v)
     moving = m & (speed > 0.2)
     q = [float(np.percentile(speed[moving], 50)) if moving.any() else 1.0]
