@@ -81,21 +81,25 @@ def _rig_log(frames: list[pd.DataFrame]) -> pd.DataFrame:
     return pd.concat(rows, ignore_index=True)
 
 
-def test_import_recovers_the_schema_data(tmp_path, original) -> None:
-    """A 200 Hz log in other units is cut into its trials and resampled to 100 Hz: the counts and the
-    command come back exactly, the forces and angles to float rounding (<1 s)."""
+def test_import_keeps_every_row_at_its_own_time(tmp_path, original) -> None:
+    """A 200 Hz log in other units is cut into its trials and kept row for row: each row's time from its
+    trial's start, the counts and the command exactly as logged, forces and angles to float rounding (<1 s)."""
     log = tmp_path / "rig.csv"
-    _rig_log(original).to_csv(log, index=False, float_format="%.17g")
+    rig = _rig_log(original)
+    rig.to_csv(log, index=False, float_format="%.17g")
     (tmp_path / "map.toml").write_text(MAP)
     got = import_log(log, load_map(tmp_path / "map.toml"))
     assert sorted(got["trial"].unique()) == list(range(len(original)))
+    assert len(got) == len(rig)
     for i, df in enumerate(original):
         part = got[got["trial"] == i].reset_index(drop=True)
-        assert len(part) == len(df)
+        assert len(part) == 2 * len(df) - 1
+        assert np.allclose(part["t_s"], np.arange(len(part)) * 0.005, rtol=0, atol=1e-12)
+        even = part.iloc[::2].reset_index(drop=True)
         for c in ("enc", "pot"):
-            assert np.array_equal(part[c].to_numpy(), df[c].to_numpy()), c
-        for c in ("t_s", "angle_set_deg", "motor_v", "load_cell_n", "force_n"):
-            assert np.allclose(part[c], df[c], rtol=1e-9, atol=1e-9), c
+            assert np.array_equal(even[c].to_numpy(), df[c].to_numpy()), c
+        for c in ("angle_set_deg", "motor_v", "load_cell_n", "force_n"):
+            assert np.allclose(even[c], df[c], rtol=1e-9, atol=1e-9), c
 
 
 def test_cli_writes_splits_train_and_discrepancy_accept(tmp_path, original, capsys) -> None:
@@ -109,7 +113,7 @@ def test_cli_writes_splits_train_and_discrepancy_accept(tmp_path, original, caps
     (tmp_path / "map.toml").write_text(MAP)
     out = tmp_path / "data"
     assert main(["data", "import", str(log), "--map", str(tmp_path / "map.toml"), "--out", str(out)]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["test.csv", "train.csv", "validation.csv"]
+    assert sorted(p.name for p in out.iterdir()) == ["import.json", "test.csv", "train.csv", "validation.csv"]
     assert all(list(load_csv(out / f"{s}.csv").columns) == list(RAW_COLUMNS) for s in ("train", "test"))
     assert set(load_derived(out)) == {"train", "test", "validation"}
     assert len(runs_from_frames(load_measured(str(out))).angle) == len(original)

@@ -38,14 +38,15 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
         return cmd_bench(args)
     if not args.measured or not args.out:
         raise UserError("discrepancy: --measured and --out are required (or use `discrepancy bench`)")
-    from seagen.discrepancy.replay import load_measured, runs_from_frames
+    from seagen.discrepancy.replay import load_measured, load_timing, runs_from_frames
     from seagen.discrepancy.report import summary, write_report
     from seagen.discrepancy.workflow import identify
     from seagen.plant import PlantConfig, load_config
 
     base = load_config(args.base) if args.base else PlantConfig()
-    runs = runs_from_frames(load_measured(args.measured))
-    res = identify(runs, base)
+    timing = load_timing(args.measured)
+    runs = runs_from_frames(load_measured(args.measured), timing)
+    res = identify(runs, base, pinned=timing.get("lag"))
     write_report(res, args.out, str(args.measured))
     s = summary(res)
     if args.json:
@@ -62,6 +63,10 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
             f"{r['effect']}.{r['param']} {r['before']:.4g} -> {r['after']:.4g}" for r in s["recalibrated"]
         )
         print(f"verdict: {s['verdict']}; added: {named}; recalibrated: {recal or 'nothing'}")
+        if res.timing is not None:
+            print(res.timing.words())
+            if res.timing.warning:
+                print(f"warning: {res.timing.warning}")
         print(
             f"held-out residual RMS {s['rms_before']:.3g} -> {s['rms_after']:.3g} noise sigmas "
             f"(noise floor {s['noise_floor']:.3g}); report in {args.out}/report.md"

@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 
 from seagen import geometry as g
+from seagen.data.logimport import clock_resolution
 from seagen.plant import Plant, PlantConfig
 from seagen.plant.config import CATALOGUE, LEARNED_INPUTS
 from seagen.plant.sim import learned_correction
@@ -131,20 +132,6 @@ def runs_from_frames(frames: list[tuple[str, pd.DataFrame]], timing: dict | None
     return Runs(angle, volts, meas, mask, [name for name, _ in trials], times, lag, res)
 
 
-def clock_resolution(t: np.ndarray) -> float:
-    """The log clock's resolution (s): 0 when the samples are evenly spaced (the clock's own ticks, e.g.
-    seagen's 100 Hz grid), else the coarsest of 10 ms, 1 ms, 100 us, 10 us, 1 us that every time is a
-    multiple of (an integer-ms clock under a jittered loop: 1 ms)."""
-    d = np.diff(t)
-    if len(d) == 0 or np.ptp(d) <= 1e-9 * max(1.0, float(np.max(np.abs(t)))):
-        return 0.0
-    for r in (1e-2, 1e-3, 1e-4, 1e-5, 1e-6):
-        q = t / r
-        if np.all(np.abs(q - np.rint(q)) < 1e-6):
-            return r
-    return 0.0
-
-
 def drive(runs: Runs, dt: float) -> np.ndarray:
     """The command each plant step of length dt sees, shape (n, K): the logged commands, each taking effect
     at its instant (t_j - lag * (t_j - t_{j-1})) and held until the next; a step a switch falls inside gets
@@ -186,8 +173,10 @@ def _sample_plan(runs: Runs, dt: float, k_max: int) -> list[tuple[np.ndarray, np
     order = np.argsort(k, kind="stable")
     k, rows, cols, wt = k[order], rows[order], cols[order], wt[order]
     bounds = np.searchsorted(k, np.arange(k_max + 2))
-    return [(rows[bounds[s] : bounds[s + 1]], cols[bounds[s] : bounds[s + 1]], wt[bounds[s] : bounds[s + 1]])
-            for s in range(k_max + 1)]
+    return [
+        (rows[bounds[s] : bounds[s + 1]], cols[bounds[s] : bounds[s + 1]], wt[bounds[s] : bounds[s + 1]])
+        for s in range(k_max + 1)
+    ]
 
 
 def _value(base: PlantConfig, s: ParamSet, effect: str, param: str) -> float:
@@ -282,6 +271,26 @@ def simulate(
     if inputs is not None:
         inputs.update(rec)
     return out
+
+
+def load_timing(path: str) -> dict:
+    """What `data import` wrote about the log's timing (import.json beside the CSVs), else {}."""
+    import json
+
+    from seagen.data.schema import DataError
+
+    p = Path(path)
+    f = (p if p.is_dir() else p.parent) / "import.json"
+    if not f.is_file():
+        return {}
+    try:
+        out = json.loads(f.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise DataError(f"{f}: not valid JSON: {e}") from None
+    lag = out.get("lag")
+    if lag is not None and (isinstance(lag, bool) or not isinstance(lag, int | float) or not 0 <= lag <= 1):
+        raise DataError(f"{f}: lag must be a number in [0, 1], got {lag!r}")
+    return out if isinstance(out, dict) else {}
 
 
 def load_measured(path: str) -> list:

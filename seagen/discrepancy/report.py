@@ -95,6 +95,7 @@ def markdown(res: Result, source: str, before: pd.DataFrame, after: pd.DataFrame
         f"Recalibrated: {', '.join(n.name for n in res.recalibrated) or 'nothing'}.",
         f"Held-out residual RMS {res.rms_before:.3g} -> {res.rms_after:.3g} noise sigmas "
         f"(noise floor {res.noise_floor:.3g}; {res.rms_after / res.noise_floor:.2f} x floor).",
+        _timing(res),
         "## What the residual depends on (held-out, before fitting)\n"
         + ("\n".join(f"- {w}" for w in res.signature) or "- nothing beyond the noise")
         + "\n\nCatalogue effects by likeness of their own signature (cosine, 1 = same dependences): "
@@ -122,6 +123,14 @@ def markdown(res: Result, source: str, before: pd.DataFrame, after: pd.DataFrame
         f"- run time {res.seconds:.1f} s.",
     ]
     return "\n\n".join(p for p in parts if p) + "\n"
+
+
+def _timing(res: Result) -> str:
+    """The command timing the replay used, and a warning when a declared convention disagrees."""
+    if res.timing is None:
+        return ""
+    warn = f"\n\n**Warning: {res.timing.warning}.**" if res.timing.warning else ""
+    return f"## Command timing\n{res.timing.words()}.{warn}"
 
 
 def _claim(n) -> str:
@@ -216,6 +225,16 @@ def summary(res: Result) -> dict:
             for p, v in n.params.items()
         ],
         "verdict": res.verdict,
+        "timing": None
+        if res.timing is None
+        else {
+            "lag": res.timing.lag,
+            "fitted_lag": res.timing.fitted,
+            "pinned_lag": res.timing.pinned,
+            "offset_ms": res.timing.offset_ms,
+            "median_period_s": res.timing.period_s,
+            "warning": res.timing.warning,
+        },
         "signature": res.signature,
         "signature_ranking": [[e, c] for e, c in res.ranking],
         "remainder": res.remainder,

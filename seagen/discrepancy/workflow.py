@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
@@ -34,13 +35,18 @@ from seagen.discrepancy.residuals import (
     zscores,
 )
 from seagen.discrepancy.signature import describe, features, profile, rank
+from seagen.discrepancy.timing import Timing, fit_timing
 from seagen.errors import UserError
 from seagen.plant import PlantConfig
 
 DRIVE = (
-    "measured motor command (each 100 Hz sample held for 10 plant steps): the plant's motor model is not "
-    "in the catalogue, so the command reproduces the recorded push/retract switch exactly, and the encoder "
-    "stays an observed signal that shows every effect that changes the load on the motor"
+    "measured motor command, each logged value taking effect at its own instant on the plant's 1 ms steps "
+    "(t_j - lag * (t_j - t_{j-1}); a step a switch falls inside gets the time-weighted mean) and held to "
+    "the next; every channel compared at its row's logged instant. The lag (which part of its interval a "
+    "logged command covers, 0 = from its row on, 1 = up to its row) is fitted on the fitting trials with "
+    "the base plant (encoder chi-square), or pinned by the map; the plant's motor model is not in the "
+    "catalogue, so the command reproduces the recorded push/retract switch, and the encoder stays an "
+    "observed signal that shows every effect that changes the load on the motor"
 )
 DBIC_MIN = 10.0  # 'very strong' evidence (Kass & Raftery) before an effect is named
 PER_SPLIT = 6  # trials per split (fit, held-out), spread over the contact angles
@@ -80,6 +86,7 @@ class Result:
     remainder: list[str] = field(default_factory=list)  # what the final residual still depends on
     learned: Learned | None = None  # the learned remainder (in config), when the catalogue ran out
     order: list[str] = field(default_factory=list)  # effects changed (added or recalibrated), first first
+    timing: Timing | None = None  # the command timing the replay used (fitted or declared)
 
     @property
     def first(self) -> str | None:
@@ -295,12 +302,18 @@ def _claims(named: list[Named], verdict: str) -> None:
         n.claimed = n is first
 
 
-def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) -> Result:
-    """Name, add, re-check until the held-out residual is at the noise floor or nothing helps."""
+def identify(
+    runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0, pinned: float | None = None
+) -> Result:
+    """Name, add, re-check until the held-out residual is at the noise floor or nothing helps.
+
+    The command timing (lag) is fitted first on the fitting trials with the base plant, unless `pinned`."""
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
     fit_i, held_i = split_trials(runs)
     sig = noise_sigma(runs)
+    tim = fit_timing(base, runs.take(fit_i), sig["enc"][fit_i], pinned)
+    runs = dataclasses.replace(runs, lag=np.full(len(runs.angle), tim.lag))
     fit, held = runs.take(fit_i), runs.take(held_i)
     sig_f, sig_h = ({c: s[i] for c, s in sig.items()} for i in (fit_i, held_i))
     labels = region_labels(held)
@@ -350,5 +363,6 @@ def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) 
     if verdict == "unexplained" and not base.on("learned_residual"):
         res.learned = fit_learned(cfg, fit, held, sig_f, sig_h)
         res.config = with_learned(cfg, res.learned) if res.learned else cfg
+    res.timing = tim
     res.seconds = time.perf_counter() - t0
     return res

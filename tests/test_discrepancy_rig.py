@@ -1,0 +1,84 @@
+"""Rig-style logs (jittered loop, integer-ms clock, either command convention) through `data import` and
+`discrepancy`: the default plant with nothing hidden is left alone; the command timing is found."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from seagen.cli import main
+from seagen.discrepancy.bench import FAST_MOVES, case_moves
+from seagen.discrepancy.replay import Runs, drive, runs_from_frames
+from seagen.discrepancy.residuals import noise_sigma
+from seagen.discrepancy.riglog import RIG_MAP, rig_csv, rig_trials
+from seagen.discrepancy.timing import fit_timing
+from seagen.plant import PlantConfig
+
+
+def _import(tmp_path, convention: str, seed: int = 3, command: str | None = None):
+    """A rig log of the default plant (nothing hidden) written, mapped and imported with the CLI."""
+    frames = rig_trials(PlantConfig(), case_moves(FAST_MOVES), seed=seed, convention=convention)
+    (tmp_path / "rig.csv").write_text(rig_csv(frames))
+    text = RIG_MAP + (f'[log]\ncommand = "{command}"\n' if command else "")
+    (tmp_path / "map.toml").write_text(text)
+    out = tmp_path / "data"
+    args = [
+        "data",
+        "import",
+        str(tmp_path / "rig.csv"),
+        "--map",
+        str(tmp_path / "map.toml"),
+        "--out",
+        str(out),
+    ]
+    assert main(args) == 0
+    return out
+
+
+@pytest.mark.parametrize("convention, lag", [("from_row", 0.0), ("up_to_row", 1.0)])
+def test_rig_log_with_nothing_hidden_is_left_alone(tmp_path, capsys, convention, lag) -> None:
+    """Jittered ~250 Hz loop (3/4/5 ms) on an integer-ms clock, gaps between trials, PWM %, mV, kgf, rad, an
+    extra column, CRLF: the lag is found, nothing is added or recalibrated, verdict none (~10 s each)."""
+    data = _import(tmp_path, convention)
+    capsys.readouterr()
+    rep = tmp_path / "report"
+    assert main(["discrepancy", "--measured", str(data), "--out", str(rep), "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["verdict"] == "none", s
+    assert s["effects"] == [] and s["recalibrated"] == []
+    assert s["timing"]["fitted_lag"] == pytest.approx(lag, abs=0.05)
+    assert s["timing"]["pinned_lag"] is None and s["timing"]["warning"] == ""
+    assert "## Command timing" in (rep / "report.md").read_text()
+
+
+def test_declared_convention_that_disagrees_is_said(tmp_path) -> None:
+    """A map pinning up_to_row on a from_row log: the lag used is the declared one, the fit finds from_row
+    and the warning says they disagree (~3 s)."""
+    frames = rig_trials(PlantConfig(), case_moves(FAST_MOVES)[:4], seed=5, convention="from_row")
+    runs = runs_from_frames([("rig", f) for f in frames], {"lag": 1.0})
+    tim = fit_timing(PlantConfig(), runs, noise_sigma(runs)["enc"], pinned=1.0)
+    assert tim.lag == 1.0 and tim.fitted == pytest.approx(0.0, abs=0.05)
+    assert "declares the command 'up_to_row'" in tim.warning
+    assert fit_timing(PlantConfig(), runs, noise_sigma(runs)["enc"], pinned=0.0).warning == ""
+
+
+def _runs(t: list[float], v: list[float], lag: float) -> Runs:
+    """One trial with logged instants t and commands v."""
+    n = len(t)
+    meas = {c: np.zeros((1, n)) for c in ("enc", "pot", "load_cell_n", "force_n")}
+    return Runs(
+        np.array([10.0]), np.array([v]), meas, np.ones((1, n), bool), ["x"], np.array([t]), np.array([lag])
+    )
+
+
+def test_drive_applies_each_command_at_its_instant() -> None:
+    """lag 0: from its row on; lag 1: since the previous row; a switch inside a 1 ms step is time-weighted."""
+    t, v = [0.0, 0.004, 0.007, 0.0115], [1.0, 2.0, 3.0, 4.0]
+    u0 = drive(_runs(t, v, 0.0), 0.001)[0]
+    assert np.array_equal(u0[:4], [1, 1, 1, 1]) and np.array_equal(u0[4:7], [2, 2, 2])
+    assert np.array_equal(u0[7:11], [3, 3, 3, 3]) and u0[11] == pytest.approx(3.5)
+    u1 = drive(_runs(t, v, 1.0), 0.001)[0]
+    assert np.array_equal(u1[:4], [2, 2, 2, 2]) and np.array_equal(u1[4:7], [3, 3, 3])
+    assert np.array_equal(u1[7:11], [4, 4, 4, 4])
