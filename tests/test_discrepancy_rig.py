@@ -11,9 +11,10 @@ import pytest
 from seagen.cli import main
 from seagen.discrepancy.bench import FAST_MOVES, case_moves
 from seagen.discrepancy.replay import Runs, drive, runs_from_frames
-from seagen.discrepancy.residuals import noise_sigma
+from seagen.discrepancy.residuals import noise_floor, noise_sigma
 from seagen.discrepancy.riglog import RIG_MAP, rig_csv, rig_trials
-from seagen.discrepancy.timing import fit_timing
+from seagen.discrepancy.timing import fit_timing, timing_problem
+from seagen.discrepancy.workflow import identify
 from seagen.plant import PlantConfig
 
 
@@ -53,15 +54,37 @@ def test_rig_log_with_nothing_hidden_is_left_alone(tmp_path, capsys, convention,
     assert "## Command timing" in (rep / "report.md").read_text()
 
 
-def test_declared_convention_that_disagrees_is_said(tmp_path) -> None:
-    """A map pinning up_to_row on a from_row log: the lag used is the declared one, the fit finds from_row
-    and the warning says they disagree (~3 s)."""
-    frames = rig_trials(PlantConfig(), case_moves(FAST_MOVES)[:4], seed=5, convention="from_row")
+def test_declared_convention_that_disagrees_is_a_timing_problem_not_physics() -> None:
+    """A map pinning up_to_row on a from_row log: the declared lag is used, the report says the data fit
+    from_row, and the residual (switches one period off) is called the log's timing: verdict timing,
+    nothing fitted (~10 s)."""
+    frames = rig_trials(PlantConfig(), case_moves(FAST_MOVES)[:6], seed=5, convention="from_row")
     runs = runs_from_frames([("rig", f) for f in frames], {"lag": 1.0})
-    tim = fit_timing(PlantConfig(), runs, noise_sigma(runs)["enc"], pinned=1.0)
-    assert tim.lag == 1.0 and tim.fitted == pytest.approx(0.0, abs=0.05)
-    assert "declares the command 'up_to_row'" in tim.warning
-    assert fit_timing(PlantConfig(), runs, noise_sigma(runs)["enc"], pinned=0.0).warning == ""
+    res = identify(runs, PlantConfig(), pinned=1.0)
+    assert res.timing is not None and res.timing.lag == 1.0
+    assert res.timing.fitted == pytest.approx(0.0, abs=0.05)
+    assert "declares the command 'up_to_row'" in res.timing.warning
+    assert res.verdict == "timing" and "concentrated at the command switches" in res.timing.problem
+    assert res.effects == [] and res.recalibrated == []
+    runs.lag[:] = 0.0
+    sig = noise_sigma(runs)
+    assert fit_timing(PlantConfig(), runs, sig["enc"], pinned=0.0).warning == ""
+
+
+@pytest.mark.parametrize(
+    "effect, params",
+    [("backlash", {"half_width_mm": 0.08}), ("stribeck_friction", {"extra_static_n": 1.5, "v_s_mm_s": 0.8})],
+)
+def test_physics_at_reversals_is_not_called_timing(effect, params) -> None:
+    """A hidden effect that acts at reversals, in a rig log with the right timing, is left to the physics
+    search: shifted switches do not explain it (~4 s each)."""
+    truth = PlantConfig().with_effect(effect, True, **params)
+    base = PlantConfig().with_effect(effect, False)
+    frames = rig_trials(truth, case_moves(FAST_MOVES)[:4], seed=2, convention="from_row")
+    runs = runs_from_frames([("rig", f) for f in frames], {"lag": 0.0})
+    sig = noise_sigma(runs)
+    tim = fit_timing(base, runs, sig["enc"], pinned=0.0)
+    assert not timing_problem(base, runs, sig, noise_floor(runs, sig), tim), tim.problem
 
 
 def _runs(t: list[float], v: list[float], lag: float) -> Runs:

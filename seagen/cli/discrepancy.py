@@ -67,6 +67,8 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
             print(res.timing.words())
             if res.timing.warning:
                 print(f"warning: {res.timing.warning}")
+            if res.timing.problem:
+                print(f"timing problem: {res.timing.problem}")
         print(
             f"held-out residual RMS {s['rms_before']:.3g} -> {s['rms_after']:.3g} noise sigmas "
             f"(noise floor {s['noise_floor']:.3g}); report in {args.out}/report.md"

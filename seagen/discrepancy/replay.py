@@ -34,6 +34,8 @@ NEUTRAL: dict[str, dict[str, float]] = {
     "transport_delay": {"delay_s": 0.0},
 }
 ParamSet = dict[str, dict[str, float]]
+SWITCH_V = 0.5  # a command change this large is a switch (its instant's uncertainty moves the encoder)
+SETTLE_S = 0.03  # the speed after a switch is read this long after it (motor time constant ~ 10 ms)
 
 
 @dataclass
@@ -54,6 +56,8 @@ class Runs:
     t: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     lag: np.ndarray = field(default_factory=lambda: np.zeros(0))
     res: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    _tsig: dict[str, np.ndarray] | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         n, t = self.mask.shape
@@ -78,6 +82,28 @@ class Runs:
             self.lag[idx],
             self.res[idx],
         )
+
+    def timing_sigma(self) -> dict[str, np.ndarray]:
+        """Per sample and channel (n, T), what the log clock's resolution does to a comparison: the true
+        instant of a row is uncertain by res/sqrt(12), so a channel is uncertain by |dx/dt| res/sqrt(12);
+        the encoder also carries, from every command switch on, the speed change there times the
+        uncertainty of the switch's instant (summed in quadrature). Zero for a log on its clock's ticks."""
+        if self._tsig is None:
+            u = (self.res / np.sqrt(12.0))[:, None]
+            out = {c: np.abs(self.speed(c)) * u for c in CHANNELS}
+            v = self.speed("enc")
+            cmd = self.volts
+            switch = np.zeros_like(self.mask)
+            switch[:, 1:] = np.abs(np.diff(cmd, axis=1)) > SWITCH_V
+            later = np.empty_like(v)
+            for i in range(len(v)):  # the speed a settle time after each sample
+                j = np.searchsorted(self.t[i], self.t[i] + SETTLE_S)
+                later[i] = v[i, np.minimum(j, v.shape[1] - 1)]
+            before = np.concatenate([v[:, :1], v[:, :-1]], axis=1)
+            jump = np.where(switch & self.mask, (later - before) ** 2, 0.0) * u**2
+            out["enc"] = np.sqrt(out["enc"] ** 2 + np.cumsum(jump, axis=1))
+            self._tsig = out
+        return self._tsig
 
     @property
     def applied(self) -> np.ndarray:

@@ -130,6 +130,7 @@ def _timing(res: Result) -> str:
     if res.timing is None:
         return ""
     warn = f"\n\n**Warning: {res.timing.warning}.**" if res.timing.warning else ""
+    warn += f"\n\n**Timing problem: {res.timing.problem}.**" if res.timing.problem else ""
     return f"## Command timing\n{res.timing.words()}.{warn}"
 
 
@@ -234,6 +235,7 @@ def summary(res: Result) -> dict:
             "offset_ms": res.timing.offset_ms,
             "median_period_s": res.timing.period_s,
             "warning": res.timing.warning,
+            "problem": res.timing.problem,
         },
         "signature": res.signature,
         "signature_ranking": [[e, c] for e, c in res.ranking],

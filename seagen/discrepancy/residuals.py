@@ -31,8 +31,12 @@ def noise_sigma(runs: Runs) -> dict[str, np.ndarray]:
 
 
 def zscores(runs: Runs, sim: dict[str, np.ndarray], sigma: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """Measured minus simulated, in noise sigmas; sim arrays may carry a leading set axis."""
-    return {c: (runs.meas[c] - sim[c]) / sigma[c][:, None] for c in CHANNELS}
+    """Measured minus simulated, in noise sigmas (the channel's noise and what the log clock's resolution
+    does to it, Runs.timing_sigma); sim arrays may carry a leading set axis."""
+    if not runs.res.any():
+        return {c: (runs.meas[c] - sim[c]) / sigma[c][:, None] for c in CHANNELS}
+    ts = runs.timing_sigma()
+    return {c: (runs.meas[c] - sim[c]) / np.sqrt(sigma[c][:, None] ** 2 + ts[c] ** 2) for c in CHANNELS}
 
 
 def chi2_per_trial(z: dict[str, np.ndarray]) -> np.ndarray:

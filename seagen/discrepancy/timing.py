@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -26,6 +27,7 @@ class Timing:
     period_s: float  # median logged sample period
     chi2: dict[float, float] = field(default_factory=dict)  # encoder chi-square per lag tried
     warning: str = ""
+    problem: str = ""  # the residual is the log's timing (switches off by up to a period), not physics
 
     @property
     def offset_ms(self) -> float:
@@ -76,3 +78,63 @@ def fit_timing(base, runs: Runs, sig_enc: np.ndarray, pinned: float | None = Non
                 f"{chi[float(pinned)]:.4g}); the replay uses the declared one: check [log] command"
             )
     return out
+
+
+MIN_SEGMENT_S = 0.05  # switches closer than this share one time shift
+TIMING_CUT = 0.8  # share of the held-out chi-square above the floor that shifted switches must explain
+
+
+def switch_shifts(runs: Runs, sim: dict[str, np.ndarray], sig: dict[str, np.ndarray], channels) -> tuple:
+    """How much of the residual a time shift of the command switches explains (each segment between
+    switches >= MIN_SEGMENT_S apart shifted by at most one sample period): residual ~ -dx_sim/dt * shift,
+    fitted in noise units over `channels`. Returns (chi2 before, chi2 after, largest |shift| in s)."""
+    from seagen.discrepancy.replay import SWITCH_V
+
+    twin = dataclasses.replace(runs, meas={c: sim[c] for c in runs.meas})
+    ts = runs.timing_sigma()
+    unit = {c: 1.0 / np.sqrt(sig[c][:, None] ** 2 + ts[c] ** 2) for c in channels}
+    z = {c: (runs.meas[c] - sim[c]) * unit[c] for c in channels}
+    dz = {c: -twin.speed(c) * unit[c] for c in channels}  # d(residual)/d(shift), noise units per s
+    before = after = worst = 0.0
+    for i in range(len(runs.angle)):
+        m = np.flatnonzero(runs.mask[i])
+        t = runs.t[i, m]
+        period = float(np.median(np.diff(t))) if len(m) > 1 else 0.0
+        seg = np.zeros(len(m), dtype=int)
+        last = -np.inf
+        for j in np.flatnonzero(np.abs(np.diff(runs.volts[i, m])) > SWITCH_V) + 1:
+            if t[j] - last >= MIN_SEGMENT_S:
+                seg[j:] += 1
+                last = t[j]
+        for s in range(seg.max() + 1):
+            cols = m[seg == s]
+            y = np.concatenate([z[c][i, cols] for c in channels])
+            x = np.concatenate([dz[c][i, cols] for c in channels])
+            ok = np.isfinite(x) & np.isfinite(y)
+            x, y = x[ok], y[ok]
+            d = 0.0 if s == 0 else float(np.clip(x @ y / max(float(x @ x), 1e-300), -period, period))
+            before += float(y @ y)
+            after += float(((y - x * d) ** 2).sum())
+            worst = max(worst, abs(d))
+    return before, after, worst
+
+
+def timing_problem(base, held: Runs, sig: dict[str, np.ndarray], floor: float, tim: Timing) -> bool:
+    """Whether the base's held-out residual is mostly switches at the wrong instant (>= TIMING_CUT of its
+    chi-square above the noise floor explained by shifting them by at most a sample period); if so the
+    words go into tim.problem."""
+    from seagen.discrepancy.residuals import SCORE_CHANNELS, n_scored
+
+    sim = {c: v[0] for c, v in simulate(base, [{}], held).items()}
+    before, after, worst = switch_shifts(held, sim, sig, SCORE_CHANNELS)
+    excess = before - floor**2 * n_scored(held)
+    cut = (before - after) / excess if excess > 0 else 0.0
+    if cut < TIMING_CUT:
+        return False
+    tim.problem = (
+        f"the residual is concentrated at the command switches: shifting them by at most one sample period "
+        f"(up to {worst * 1000:.2f} ms) explains {cut:.0%} of it above the noise floor. This is the log's "
+        "timing (which interval a logged command covers, a clock or a loop that does not log when the "
+        "command was applied), not physics: nothing was fitted. Check [log] command and the time column"
+    )
+    return True

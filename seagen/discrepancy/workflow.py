@@ -35,7 +35,7 @@ from seagen.discrepancy.residuals import (
     zscores,
 )
 from seagen.discrepancy.signature import describe, features, profile, rank
-from seagen.discrepancy.timing import Timing, fit_timing
+from seagen.discrepancy.timing import Timing, fit_timing, timing_problem
 from seagen.errors import UserError
 from seagen.plant import PlantConfig
 
@@ -324,6 +324,8 @@ def identify(
     feats = features(held)
     words = describe(profile(z0, held, feats))
     ranking = rank(base, held, sig_h, z0, feats) if _structured(held, z0, labels) else []
+    if ranking and held.res.any() and timing_problem(base, held, sig_h, floor, tim):
+        max_rounds, verdict = 0, "timing"  # the log's timing, not physics: nothing is fitted
     for _ in range(max_rounds):
         if named and _structured(held, z1, labels):  # first try to fit the named effects better
             named = _refit(base, named, fit, sig_f, nfev=3 * POLISH_NFEV)
@@ -345,7 +347,7 @@ def identify(
         cfg = _apply(base, {n.name: n.params for n in named})
         z1 = _residual(cfg, held, sig_h)
     else:
-        verdict = "unexplained"
+        verdict = "unexplained" if max_rounds else verdict
     if named:
         named = _prune(base, named, fit, held, sig_f, sig_h)
         cfg = _apply(base, {n.name: n.params for n in named})
