@@ -51,7 +51,9 @@ def test_rig_log_with_nothing_hidden_is_left_alone(tmp_path, capsys, convention,
     assert s["effects"] == [] and s["recalibrated"] == []
     assert s["timing"]["fitted_lag"] == pytest.approx(lag, abs=0.05)
     assert s["timing"]["pinned_lag"] is None and s["timing"]["warning"] == ""
-    assert "## Command timing" in (rep / "report.md").read_text()
+    text = (rep / "report.md").read_text()
+    assert "## Command timing" in text and "## Per channel" in text
+    assert [r["note"] for r in s["channels"]] == ["", "", ""]
 
 
 def test_declared_convention_that_disagrees_is_a_timing_problem_not_physics() -> None:
@@ -105,3 +107,38 @@ def test_drive_applies_each_command_at_its_instant() -> None:
     u1 = drive(_runs(t, v, 1.0), 0.001)[0]
     assert np.array_equal(u1[:4], [2, 2, 2, 2]) and np.array_equal(u1[4:7], [3, 3, 3])
     assert np.array_equal(u1[7:11], [4, 4, 4, 4])
+
+
+@pytest.fixture(scope="module")
+def quiet() -> tuple:
+    """Two seagen-format trials of the default plant (nothing hidden) and their noise sigmas."""
+    from seagen.discrepancy.bench import measure
+
+    runs = measure(PlantConfig(), seed=1, fast=True).take([0, 7])
+    return runs, noise_sigma(runs)
+
+
+def test_change_that_makes_a_channel_worse_is_not_kept(quiet) -> None:
+    """The stated rules: an implausible recalibration is not written (said in words), and a change set that
+    makes a channel's held-out fit worse is dropped, naming the channel and both RMS values (~3 s)."""
+    from seagen.discrepancy.workflow import Named, _honest, _residual
+
+    runs, sig = quiet
+    base = PlantConfig()
+    z0 = _residual(base, runs, sig)
+    implausible = Named("series_compliance", {"k_n_per_mm": 500.0}, 1.0, before={"k_n_per_mm": 30.0})
+    kept, notes = _honest(base, [implausible], runs, sig, z0)
+    assert (
+        kept == [] and "outside the plausible range" in notes[0] and "not written to plant.toml" in notes[0]
+    )
+    soft = Named("series_compliance", {"k_n_per_mm": 10.0}, 1.0, before={"k_n_per_mm": 30.0})
+    kept, notes = _honest(base, [soft], runs, sig, z0)
+    assert kept == [] and "worse" in notes[0] and "not kept (rule:" in notes[0]
+
+
+def test_fit_at_the_edge_of_its_box_is_flagged() -> None:
+    """A parameter fitted at an end of its search box is flagged (and so never claimed)."""
+    from seagen.discrepancy.workflow import Named, _at_edge
+
+    assert _at_edge(Named("viscous_friction", {"b_n_s_per_mm": 0.005}, 0.9)) == ["b_n_s_per_mm"]
+    assert _at_edge(Named("viscous_friction", {"b_n_s_per_mm": 0.1}, 0.9)) == []
