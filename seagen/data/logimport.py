@@ -121,7 +121,9 @@ def _numbers(path: Path, df: pd.DataFrame, col: str, target: str) -> np.ndarray:
     bad = ~np.isfinite(num)
     if bad.any():
         i = int(np.argmax(bad))
-        raise DataError(f"{path}, row {i + 2}, column '{col}': not a finite number: {df[col].iloc[i]!r}")
+        raise DataError(
+            f"{path}, row {_row(df, i)}, column '{col}': not a finite number: {df[col].iloc[i]!r}"
+        )
     return num
 
 
@@ -139,18 +141,102 @@ def _convert(path: Path, df: pd.DataFrame, name: str, entry: dict[str, Any]) -> 
     return x * UNITS[name][unit]
 
 
+def _row(df: pd.DataFrame, i: int) -> int:
+    """The log's line number of data row i (header = line 1; comment and blank lines counted)."""
+    lines = df.attrs.get("lines")
+    return int(lines[i]) if lines is not None else i + 2
+
+
+def _line_numbers(path: Path, comment: str | None) -> np.ndarray:
+    """Line number of every data row pandas reads (skipping blank lines and whole-line comments)."""
+    keep = []
+    with path.open("rb") as f:
+        for n, raw in enumerate(f, 1):
+            line = raw.strip()
+            if not line or (comment and line.startswith(comment.encode())):
+                continue
+            keep.append(n)
+    return np.asarray(keep[1:], dtype=np.int64)
+
+
 def _trial_ids(path: Path, df: pd.DataFrame, cols: dict, t: np.ndarray, gap_s: float) -> np.ndarray:
-    """Trial number per row: the mapped column, else a new trial where time resets or jumps by > gap_s."""
+    """Trial number per row: the mapped column, else a new trial where time jumps by > gap_s or resets
+    (goes back by > gap_s); inside a trial time must increase."""
+    col = cols["t_s"]["column"]
     if "trial" in cols:
         trial = _convert(path, df, "trial", cols["trial"])
-        back = (trial[1:] == trial[:-1]) & (t[1:] < t[:-1])
-        if back.any():
-            i = int(np.argmax(back)) + 1
-            col = cols["t_s"]["column"]
-            raise DataError(f"{path}, row {i + 2}, column '{col}': time goes backwards inside a trial")
-        return trial
+        same = trial[1:] == trial[:-1]
+    else:
+        dt = np.diff(t)
+        same = (dt >= -gap_s) & (dt <= gap_s)
+        trial = np.r_[0, np.cumsum(~same)].astype(float)
     dt = np.diff(t)
-    return np.r_[0, np.cumsum((dt < 0) | (dt > gap_s))]
+    for bad, what in ((same & (dt < 0), "goes backwards"), (same & (dt == 0), "repeats")):
+        if bad.any():
+            i = int(np.argmax(bad)) + 1
+            dup = bool((df.iloc[i] == df.iloc[i - 1]).all())
+            extra = f" (the whole row repeats row {_row(df, i - 1)})" if dup else ""
+            raise DataError(f"{path}, row {_row(df, i)}, column '{col}': time {what} inside a trial{extra}")
+    return trial
+
+
+MIN_RATE_HZ = 50.0  # slower logs cannot time the command switches the replay needs (documented in README)
+REST_COUNTS = 3  # a trial whose encoder moves more than this between its first two rows ...
+REST_RATIO = 0.6  # ... at more than this share of the next interval's speed starts in motion
+SENSOR_RANGE = {"pot": (0.0, float(g.ADC_MAX))}
+
+
+def _check_rate_unit(path: Path, cols: dict, t: np.ndarray, gap_s: float) -> None:
+    """The time unit and the sample rate over the whole log (a step longer than trials.gap_s would make
+    every row its own trial: almost always a wrong unit)."""
+    col, unit = cols["t_s"]["column"], cols["t_s"].get("unit", "s")
+    d = np.diff(t)
+    d = d[d > 0]
+    if not d.size:
+        return
+    step = float(np.median(d))
+    if step > gap_s or step > 1.0 / MIN_RATE_HZ:
+        hint = ""
+        for u, f in UNITS["t_s"].items():
+            rate = 1.0 / (step / UNITS["t_s"][unit] * f)
+            if u != unit and MIN_RATE_HZ <= rate <= 20_000:
+                hint = f'; with unit = "{u}" it would be {rate:.0f} Hz: is the column in {u}?'
+        raise DataError(
+            f"{path}, column '{col}': the median time step is {step:.6g} s ({1 / step:.3g} Hz with unit "
+            f'"{unit}"); at least {MIN_RATE_HZ:g} Hz is needed to time the command switches{hint}'
+        )
+
+
+def _check_trial(path: Path, df: pd.DataFrame, cols: dict, sel: np.ndarray, conv: dict, k: int) -> None:
+    """One trial: logged at >= MIN_RATE_HZ and starting at rest (the replay starts the plant at rest)."""
+    t = conv["t_s"][sel]
+    step = float(np.median(np.diff(t)))
+    where = f"{path}, row {_row(df, int(sel[0]))}"
+    if step > 1.0 / MIN_RATE_HZ:
+        raise DataError(
+            f"{where}, column '{cols['t_s']['column']}': trial {k} is logged at {1 / step:.3g} Hz (median "
+            f"step {step * 1000:.4g} ms); at least {MIN_RATE_HZ:g} Hz is needed"
+        )
+    e = conv["enc"][sel]
+    d1, d2 = abs(e[1] - e[0]) / (t[1] - t[0]), abs(e[2] - e[1]) / (t[2] - t[1])
+    if "column" in cols["enc"] and abs(e[1] - e[0]) > REST_COUNTS and d1 > REST_RATIO * d2:
+        raise DataError(
+            f"{where}, column '{cols['enc']['column']}': trial {k} does not start at rest (the encoder "
+            f"already runs at {d1:.0f} counts/s); a gap inside a trial? (see trials.gap_s)"
+        )
+
+
+def _check_range(path: Path, df: pd.DataFrame, cols: dict, conv: dict) -> None:
+    """Values outside the declared sensor range (e.g. pot counts beyond the ADC's full scale)."""
+    for name, (lo, hi) in SENSOR_RANGE.items():
+        x = conv[name]
+        bad = (x < lo - 0.5) | (x > hi + 0.5)
+        if bad.any() and "column" in cols[name]:
+            i = int(np.argmax(bad))
+            raise DataError(
+                f"{path}, row {_row(df, i)}, column '{cols[name]['column']}': {name} {x[i]:.6g} is outside "
+                f"the sensor's range {lo:g}..{hi:g} (check unit / full_scale)"
+            )
 
 
 def import_log(log: str | os.PathLike[str], mapping: dict[str, Any]) -> pd.DataFrame:
@@ -166,14 +252,21 @@ def import_log(log: str | os.PathLike[str], mapping: dict[str, Any]) -> pd.DataF
         raise DataError(f"{path}: not a readable CSV: {e}") from None
     if len(df) == 0:
         raise DataError(f"{path}: no data rows")
+    lines = _line_numbers(path, mapping.get("comment"))
+    if len(lines) == len(df):
+        df.attrs["lines"] = lines
     cols = mapping["columns"]
     conv = {k: _convert(path, df, k, cols[k]) for k in RAW_COLUMNS if k not in ("trial",)}
+    _check_rate_unit(path, cols, conv["t_s"], mapping["gap_s"])
+    _check_range(path, df, cols, conv)
     trial = _trial_ids(path, df, cols, conv["t_s"], mapping["gap_s"])
     parts = []
     for i, key in enumerate(pd.unique(trial)):
         sel = np.flatnonzero(trial == key)
         if len(sel) < 3:
-            raise DataError(f"{path}, row {sel[0] + 2}: trial {key:g} has {len(sel)} samples (need >= 3)")
+            row = _row(df, int(sel[0]))
+            raise DataError(f"{path}, row {row}: trial {key:g} has {len(sel)} samples (need >= 3)")
+        _check_trial(path, df, cols, sel, conv, i)
         frame = pd.DataFrame({k: v[sel] for k, v in conv.items()})
         frame["t_s"] = frame["t_s"] - frame["t_s"].iloc[0]
         for k in ("enc", "pot"):
