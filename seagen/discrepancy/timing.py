@@ -12,9 +12,7 @@ from seagen.discrepancy.replay import Runs, simulate
 STEP_S = 0.015  # the lag is read from the encoder residual's step from just before a switch to this after
 COARSE = np.linspace(0.0, 1.0, 11)  # lag grid, then a fine one around the best
 FINE_HALF, FINE_N = 0.1, 11
-DISAGREE_CHI2 = (
-    25.0  # a declared convention this much worse (encoder chi-square) than the data's fit is wrong
-)
+DISAGREE_CHI2 = 25.0  # a declared convention this much worse (switch-step sum) than the fit is wrong
 NAMES = {0.0: "from_row", 1.0: "up_to_row"}
 
 
@@ -26,7 +24,7 @@ class Timing:
     fitted: float  # best fit on the fitting trials (encoder), in [0, 1]
     pinned: float | None  # declared in the map ([log] command), else None
     period_s: float  # median logged sample period
-    chi2: dict[float, float] = field(default_factory=dict)  # encoder chi-square per lag tried
+    chi2: dict[float, float] = field(default_factory=dict)  # switch-step sum of squares per lag tried
     warning: str = ""
     problem: str = ""  # the residual is the log's timing (switches off by up to a period), not physics
 
