@@ -47,8 +47,8 @@ DRIVE = (
     "the next; every channel compared at its row's logged instant. The lag (which part of its interval a "
     "logged command covers, 0 = from its row on, 1 = up to its row) is fitted on the fitting trials with "
     "the base plant (the encoder residual's steps across switches), or pinned by the map; the plant's "
-    "motor model is not in the catalogue, so the command reproduces the recorded push/retract switch, and the encoder stays an "
-    "observed signal that shows every effect that changes the load on the motor"
+    "motor model is not in the catalogue, so the command reproduces the recorded push/retract switch, and "
+    "the encoder stays an observed signal that shows every effect that changes the load on the motor"
 )
 DBIC_MIN = 10.0  # 'very strong' evidence (Kass & Raftery) before an effect is named
 PER_SPLIT = 6  # trials per split (fit, held-out), spread over the contact angles
