@@ -18,7 +18,7 @@ $(STAMP): $(PY) pyproject.toml
 	$(PIP) install -q -e '.[dev]'
 	touch $(STAMP)
 
-venv: $(STAMP) toolchain
+venv: $(STAMP) toolchain qemu
 
 # The Arm cross compiler, from Debian, when root and missing.
 toolchain:
@@ -27,6 +27,16 @@ toolchain:
 	    echo "installing gcc-arm-none-eabi libnewlib-arm-none-eabi"; \
 	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq gcc-arm-none-eabi libnewlib-arm-none-eabi >/dev/null; \
 	  else echo "warning: arm-none-eabi-gcc missing and not root; Cortex-M tests will be skipped"; fi; \
+	fi
+
+# QEMU's Arm system emulator (processor-in-the-loop boards), from Debian, when root and missing.
+.PHONY: qemu
+qemu:
+	@if ! command -v qemu-system-arm >/dev/null 2>&1; then \
+	  if [ "$$(id -u)" = "0" ]; then \
+	    echo "installing qemu-system-arm"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq qemu-system-arm >/dev/null; \
+	  else echo "warning: qemu-system-arm missing and not root; processor-in-the-loop tests will be skipped"; fi; \
 	fi
 
 demo: venv
@@ -48,9 +58,10 @@ format: venv
 	$(VENV)/bin/ruff check --fix .
 
 # seagen's kernels (portable and per core) against emlearn's float MLP and a plain float loop, on emulated
-# Cortex-M4 and M0+; writes the tables between the bench markers of docs/benchmarks.md (~2.5 min).
+# Cortex-M4 and M0+ (the glove also at one flash wait state); writes the tables between the bench markers of
+# docs/benchmarks.md (~2.5 min).
 bench: venv
-	$(PY) -m seagen.bench.compare --readme docs/benchmarks.md
+	$(PY) -m seagen.bench.compare --readme docs/benchmarks.md --flash-wait 1
 
 clean:
 	rm -rf $(DEMO) build dist *.egg-info .pytest_cache

@@ -1,12 +1,19 @@
-"""Atomic file output: write to a temporary name in the same folder, then rename."""
+"""Atomic file output: write to a temporary name in the same folder, then rename; a lock for a folder that
+several files are renamed into (so two commands writing one folder at once leave one of them, whole)."""
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
+
+try:
+    import fcntl
+except ImportError:  # not POSIX: no folder lock
+    fcntl = None  # type: ignore[assignment]
 
 
 @contextlib.contextmanager
@@ -25,6 +32,30 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
+
+
+@contextlib.contextmanager
+def locked_folder(folder: str | os.PathLike[str]) -> Iterator[Path]:
+    """Hold an exclusive lock on `folder` (created if missing) inside the block, waiting for any other
+    holder: flock on the folder itself, so nothing is added to it. SIGINT and SIGTERM are held back until
+    the block ends (seagen.workers.uninterrupted), so a stop never leaves the renames half done."""
+    from seagen.workers import uninterrupted
+
+    p = Path(folder)
+    p.mkdir(parents=True, exist_ok=True)
+    fd = os.open(p, os.O_RDONLY) if fcntl is not None else None
+    try:
+        if fd is not None:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX)
+            except OSError as e:  # a file system without locks (some network mounts): go on unlocked
+                if e.errno not in (errno.ENOLCK, errno.EBADF, errno.EINVAL, errno.EOPNOTSUPP):
+                    raise
+        with uninterrupted():
+            yield p
+    finally:
+        if fd is not None:
+            os.close(fd)  # closing the descriptor releases the lock
 
 
 def write_text(path: str | os.PathLike[str], text: str) -> None:

@@ -5,6 +5,8 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
+from seagen.errors import UserError
+
 DEFAULT_PREFIX = {
     "sf_calibration": "cal_sf",
     "mlp_calibration": "cal_mlp",
@@ -24,3 +26,32 @@ def default_model(name: str) -> Path:
 
 
 GENERATED = generated_dir()
+
+
+SCHEME = "default:"
+
+
+def shipped() -> dict[str, Path]:
+    """Every shipped default model: NAME -> its file (what `default:NAME` names)."""
+    return {name: default_model(name) for name in DEFAULT_PREFIX}
+
+
+def resolve_model(arg: str) -> str:
+    """A model argument as a path: `default:NAME` is the shipped model NAME; any other text is a path."""
+    if not arg.startswith(SCHEME):
+        return arg
+    name = arg[len(SCHEME) :]
+    if name not in DEFAULT_PREFIX:
+        known = ", ".join(SCHEME + n for n in DEFAULT_PREFIX)
+        raise UserError(f"{arg}: no shipped model '{name}' (shipped: {known}; `seagen models` lists them)")
+    return str(default_model(name))
+
+
+def model_arg(arg: str) -> str:
+    """argparse type of every model argument: a path, or `default:NAME` resolved to the shipped file."""
+    import argparse
+
+    try:
+        return resolve_model(arg)
+    except UserError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None

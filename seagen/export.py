@@ -4,19 +4,18 @@ atomically. A driver at the top of the package graph (it uses frontends, quant, 
 from __future__ import annotations
 
 import os
-import re
 import shutil
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from seagen.atomic import writable_place
-from seagen.codegen.cfmt import assert_valid_prefix
+from seagen.atomic import locked_folder, writable_place
+from seagen.codegen.cfmt import assert_valid_prefix, identifier_from
 from seagen.codegen.manifest import SUFFIX, manifest_text
+from seagen.codegen.quant_summary import summary_lines
 from seagen.codegen.render import RUNTIME, model_hash, render
 from seagen.codegen.runtime import runtime_sources
-from seagen.codegen.summary import summary_lines
 from seagen.codegen.targets import RUNTIME as TARGET_RUNTIME
 from seagen.codegen.targets import check_target
 from seagen.errors import CheckFailed, UserError
@@ -58,8 +57,7 @@ def calib_ranges(data_dir: str, names: list[str]) -> list[list[float]]:
 
 def default_prefix(model_path: str) -> str:
     """A C identifier from the model file name (e.g. mlp_calibration.pt -> mlp_calibration)."""
-    stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(model_path).stem)
-    return stem if stem[:1].isalpha() else f"m_{stem}"
+    return identifier_from(Path(model_path).stem)
 
 
 def prepare(
@@ -88,15 +86,22 @@ def prepare(
     given = ranges or ((lambda names: calib_ranges(calib, names)) if calib else None)
     spec = features if isinstance(features, dict) else read_features_file(features)
     loaded = load_with_original(model_path, spec, given, allow_pickle)
-    qm = quantize(loaded.model, bits)
+    try:
+        qm = quantize(loaded.model, bits)
+    except UserError as e:  # a range or a weight that cannot be represented: name the file
+        raise UserError(str(e) if str(e).startswith(model_path) else f"{model_path}: {e}") from None
     rep = compare_original(
         f"oracle ({loaded.runtime}) on the box", qm, loaded.original, box_points(qm), loaded.margin
     )
     if not rep.ok:
         raise CheckFailed(f"{model_path}: {rep.line()}")
-    files = {**render(qm, prefix, target), **runtime_sources(*RUNTIME, *TARGET_RUNTIME[check_target(target)])}
+    try:
+        rendered = render(qm, prefix, target)
+    except UserError as e:  # a name or text the C cannot hold (the loaders refuse these first)
+        raise UserError(f"{model_path}: {e}") from None
+    files = {**rendered, **runtime_sources(*RUNTIME, *TARGET_RUNTIME[check_target(target)])}
     if controller:
-        from seagen.control.firmware import controller_files
+        from seagen.codegen.controller import controller_files
 
         files.update(controller_files(prefix, qm))
     onnx_bytes = None
@@ -106,8 +111,13 @@ def prepare(
         onnx_bytes = build_onnx(qm, prefix).SerializeToString()
     options = {"weights": weights, "target": target, "calib": calib, "onnx": with_onnx}
     options["controller"] = controller
-    files[f"{prefix}{SUFFIX}"] = export_manifest(qm, prefix, model_path, options, spec, files, onnx_bytes)
-    return Export(loaded, qm, prefix, files, rep, onnx_bytes, summary_lines(qm))
+    if allow_pickle:  # recorded only when used: torch's own readers opened the file, past the allow-list
+        options["allow_pickle"] = True
+    original = {"runtime": loaded.runtime, "dtype": loaded.dtype, "margin": float(f"{loaded.margin:.6g}")}
+    files[f"{prefix}{SUFFIX}"] = export_manifest(
+        qm, prefix, model_path, options, spec, files, onnx_bytes, original
+    )
+    return Export(loaded, qm, prefix, files, rep, onnx_bytes, [*loaded.notes, *summary_lines(qm)])
 
 
 def export_manifest(
@@ -118,9 +128,11 @@ def export_manifest(
     spec: dict[str, Any],
     files: dict[str, str],
     onnx_bytes: bytes | None,
+    original: dict[str, Any] | None = None,
 ) -> str:
     """NAME.seagen.json for the files of this export (the runtime files and NAME.onnx included); `spec`:
-    the --features file as read ({} without one)."""
+    the --features file as read ({} without one); `original`: the oracle's runtime, the original's float
+    type and the margin its rounding is allowed on top of the proven bound."""
     emitted = {name: text.encode() for name, text in files.items()}
     if onnx_bytes is not None:
         emitted[f"{prefix}.onnx"] = onnx_bytes
@@ -131,6 +143,8 @@ def export_manifest(
         "error_bound": qm.error_bound,
         "features": spec or None,
     }
+    if original is not None:
+        resolved["original"] = original
     return manifest_text(prefix, model_path, options, resolved, emitted)
 
 
@@ -145,9 +159,11 @@ def check_out_dir(out_dir: str | os.PathLike[str]) -> Path:
 
 
 def write(ex: Export, out_dir: str | os.PathLike[str]) -> list[Path]:
-    """Write all files atomically: staged in a temporary folder, then renamed in. A NAME.onnx or
-    NAME_controller.{h,c} from an earlier export that this one does not write is removed (it would describe
-    another model or configuration)."""
+    """Write all files atomically: staged in a temporary folder, then renamed in under a lock on the folder
+    (a second export into it waits), the manifest last. A NAME.onnx or NAME_controller.{h,c} from an
+    earlier export that this one does not write is removed (it would describe another model or
+    configuration). Other exports in the folder are not touched (the shared runtime files they also use
+    are rewritten with the same text)."""
     out = check_out_dir(out_dir)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -159,14 +175,16 @@ def write(ex: Export, out_dir: str | os.PathLike[str]) -> list[Path]:
             (stage / name).write_text(text)
         if ex.onnx_bytes is not None:
             (stage / f"{ex.prefix}.onnx").write_bytes(ex.onnx_bytes)
-        written = []
-        for f in sorted(stage.iterdir()):
-            os.replace(f, out / f.name)
-            written.append(out / f.name)
+        manifest = f"{ex.prefix}{SUFFIX}"
+        names = sorted(f.name for f in stage.iterdir() if f.name != manifest) + [manifest]
         own = (f"{ex.prefix}.onnx", f"{ex.prefix}_controller.h", f"{ex.prefix}_controller.c")
-        for name in set(own) - {p.name for p in written}:  # left by an earlier export of NAME
-            (out / name).unlink(missing_ok=True)
-        return written
+        with locked_folder(out):
+            for name in names[:-1]:
+                os.replace(stage / name, out / name)
+            for name in set(own) - set(names):  # left by an earlier export of NAME
+                (out / name).unlink(missing_ok=True)
+            os.replace(stage / manifest, out / manifest)
+        return [out / name for name in sorted(names)]
     except OSError as e:
         raise UserError(f"{out}: cannot write the export: {e.strerror or e}") from None
     finally:

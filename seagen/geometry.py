@@ -4,25 +4,28 @@ from __future__ import annotations
 
 import numpy as np
 
-# --- Facts from the paper -------------------------------------------------------------------------
-SPRING_N_PER_MM = 4.2  # k_s, §IV-A
-MM_PER_COUNT = 20.0 / (380.0 * 12.0)  # Eq. 3: 0.00438596 mm of nut travel per encoder count
-POT_DEG_PER_COUNT = 53.12195 / 4096.0  # Eq. 4-5: 0.012969 deg per ADC count
-POT_OFFSET_DEG = -5.0  # Eq. 5: -20 deg mechanical offset + 15 deg start angle
-ANGLE_MIN_DEG, ANGLE_MAX_DEG = 5.0, 28.0  # range of the contact angle (Eq. 6)
-R_L_SPLIT_DEG = 16.0  # horizontal load cell up to here, vertical above (Eq. 6)
-ADC_MAX = 4095
+from seagen.actuator import default_actuator
 
-# --- Chosen here (the paper gives no number); plausible for the RML glove's index finger ----------
-CB_MM = 36.0  # pivot-to-shaft lever CB of Eq. 2
-CE_MM = 12.0  # constant offset CE of Eq. 2
-HOME_DEG = ANGLE_MIN_DEG  # the linkage rests at 5 deg with the spring unloaded
-# DE at home: zero compression at 5 deg; DE shrinks as the nut advances (enc grows).
+# Every number comes from the actuator description (seagen/actuators/paper.toml: the paper's SEA, with the
+# values the paper does not give chosen there, each with a comment).
+ACTUATOR = default_actuator()
+SPRING_N_PER_MM = ACTUATOR.stiffness_n_per_mm  # k_s, §IV-A
+MM_PER_COUNT = ACTUATOR.mm_per_count  # Eq. 3: 0.00438596 mm of nut travel per encoder count
+POT_DEG_PER_COUNT = ACTUATOR.pot_deg_per_count  # Eq. 4-5: 0.012969 deg per ADC count
+POT_OFFSET_DEG = ACTUATOR.pot.offset_deg  # Eq. 5
+ANGLE_MIN_DEG, ANGLE_MAX_DEG = ACTUATOR.linkage.angle_min_deg, ACTUATOR.linkage.angle_max_deg  # Eq. 6
+R_L_SPLIT_DEG = ACTUATOR.linkage.split_deg  # horizontal load cell up to here, vertical above (Eq. 6)
+ADC_MAX = ACTUATOR.adc_max
+
+CB_MM = ACTUATOR.linkage.cb_mm  # pivot-to-shaft lever CB of Eq. 2
+CE_MM = ACTUATOR.linkage.ce_mm  # constant offset CE of Eq. 2
+HOME_DEG = ACTUATOR.linkage.home_deg  # the linkage rests here with the spring unloaded
+# DE at home: zero compression at HOME_DEG; DE shrinks as the nut advances (enc grows).
 DE_HOME_MM = float(np.cos(np.radians(HOME_DEG)) * CB_MM + CE_MM)
 
-# R_l (Eq. 6): H_fit, 5th order in (angle - 5 deg) on 5-16 deg; V_fit, 2nd order in (angle - 16 deg)
-# on 16-28 deg, continuous in value and slope at 16 deg. Tip force = R_l * force at the SEA shaft.
-H_FIT = (0.55, 0.032, -0.0031, 0.00021, -8.0e-6, 1.2e-7)  # ascending powers of (angle - 5)
+# R_l (Eq. 6): H_fit in (angle - ANGLE_MIN_DEG) up to the split; V_fit in (angle - split) above it,
+# continuous in value and slope at the split. Tip force = R_l * force at the SEA shaft.
+H_FIT = ACTUATOR.linkage.h_fit  # ascending powers of (angle - ANGLE_MIN_DEG)
 
 
 def _h_fit(angle_deg: np.ndarray) -> np.ndarray:
@@ -34,7 +37,7 @@ _H16 = float(_h_fit(np.array(R_L_SPLIT_DEG)))
 _DH16 = float(
     np.polynomial.polynomial.polyval(R_L_SPLIT_DEG - ANGLE_MIN_DEG, np.polynomial.polynomial.polyder(H_FIT))
 )
-V_FIT = (_H16, _DH16, -0.0009)  # ascending powers of (angle - 16): continuous with H_fit at 16 deg
+V_FIT = (_H16, _DH16, *ACTUATOR.linkage.v_fit_higher)  # ascending powers of (angle - split): continuous at it
 
 
 def linkage_ratio(angle_deg: np.ndarray | float) -> np.ndarray:

@@ -42,6 +42,14 @@ class FloatMLP:
     meta: dict = field(default_factory=dict)
 
 
+def poly2(
+    powers: tuple[tuple[int, int], ...], coef, a: np.ndarray | float, b: np.ndarray | float
+) -> np.ndarray:
+    """sum of c * a**i * b**j in float64: the one evaluation of a surface fit (fit, quant, the oracle)."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    return sum((c * a**i * b**j for (i, j), c in zip(powers, coef, strict=True)), np.zeros_like(a))
+
+
 @dataclass(frozen=True, eq=False)
 class FloatSF:
     """A 2-input polynomial: sum coef[k] * a^powers[k][0] * b^powers[k][1], physical units."""

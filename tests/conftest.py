@@ -8,7 +8,7 @@ import torch
 
 from seagen.data.features import MLP_FEATURES
 from seagen.fit.mlp import CONTROL_FEATURES
-from seagen.fit.modelfile import FeatureSpec, save_model
+from seagen.modelfile import FeatureSpec, save_model
 
 ACTS = {
     "relu": torch.nn.ReLU,

@@ -61,17 +61,23 @@ def torch_original(m: nn.Module) -> Callable[[np.ndarray], np.ndarray]:
     return run
 
 
-def ort_original(path: Path) -> Callable[[np.ndarray], np.ndarray]:
-    """onnxruntime on the file as written."""
+def ort_original(path: Path, dtype=np.float32) -> Callable[[np.ndarray], np.ndarray]:
+    """onnxruntime on the file as written (one row per run when the graph fixes its batch at 1)."""
     import onnxruntime as ort
 
     sess = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
-    name = sess.get_inputs()[0].name
+    inp = sess.get_inputs()[0]
+    batch = inp.shape[0] if isinstance(inp.shape[0], int) else None
+
+    def once(x: np.ndarray) -> np.ndarray:
+        y = sess.run(None, {inp.name: np.asarray(x, dtype)})[0]
+        return np.asarray(y, float).reshape(len(x), -1)[:, 0]
 
     def run(x: np.ndarray) -> np.ndarray:
-        return np.asarray(sess.run(None, {name: np.asarray(x, np.float32)})[0], float).reshape(len(x), -1)[
-            :, 0
-        ]
+        if batch is None:
+            return once(x)
+        rows = [once(np.repeat(x[i : i + 1], batch, axis=0))[:1] for i in range(len(x))]
+        return np.concatenate(rows)
 
     return run
 
@@ -148,7 +154,30 @@ class Lambda(nn.Module):
             return self.out(torch.sub(3.0 * torch.ones(8), g, alpha=1.5)) / 2 - 1
         if k == "softplus":
             return self.out(F.softplus(self.fc2(h)))
+        if k == "addmm_scaled":  # addmm's beta and alpha scale the bias and the product
+            return self.out(torch.addmm(self.fc2.bias, h, self.fc2.weight.t(), beta=0.5, alpha=2.0))
+        if k == "add_self":
+            return self.out(h + h)
+        if k == "mul_self":
+            return self.out(h * h)
+        if k == "leaky_negative":
+            return self.out(F.leaky_relu(self.fc2(h), -0.5))
+        if k == "leaky_steep":
+            return self.out(F.leaky_relu(self.fc2(h), 1.5))
+        if k == "clamp_inverted":  # min > max: every output is max
+            return self.out(torch.clamp(self.fc2(h), min=0.5, max=-0.2))
         return self.out(F.hardtanh(self.fc2(h), -0.6, 0.6) * 0.5 + 0.25)
+
+
+class Dropped(nn.Module):
+    """Linear, ReLU, Dropout, Linear with a custom forward (for TorchScript saved in training mode)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.fc1, self.drop, self.out = nn.Linear(N_IN, HIDDEN), nn.Dropout(0.5), nn.Linear(HIDDEN, 1)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.out(self.drop(F.relu(self.fc1(x))))
 
 
 class Payload:
@@ -183,14 +212,26 @@ def pt2_with_bad_sample(src: Path, dst: Path, marker: Path) -> None:
             zout.writestr(info, data)
 
 
-def onnx_model(nodes: list, inits: dict[str, np.ndarray], out: str = "y", extra_inputs=(), opset: int = 17):
-    """A float ONNX graph with input 'x' (N, 3) and output `out` (N, 1)."""
+def onnx_model(
+    nodes: list,
+    inits: dict[str, np.ndarray],
+    out: str = "y",
+    extra_inputs=(),
+    opset: int = 17,
+    batch: int | str = "N",
+    dtype=np.float32,
+):
+    """A float ONNX graph with input 'x' (batch, 3) and output `out` (batch, 1); `batch` a number fixes it."""
+    elem = helper.np_dtype_to_tensor_dtype(np.dtype(dtype))
     graph = helper.make_graph(
         nodes,
         "g",
-        [helper.make_tensor_value_info("x", TensorProto.FLOAT, ["N", N_IN]), *extra_inputs],
-        [helper.make_tensor_value_info(out, TensorProto.FLOAT, ["N", 1])],
-        [numpy_helper.from_array(np.asarray(v, np.float32), k) for k, v in inits.items()],
+        [helper.make_tensor_value_info("x", elem, [batch, N_IN]), *extra_inputs],
+        [helper.make_tensor_value_info(out, elem, [batch, 1])],
+        [
+            numpy_helper.from_array(np.asarray(v, np.int64 if k == "SHAPE" else dtype), k)
+            for k, v in inits.items()
+        ],
     )
     return helper.make_model(graph, opset_imports=[helper.make_opsetid("", opset)])
 
@@ -244,6 +285,27 @@ def graph_case(kind: str, seed: int):
         return onnx_model([g1, helper.make_node("Clip", ["h", "LO"], ["a"]), g2], {**base, "LO": -0.2})
     if kind == "clip_max":
         return onnx_model([g1, helper.make_node("Clip", ["h", "", "HI"], ["a"]), g2], {**base, "HI": 0.3})
+    if kind == "clip_inverted":  # min > max: ONNX defines every output as max
+        node = helper.make_node("Clip", ["h", "LO", "HI"], ["a"])
+        return onnx_model([g1, node, g2], {**base, "LO": 0.4, "HI": -0.1})
+    if kind == "clip_shape_1":  # bounds of shape (1,), which onnxruntime runs
+        node = helper.make_node("Clip", ["h", "LO", "HI"], ["a"])
+        return onnx_model([g1, node, g2], {**base, "LO": [-0.2], "HI": [0.3]})
+    if kind == "leaky_negative":
+        return onnx_model([g1, helper.make_node("LeakyRelu", ["h"], ["a"], alpha=-0.4), g2], base)
+    if kind == "leaky_steep":
+        return onnx_model([g1, helper.make_node("LeakyRelu", ["h"], ["a"], alpha=3.0), g2], base)
+    if kind == "add_self":
+        mid = [helper.make_node("Relu", ["h"], ["r"]), helper.make_node("Add", ["r", "r"], ["a"])]
+        return onnx_model([g1, *mid, g2], base)
+    if kind == "mul_self":
+        mid = [helper.make_node("Relu", ["h"], ["r"]), helper.make_node("Mul", ["r", "r"], ["a"])]
+        return onnx_model([g1, *mid, g2], base)
+    if kind == "fixed_batch_1":  # a batch of 1 fixed in the input, the output and a Reshape
+        mid = [helper.make_node("Relu", ["h"], ["r"]), helper.make_node("Reshape", ["r", "SHAPE"], ["a"])]
+        return onnx_model([g1, *mid, g2], {**base, "SHAPE": [1, HIDDEN]}, batch=1)
+    if kind == "float16":
+        return onnx_model([g1, helper.make_node("Tanh", ["h"], ["a"]), g2], base, dtype=np.float16)
     if kind == "clip_attr":
         node = helper.make_node("Clip", ["h"], ["a"], min=-0.5, max=0.5)
         return onnx_model([g1, node, g2], base, opset=10)

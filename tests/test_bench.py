@@ -8,9 +8,9 @@ import json
 import pytest
 
 from seagen.bench.run import FLOAT_HELPER
-from seagen.build.mcu_trace import Insn, cycles, isa_violation
 from seagen.cli import main
 from seagen.defaults import GENERATED
+from seagen.toolchain.mcu_trace import Insn, cycles, isa_violation
 
 
 def test_cycle_model_follows_the_documented_table():
@@ -45,7 +45,7 @@ def test_float_helpers_are_told_from_integer_helpers():
 def small_export(tmp_path_factory):
     """The default SF control predictor exported for the M0+ (small: fast to build and emulate)."""
     pytest.importorskip("unicorn", reason="unicorn (seagen[mcu]) is not installed")
-    from seagen.build.cortexm import toolchain_missing
+    from seagen.toolchain.cortexm import toolchain_missing
 
     if msg := toolchain_missing():
         pytest.skip(msg)

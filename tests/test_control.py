@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from seagen.control import controller as ct
-from seagen.control.cbuild import CController, build_control, kin_ctx
-from seagen.control.controller import ControlConfig, KinParams, predict_kinematic
 from seagen.control.loop import PyController
-from seagen.quant import primitives as P
+from seagen.runtime import control as ct
+from seagen.runtime import fixed as P
+from seagen.runtime.control import ControlConfig, KinParams, predict_kinematic
+from seagen.toolchain.controller import CController, build_control, kin_ctx
 
 FIELDS = ("desired", "comp", "pot_avg", "fault", "stuck_lo", "stuck_hi", "pred_count", "pred_idx")
 

@@ -5,16 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from seagen.control import controller as ct
-from seagen.control.cbuild import build_control, generated_cdef, generated_ctx, generated_sources
-from seagen.control.controller import ControlConfig
 from seagen.control.gentwin import StepTwin, export
 from seagen.control.loop import run_closed_loop
 from seagen.control.predictors import generated_mcu
-from seagen.quant import kernels as K
-from seagen.quant.features import step_features
-from seagen.quant.primitives import linkage_table_q16
+from seagen.defaults import GENERATED
 from seagen.reference import numpy_ref
+from seagen.runtime import control as ct
+from seagen.runtime import nn as K
+from seagen.runtime.control import ControlConfig
+from seagen.runtime.features import step_features
+from seagen.runtime.fixed import linkage_table_q16
+from seagen.toolchain.controller import build_control, generated_cdef, generated_ctx, generated_sources
 
 PREFIXES = ["ctl_sf", "ctl_mlp"]
 ANGLES = np.array([8.0, 15.0, 24.0])
@@ -32,7 +33,7 @@ def _seq(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 @pytest.mark.parametrize("prefix", PREFIXES)
 def test_step_twin_equals_c_and_sequence_reference(prefix):
     """StepTwin (one call per tick) == NAME_predict_q16 in C == step_features + numpy infer, scaled to Q16."""
-    mod = build_control(generated_cdef(prefix), generated_sources(prefix))
+    mod = build_control(generated_cdef(prefix, GENERATED), generated_sources(prefix, GENERATED))
     ctx = generated_ctx(prefix)(mod)
     enc, pot, force = _seq(3000, len(prefix))
     fn = getattr(mod.lib, f"{prefix}_predict_q16")

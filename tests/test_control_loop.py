@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from seagen.cli import main
-from seagen.control import controller as ct
 from seagen.control.experiment import CONTACT_DEG, metrics
 from seagen.control.loop import run_closed_loop
 from seagen.control.predictors import kinematic_cloud, kinematic_mcu
+from seagen.runtime import control as ct
 
 ANGLES = np.array([8.0, 14.0, 22.0])
 CASES = [  # (name, predictor factory, target N, duration s)

@@ -23,8 +23,8 @@ def test_objective_penalizes_sf_outside_plus_minus_50_percent_of_the_paper():
 def test_shipped_parameters_are_the_defaults():
     """The tuner's baseline trial is exactly what ships (DEFAULT_PID and the MLP prediction average)."""
     from seagen.control.experiment import CONFIGS
-    from seagen.control.pid import DEFAULT_PID, PidParams
     from seagen.control.tune import SHIPPED
+    from seagen.runtime.pid import DEFAULT_PID, PidParams
 
     p = dict(SHIPPED)
     pred_avg = p.pop("pred_avg")

@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from seagen.build.cortexm import CPUS, CortexM, build_image, toolchain_missing
-from seagen.build.equivalence import edge_inputs, first_mismatch, random_inputs, recorded, step_problem
 from seagen.data.schema import load_split
 from seagen.defaults import DEFAULT_PREFIX, GENERATED
 from seagen.errors import UserError
 from seagen.export import prepare
 from seagen.reference import numpy_ref
+from seagen.toolchain.cortexm import CPUS, CortexM, build_image, toolchain_missing
+from seagen.toolchain.equivalence import edge_inputs, first_mismatch, random_inputs, recorded, step_problem
 
 pytest.importorskip("unicorn", reason="unicorn (the Cortex-M emulator) is not installed: pip install unicorn")
 
@@ -72,7 +72,7 @@ def test_m0plus_core_is_armv6m(built):
     """The emulated M0+ has no Thumb-2: the Cortex-M4 image faults on it, so M0+ results are from M0+ code."""
     from unicorn import UcError
 
-    from seagen.build.cortexm import Machine
+    from seagen.toolchain.cortexm import Machine
 
     _, m4 = built[("mlp_calibration", "cortex-m4")]
     m0 = Machine(m4.image, "cortex-m0plus")

@@ -7,14 +7,14 @@ import re
 import numpy as np
 import pytest
 
-from seagen.build.equivalence import compare, edge_inputs, first_mismatch, random_inputs
-from seagen.build.model import CModel, sanitized_infer
 from seagen.data.features import derive
 from seagen.data.schema import load_split
 from seagen.export import prepare
-from seagen.quant.features import external_inputs, step_features
-from seagen.quant.primitives import linkage_table_q16
 from seagen.reference import float_ref, numpy_ref
+from seagen.runtime.features import external_inputs, step_features
+from seagen.runtime.fixed import linkage_table_q16
+from seagen.toolchain.equivalence import compare, edge_inputs, first_mismatch, random_inputs
+from seagen.toolchain.model import CModel, sanitized_infer
 from tests.conftest import MODEL_CASES
 
 CASES = sorted(MODEL_CASES)

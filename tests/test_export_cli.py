@@ -17,7 +17,7 @@ from seagen.cli import main
 from seagen.defaults import DEFAULT_PREFIX, GENERATED
 from seagen.demo import regenerate
 from seagen.export import prepare
-from seagen.fit.modelfile import load_model
+from seagen.modelfile import load_model
 
 
 def test_generated_is_regenerated_byte_for_byte(tmp_path):
@@ -36,7 +36,7 @@ def test_generated_is_regenerated_byte_for_byte(tmp_path):
 @pytest.mark.parametrize("name", ["mlp_calibration", "sf_calibration"])
 def test_default_models_within_002_n(name, data_dir):
     """The default calibration MLP and SF, int16 weights: max |C - float| on the test set <= 0.02 N."""
-    from seagen.build.equivalence import check_data_dir
+    from seagen.datacheck import check_data_dir
 
     ex = prepare(str(GENERATED / "models" / f"{name}.pt"), prefix=f"d_{name}")
     rep = check_data_dir(ex, str(data_dir))

@@ -14,7 +14,7 @@ import torch
 
 from seagen.cli import main
 from seagen.defaults import GENERATED
-from seagen.fit.modelfile import load_model
+from seagen.modelfile import load_model
 from tests import table_models as T
 
 SF = GENERATED / "models" / "sf_calibration.pt"
@@ -33,15 +33,35 @@ def files(tmp_path_factory) -> dict[str, Path]:
         "bare": {"inputs": ["x0", "x1", "x2"]},
         "typo": {"ouptut_std": 2.0},
         "twice": {"inputs": ["x0", "x0", "x2"]},
+        "str_inputs": {"inputs": "u"},
+        "nan_mean": {"mean": [float("nan"), 0.0, 0.0]},
+        "inf_std": {"output_std": float("inf")},
+        "case": {"inputs": ["a", "A", "x2"]},
     }.items():
         out[name] = d / f"{name}.json"
         out[name].write_text(json.dumps({**spec, **change}))
     (d / "broken.json").write_text("{inputs: nope")
     out["broken"] = d / "broken.json"
+    (d / "binary.json").write_bytes(bytes(range(256)))
+    out["binary"] = d / "binary.json"
     sf = load_model(SF)
     sf["sf"]["coef"] = sf["sf"]["coef"][:-1]
     torch.save(sf, d / "sf_short.pt")
     out["sf_short"] = d / "sf_short.pt"
+    net = T.seq(torch.nn.ReLU())
+    opt = torch.optim.Adam(net.parameters())
+    torch.save(
+        {"model_state_dict": net.state_dict(), "optimizer_state_dict": opt.state_dict(), "epoch": 3},
+        d / "ckpt.pt",
+    )
+    torch.save(net.state_dict(), d / "sd.pt")
+    torch.save({"weights": [1.0, 2.0]}, d / "other_dict.pt")
+    out |= {"ckpt": d / "ckpt.pt", "sd": d / "sd.pt", "other_dict": d / "other_dict.pt"}
+    for name, power in {"sf_frac": [0.5, 1], "sf_neg": [-1, 0], "sf_dup": [0, 0], "sf_deg": [4, 0]}.items():
+        sf = load_model(SF)
+        sf["sf"]["powers"][1] = power
+        torch.save(sf, d / f"{name}.pt")
+        out[name] = d / f"{name}.pt"
     (d / "a_dir.pt").mkdir()
     out["a_dir"] = d / "a_dir.pt"
     (d / "a_file").write_text("keep")
@@ -57,9 +77,9 @@ BAD = {  # case: (arguments with {placeholders}, expected text, the file the mes
     "empty prefix": (["{sf}", *OUT, "--prefix", ""], "--prefix is empty", ""),
     "prefix sea": (["{sf}", *OUT, "--prefix", "sea"], "belong to the C runtime", ""),
     "prefix sea_": (["{sf}", *OUT, "--prefix", "sea_cal"], "belong to the C runtime", ""),
-    "range lo == hi": (["{seq}", "--features", "{flat}", *OUT], "needs lo < hi", "seq.pt"),
+    "range lo == hi": (["{seq}", "--features", "{flat}", *OUT], "needs lo < hi", "flat.json"),
     "sf lengths": (["{sf_short}", *OUT], "coefficients for", "sf_short.pt"),
-    "bad input name": (["{seq}", "--features", "{badname}", *OUT], "not a C identifier", "seq.pt"),
+    "bad input name": (["{seq}", "--features", "{badname}", *OUT], "not a C identifier", "badname.json"),
     "unparsable features": (["{seq}", "--features", "{broken}", *OUT], "cannot parse", "broken.json"),
     "unknown spec key": (["{seq}", "--features", "{typo}", *OUT], "unknown key(s) ouptut_std", "typo.json"),
     "no features": (["{seq}", *OUT], "needs --features", "seq.pt"),
@@ -69,6 +89,33 @@ BAD = {  # case: (arguments with {placeholders}, expected text, the file the mes
         "twice.json",
     ),
     "model is a folder": (["{a_dir}", *OUT], "is a folder, not a model file", "a_dir"),
+    "training checkpoint": (
+        ["{ckpt}", "--features", "{spec}", *OUT],
+        "a training checkpoint (model_state_dict, optimizer_state_dict, epoch): weights without the "
+        "architecture, which seagen cannot read; pass the network itself: torch.save(model) of an "
+        "nn.Sequential, torch.jit.script(model).save(...), torch.export.save(...) (.pt2) or "
+        "torch.onnx.export",
+        "ckpt.pt",
+    ),
+    "bare state_dict": (["{sd}", *OUT], "a bare state_dict (4 tensors such as '0.weight')", "sd.pt"),
+    "other dict": (["{other_dict}", *OUT], "a dict but not a seagen model file", "other_dict.pt"),
+    "sf fractional power": (["{sf_frac}", *OUT], "field 'sf.powers[1]' must be an integer", "sf_frac.pt"),
+    "sf negative power": (["{sf_neg}", *OUT], "field 'sf.powers[1]' is [-1, 0]", "sf_neg.pt"),
+    "sf repeated power": (["{sf_dup}", *OUT], "field 'sf.powers[1]' repeats [0, 0]", "sf_dup.pt"),
+    "sf degree 4": (["{sf_deg}", *OUT], "i + j <= 3", "sf_deg.pt"),
+    "inputs a string": (["{seq}", "--features", "{str_inputs}", *OUT], "must be a list", "str_inputs.json"),
+    "mean NaN": (
+        ["{seq}", "--features", "{nan_mean}", *OUT],
+        "field 'mean[0]' must be finite",
+        "nan_mean.json",
+    ),
+    "output std Inf": (
+        ["{seq}", "--features", "{inf_std}", *OUT],
+        "'output_std' must be finite",
+        "inf_std.json",
+    ),
+    "names differ in case": (["{seq}", "--features", "{case}", *OUT], "differ only in case", "case.json"),
+    "binary features": (["{seq}", "--features", "{binary}", *OUT], "not a text file", "binary.json"),
 }
 
 
@@ -123,10 +170,10 @@ def test_misread_model_exits_1_and_writes_nothing(tmp_path, monkeypatch, capsys)
 
 def test_failed_check_exits_1_and_writes_nothing(tmp_path, monkeypatch, capsys):
     """--check that finds a disagreement: exit 1 and nothing in --out."""
-    import seagen.build.equivalence as eq
+    import seagen.datacheck as dc
 
-    bad = eq.DataReport([eq.Check("x", 1, {"C": "row 0"})], 0.0, "N", 0.0)
-    monkeypatch.setattr(eq, "check_data_dir", lambda ex, d: bad)
+    bad = dc.DataReport([dc.Check("x", 1, {"C": "row 0"})], 0.0, "N", 0.0)
+    monkeypatch.setattr(dc, "check_data_dir", lambda ex, d: bad)
     out = tmp_path / "out"
     assert main(["export", str(SF), "--out", str(out), "--check", str(tmp_path)]) == 1
     assert "MISMATCH" in capsys.readouterr().out
@@ -135,10 +182,10 @@ def test_failed_check_exits_1_and_writes_nothing(tmp_path, monkeypatch, capsys):
 
 def test_bare_network_exports_infer_alone(files, tmp_path):
     """Inputs x0..x2 (not SEA features): NAME_infer only, no NAME_step or state; the C equals numpy."""
-    from seagen.build.equivalence import random_inputs
-    from seagen.build.model import CModel
     from seagen.export import prepare
     from seagen.reference import numpy_ref
+    from seagen.toolchain.equivalence import random_inputs
+    from seagen.toolchain.model import CModel
 
     ex = prepare(str(files["seq"]), prefix="bare", features=str(files["bare"]))
     h = ex.files["bare.h"]
@@ -198,7 +245,7 @@ def test_evaluate_refuses_pickles(tmp_path):
 def test_default_models_load_weights_only():
     """generated/models/*.pt (a pickled nn.Sequential inside a dict) load with weights_only=True and the
     torch.nn allowlist: every global they name is on it."""
-    from seagen.fit.modelfile import nn_allowlist, safe_load
+    from seagen.modelfile import nn_allowlist, safe_load
 
     allowed = {f"{c.__module__}.{c.__qualname__}" for c in nn_allowlist()}
     for p in sorted((GENERATED / "models").glob("*.pt")):

@@ -7,16 +7,16 @@ import numpy as np
 import pytest
 
 from seagen.bench.glove import N_SEA, TICKS, glove_files, sensors
-from seagen.build.cortexm import CPUS, Machine, build_image, toolchain_missing
-from seagen.control.controller import ControlConfig, control_reset, control_step
-from seagen.control.firmware import shipped_config
+from seagen.codegen.controller import shipped_config
 from seagen.control.gentwin import StepTwin
 from seagen.control.gentwin import export as default_ir
 from seagen.defaults import GENERATED
 from seagen.export import prepare
-from seagen.quant import features as F
-from seagen.quant import primitives as P
 from seagen.reference import numpy_ref
+from seagen.runtime import features as F
+from seagen.runtime import fixed as P
+from seagen.runtime.control import ControlConfig, control_reset, control_step
+from seagen.toolchain.cortexm import CPUS, Machine, build_image, toolchain_missing
 
 pytest.importorskip("unicorn", reason="unicorn (the Cortex-M emulator) is not installed: pip install unicorn")
 

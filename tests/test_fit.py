@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from conftest_fit import default_models, fit_data, fit_frames  # noqa: F401  (session fixtures)
 
-from seagen.fit.modelfile import FORMAT, FeatureSpec, load_model
 from seagen.fit.predict import kinematics_predict, predict, task_errors
+from seagen.modelfile import FORMAT, FeatureSpec, load_model
 
 DEFAULT_NAMES = ("sf_calibration", "mlp_calibration", "sf_control", "mlp_control")
 CONTRACT_KEYS = (

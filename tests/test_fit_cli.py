@@ -10,7 +10,7 @@ import torch
 from conftest_fit import default_models, fit_data  # noqa: F401  (session fixtures)
 
 from seagen.cli import main
-from seagen.fit.modelfile import load_model
+from seagen.modelfile import load_model
 
 JSON_KEYS = ("error_avg_n", "error_max_n", "error_avg_pct", "error_max_pct")
 

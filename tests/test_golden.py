@@ -14,13 +14,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from seagen.build.equivalence import edge_inputs, random_inputs
-from seagen.build.model import CModel
 from seagen.codegen.render import render
 from seagen.ir import FloatLayer, FloatMLP, FloatSF, Signal
 from seagen.quant.mlp import quantize_mlp
 from seagen.quant.sf import quantize_sf
 from seagen.reference import numpy_ref
+from seagen.toolchain.equivalence import edge_inputs, random_inputs
+from seagen.toolchain.model import CModel
 
 GOLDEN = Path(__file__).parent / "golden"
 UPDATE = os.environ.get("SEAGEN_UPDATE_GOLDEN") == "1"

@@ -1,5 +1,5 @@
 """The model table: models from real producers are exported right (checked against the original) or refused
-with a reason (exit code + one-line message); malicious files never run their payload. ~40 s on 2 cores."""
+with a reason (exit code + one-line message); malicious files never run their payload. ~45 s on 2 cores."""
 
 from __future__ import annotations
 
@@ -21,8 +21,28 @@ from tests import table_models as T
 from tests.table_models import Row
 
 PT2_EXPORTED = (
-    "hardtanh_affine", "affine_after_act", "affine_after_last", "clamp_min", "clamp_max", "alpha_arith"
+    "hardtanh_affine", "affine_after_act", "affine_after_last", "clamp_min", "clamp_max", "alpha_arith",
+    "addmm_scaled", "add_self", "leaky_negative", "clamp_inverted",
 )  # fmt: skip
+PT2_REFUSED = {
+    "residual": "computed inputs",
+    "shared": "called twice",
+    "stacked": "stacked",
+    "softplus": "unsupported op",
+    "mul_self": "a product of two computed values",
+    "leaky_steep": "LeakyReLU slope 1.5",
+}
+ONNX_GRAPHS = (
+    "add_after_relu", "clip_min", "clip_max", "clip_attr", "dead_branch", "out_of_order", "clip_inverted",
+    "clip_shape_1", "leaky_negative", "add_self", "fixed_batch_1", "float16",
+)  # fmt: skip
+ONNX_REFUSED = {
+    "stacked": "stacked",
+    "residual": "computed inputs",
+    "weight_input": "inputs (x, W1)",
+    "mul_self": "a product of two computed values",
+    "leaky_steep": "LeakyReLU slope 3.0",
+}
 ACTS = {
     "relu": nn.ReLU(),
     "leaky": nn.LeakyReLU(0.1),
@@ -71,20 +91,47 @@ def _torch_rows(d: Path, spec: list[str]) -> dict[str, Row]:
         m = T._init(T.Lambda(kind), 10 + i)
         torch.export.save(T._quiet(torch.export.export, m, T.example()), d / f"{kind}.pt2")
         rows[f".pt2 {kind}"] = Row([str(d / f"{kind}.pt2"), *spec], "export", original=T.torch_original(m))
-    refused = {
-        "residual": "computed inputs",
-        "shared": "called twice",
-        "stacked": "stacked",
-        "softplus": "unsupported op",
-    }
-    for i, (kind, msg) in enumerate(refused.items()):
+    for i, (kind, msg) in enumerate(PT2_REFUSED.items()):
         m = T._init(T.Lambda(kind), 20 + i)
         torch.export.save(T._quiet(torch.export.export, m, T.example()), d / f"{kind}.pt2")
         rows[f".pt2 {kind} (refused)"] = Row([str(d / f"{kind}.pt2"), *spec], "refuse", 2, msg)
     m = T._init(T.Lambda("stacked"), 30)
     T._quiet(torch.jit.script(m).save, str(d / "stacked_script.pt"))
     rows["TorchScript stacked (refused)"] = Row([str(d / "stacked_script.pt"), *spec], "refuse", 2, "stacked")
+    rows.update(_mode_dtype_rows(d, spec))
     return rows
+
+
+def _mode_dtype_rows(d: Path, spec: list[str]) -> dict[str, Row]:
+    """Modules saved in training mode (scripted: read in eval mode; traced: dropout baked in, refused) and
+    float16 / bfloat16 modules (checked with a margin from their own float type)."""
+    rows: dict[str, Row] = {}
+    m = T._init(T.Dropped(), 31).train()
+    T._quiet(torch.jit.script(m).save, str(d / "dropout_train_script.pt"))
+    rows["TorchScript scripted in training mode"] = Row(
+        [str(d / "dropout_train_script.pt"), *spec], "export", original=T.torch_original(m)
+    )
+    m = T._init(T.Dropped(), 32).train()
+    T._quiet(lambda: torch.jit.trace(m, T.example(), check_trace=False).save(str(d / "dropout_trace.pt")))
+    rows["TorchScript traced in training mode (refused)"] = Row(
+        [str(d / "dropout_trace.pt"), *spec], "refuse", 2, "Dropout in training mode"
+    )
+    for name, dtype in (("float16", torch.float16), ("bfloat16", torch.bfloat16)):
+        m = T.seq(nn.Tanh(), seed=33).to(dtype)
+        torch.save(m, d / f"seq_{name}.pt")
+        rows[f"sequential {name}"] = Row([str(d / f"seq_{name}.pt"), *spec], "export", original=_cast_run(m))
+    return rows
+
+
+def _cast_run(m: nn.Module):
+    """A low-precision module's own forward on inputs cast to its type."""
+    dtype = next(m.parameters()).dtype
+
+    def run(x: np.ndarray) -> np.ndarray:
+        with torch.no_grad():
+            return m(torch.from_numpy(np.asarray(x, np.float64)).to(dtype)).double().numpy()[:, 0]
+
+    return run
 
 
 def _malicious_rows(d: Path, spec: list[str]) -> dict[str, Row]:
@@ -145,25 +192,34 @@ def _onnx_rows(d: Path, spec: list[str]) -> dict[str, Row]:
     rows["torch.onnx.export dynamo"] = Row(
         [str(d / "dynamo.onnx"), *spec], "export", original=T.ort_original(d / "dynamo.onnx")
     )
+    T._quiet(torch.onnx.export, f, T.example(), str(d / "legacy_fixed.onnx"), dynamo=False, input_names=["x"])
+    rows["torch.onnx.export legacy fixed batch"] = Row(
+        [str(d / "legacy_fixed.onnx"), *spec], "export", original=T.ort_original(d / "legacy_fixed.onnx")
+    )
+    T._quiet(torch.onnx.export, m, T.example(), str(d / "dynamo_fixed.onnx"), dynamo=True, verbose=False)
+    rows["torch.onnx.export dynamo fixed batch"] = Row(
+        [str(d / "dynamo_fixed.onnx"), *spec], "export", original=T.ort_original(d / "dynamo_fixed.onnx")
+    )
     rows["skl2onnx MLPRegressor"] = _sklearn_row(d, spec)
+    rows["skl2onnx MLPRegressor fixed batch"] = _sklearn_row(d, spec, batch=1)
     for i, form in enumerate(("transB0", "alpha_beta", "bias_1n", "no_bias", "matmul_add")):
         p = T.save_onnx(T.gemm_graph(form, 60 + i), d / f"gemm_{form}.onnx")
         rows[f"onnx {form}"] = Row([str(p), *spec], "export", original=T.ort_original(p))
-    for i, kind in enumerate(
-        ("add_after_relu", "clip_min", "clip_max", "clip_attr", "dead_branch", "out_of_order")
-    ):
+    for i, kind in enumerate(ONNX_GRAPHS):
         p = T.save_onnx(T.graph_case(kind, 70 + i), d / f"graph_{kind}.onnx")
-        rows[f"onnx {kind}"] = Row([str(p), *spec], "export", original=T.ort_original(p))
-    refused = {"stacked": "stacked", "residual": "computed inputs", "weight_input": "inputs (x, W1)"}
-    for kind, msg in refused.items():
+        dtype = np.float16 if kind == "float16" else np.float32
+        rows[f"onnx {kind}"] = Row([str(p), *spec], "export", original=T.ort_original(p, dtype))
+    for kind, msg in ONNX_REFUSED.items():
         p = T.save_onnx(T.graph_case(kind, 80), d / f"graph_{kind}.onnx")
         rows[f"onnx {kind} (refused)"] = Row([str(p), *spec], "refuse", 2, msg)
     return rows
 
 
-def _sklearn_row(d: Path, spec: list[str]) -> Row:
-    """An MLPRegressor fitted on normalised inputs, converted by skl2onnx (it adds a Cast node)."""
+def _sklearn_row(d: Path, spec: list[str], batch: int | None = None) -> Row:
+    """An MLPRegressor fitted on normalised inputs, converted by skl2onnx (it adds a Cast node); `batch`
+    fixes the batch dimension of the graph input."""
     from skl2onnx import to_onnx
+    from skl2onnx.common.data_types import FloatTensorType
     from sklearn.neural_network import MLPRegressor
 
     rng = np.random.default_rng(0)
@@ -172,8 +228,10 @@ def _sklearn_row(d: Path, spec: list[str]) -> Row:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         reg = MLPRegressor(hidden_layer_sizes=(T.HIDDEN, T.HIDDEN), max_iter=50, random_state=0).fit(x, y)
-    (d / "sk.onnx").write_bytes(to_onnx(reg, x[:1]).SerializeToString())
-    return Row([str(d / "sk.onnx"), *spec], "export", original=T.ort_original(d / "sk.onnx"))
+    types = None if batch is None else [("X", FloatTensorType([batch, T.N_IN]))]
+    p = d / ("sk.onnx" if batch is None else f"sk_batch{batch}.onnx")
+    p.write_bytes(to_onnx(reg, x[:1] if types is None else None, initial_types=types).SerializeToString())
+    return Row([str(p), *spec], "export", original=T.ort_original(p))
 
 
 @pytest.fixture(scope="session")
@@ -193,21 +251,25 @@ ROW_NAMES = [
     "custom module TorchScript scripted",
     "custom module TorchScript traced",
     *(f".pt2 {k}" for k in PT2_EXPORTED),
-    *(f".pt2 {k} (refused)" for k in ("residual", "shared", "stacked", "softplus")),
+    *(f".pt2 {k} (refused)" for k in PT2_REFUSED),
     "TorchScript stacked (refused)",
+    "TorchScript scripted in training mode",
+    "TorchScript traced in training mode (refused)",
+    "sequential float16",
+    "sequential bfloat16",
     "malicious torch.save (refused)",
     "malicious plain pickle (refused)",
     "malicious seagen model.pt (refused)",
     "malicious .pt2 sample inputs (refused)",
     "torch.onnx.export legacy",
     "torch.onnx.export dynamo",
+    "torch.onnx.export legacy fixed batch",
+    "torch.onnx.export dynamo fixed batch",
     "skl2onnx MLPRegressor",
+    "skl2onnx MLPRegressor fixed batch",
     *(f"onnx {f}" for f in ("transB0", "alpha_beta", "bias_1n", "no_bias", "matmul_add")),
-    *(
-        f"onnx {k}"
-        for k in ("add_after_relu", "clip_min", "clip_max", "clip_attr", "dead_branch", "out_of_order")
-    ),
-    *(f"onnx {k} (refused)" for k in ("stacked", "residual", "weight_input")),
+    *(f"onnx {k}" for k in ONNX_GRAPHS),
+    *(f"onnx {k} (refused)" for k in ONNX_REFUSED),
 ]
 
 

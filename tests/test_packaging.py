@@ -60,6 +60,9 @@ def test_wheel_carries_templates_runtime_and_defaults(wheel):
         "seagen/generated/ctl_sf.h",
         "seagen/generated/cal_mlp.c",
         "seagen/generated/models/mlp_calibration.pt",
+        "seagen/pil/fw/pil_main.c",
+        "seagen/pil/fw/pil_board.h",
+        "seagen/pil/fw/pil.ld",
     ):
         assert f in names, f
     sources = {f"seagen/{p.relative_to(ROOT / 'seagen')}" for p in (ROOT / "seagen").rglob("*.py")}
@@ -101,3 +104,79 @@ def test_wheel_in_a_fresh_virtual_environment(wheel, tmp_path):
     )
     assert out.returncode == 0, out.stderr[-2000:]
     assert json.loads(out.stdout)["sf_mcu"]["5"]["settled"] > 0
+
+
+def readme_default_commands() -> list[str]:
+    """The `seagen ...` lines of README.md's sh blocks that name a shipped model (default:NAME)."""
+    import re
+
+    blocks = re.findall(r"```sh\n(.*?)```", (ROOT / "README.md").read_text(), re.S)
+    lines = [ln.split("  #")[0].strip() for b in blocks for ln in b.splitlines()]
+    return [ln for ln in lines if ln.startswith("seagen ") and "default:" in ln]
+
+
+def test_wheel_lists_models_and_runs_the_readme_default_commands(installed, tmp_path):
+    """From the installed wheel: `seagen models` names the shipped files, and every README command that
+    uses default:NAME runs (DATA_DIR: a generated data set; --vectors lowered to 300 for time)."""
+    import re
+    import shlex
+
+    rows = json.loads(seagen_cmd(installed, tmp_path, "models", "--json"))
+    assert set(rows) == {"default:sf_calibration", "default:mlp_calibration", "default:sf_control"} | {
+        "default:mlp_control"
+    }
+    assert all(Path(r["file"]).is_file() and r["file"].startswith(str(installed)) for r in rows.values())
+    commands = readme_default_commands()
+    assert len(commands) >= 4, commands
+    seagen_cmd(installed, tmp_path, "data", "generate", "--out", "data")
+    for line in commands:
+        line = re.sub(r"--vectors \d+", "--vectors 300", line).replace("DATA_DIR", "data")
+        args = shlex.split(line)[1:]
+        if "cortex-m0plus" in args or "cortex-m4" in args:
+            pytest.importorskip("unicorn")
+            from seagen.toolchain.cortexm import toolchain_missing
+
+            if toolchain_missing():
+                continue
+        seagen_cmd(installed, tmp_path, *args)
+
+
+def test_wheel_requires_ranges_and_keeps_the_installed_torch(wheel):
+    """The wheel asks for version ranges (torch not pinned) that hold the tested versions, and installing it
+    where torch 2.13.0 is present (this venv) installs no torch: pip resolves offline, from what is here."""
+    from importlib.metadata import version
+
+    from packaging.requirements import Requirement
+
+    meta = zipfile.ZipFile(wheel).read("seagen-0.1.0.dist-info/METADATA").decode()
+    reqs = [
+        Requirement(ln.split(":", 1)[1].strip())
+        for ln in meta.splitlines()
+        if ln.startswith("Requires-Dist:")
+    ]
+    runtime = {r.name: r for r in reqs if r.marker is None}
+    torch = runtime["torch"]
+    assert not any(s.operator == "==" for s in torch.specifier), torch
+    assert {s.operator for s in torch.specifier} == {">=", "<"}, torch
+    for name, req in runtime.items():
+        assert req.specifier.contains(version(name).split("+")[0]), f"{name} {version(name)} not in {req}"
+    res = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "--dry-run",
+            "--no-index",
+            "--report",
+            "-",
+            "-q",
+            str(wheel),
+        ],
+        capture_output=True,
+        text=True,
+    )
+    assert res.returncode == 0, res.stderr[-2000:]
+    report = json.loads(res.stdout)
+    installing = {i["metadata"]["name"].lower() for i in report["install"]}
+    assert installing == {"seagen"}, installing

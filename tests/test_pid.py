@@ -1,4 +1,4 @@
-"""The fixed-point PID in C (c_runtime/sea_pid.c) equals its Python twin (seagen/control/pid.py) exactly."""
+"""The fixed-point PID in C (c_runtime/sea_pid.c) equals its Python twin (seagen/runtime/pid.py) exactly."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import zlib
 import numpy as np
 import pytest
 
-from seagen.build.host import build, build_exe
 from seagen.codegen.runtime import cdef_of, runtime_sources
-from seagen.control.pid import DEFAULT_PID, PidParams, pid_reset, pid_step
+from seagen.runtime.pid import DEFAULT_PID, PidParams, pid_reset, pid_step
+from seagen.toolchain.host import build, build_exe
 
 # Harness: run n ticks; where reset[k] != 0 the PID is reset (meas[k], rout[k]) before ticking.
 HARNESS_C = r"""

@@ -9,8 +9,8 @@ import pytest
 
 from seagen import geometry as g
 from seagen.data.features import derive
+from seagen.data.friction import measure_friction
 from seagen.data.protocol import Move, run_trials
-from seagen.experiments import measure_friction
 from seagen.fit.kinematics import ERROR_THRESHOLD_N, kinematics_errors, shaft_force
 from seagen.plant import EFFECT_NAMES, Plant, PlantConfig, load_config, save_config
 from seagen.plant.config import ConfigError
@@ -39,7 +39,7 @@ def loading(df: pd.DataFrame, lo: float, hi: float) -> pd.DataFrame:
 
 
 def m_onset_friction(df):  # k x compression at which the load cell leaves zero
-    from seagen.experiments import friction_from_trial
+    from seagen.data.friction import friction_from_trial
 
     return friction_from_trial(df)
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from seagen.build.host import build
 from seagen.codegen.runtime import FIXED, cdef_of, runtime_sources
-from seagen.quant import primitives as P
+from seagen.runtime import fixed as P
+from seagen.toolchain.host import build
 
 CDEF = cdef_of(runtime_sources("sea_fixed.h")["sea_fixed.h"])
 

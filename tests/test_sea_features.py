@@ -1,16 +1,16 @@
-"""The feature pipeline in C (c_runtime/sea_features.c) equals its Python twin (seagen/quant/features.py)."""
+"""The feature pipeline in C (c_runtime/sea_features.c) equals its Python twin (seagen.runtime.features)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from seagen.build.host import build
 from seagen.codegen.runtime import cdef_of, runtime_sources
 from seagen.data.features import derive
 from seagen.data.schema import load_split
-from seagen.quant import features as F
-from seagen.quant import primitives as P
+from seagen.runtime import features as F
+from seagen.runtime import fixed as P
+from seagen.toolchain.host import build
 
 HEADERS = ("sea_fixed.h", "sea_nn.h", "sea_features.h")
 SOURCES = (*HEADERS, "sea_fixed.c", "sea_nn.c", "sea_features.c")
@@ -154,7 +154,7 @@ def test_sanitized_edges():
     """Under UBSan+ASan the pipeline runs the int32 edge sequence without a report, with the twin's values."""
     import subprocess
 
-    from seagen.build.host import build_exe
+    from seagen.toolchain.host import build_exe
 
     exe = build_exe({**runtime_sources(*SOURCES), "main.c": SANITIZED_MAIN}, name="features_san")
     rng = np.random.default_rng(3)

@@ -1,4 +1,4 @@
-"""Each sea_nn kernel in C (c_runtime/sea_nn.c) alone equals its Python twin (seagen/quant/kernels.py).
+"""Each sea_nn kernel in C (c_runtime/sea_nn.c) alone equals its Python twin (seagen/runtime/nn.py).
 
 Tables of shapes, shifts and edge values; accumulator-width cases respect the contract the generator
 proves (an int32 accumulator only where every partial sum fits), so no case exercises undefined behaviour.
@@ -9,9 +9,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from seagen.build.host import build
 from seagen.codegen.runtime import cdef_of, runtime_sources
-from seagen.quant import kernels as K
+from seagen.runtime import nn as K
+from seagen.toolchain.host import build
 
 HEADERS = ("sea_fixed.h", "sea_nn.h")
 I16 = (-(2**15), 2**15 - 1)

@@ -1,4 +1,4 @@
-"""seagen's packages import in one direction: the package import graph has no cycle."""
+"""seagen's packages import in one direction: downward through the layers of LAYERS, with no cycle."""
 
 from __future__ import annotations
 
@@ -73,6 +73,75 @@ def find_cycle(graph: dict[str, dict[str, str]]) -> list[str]:
     return []
 
 
+# The layers, bottom-up (README "How it is built"). BOTTOM is shared by both sides; the physics side (the
+# simulated actuator and what is fitted to it) and the compiler side (model -> C) never import each other;
+# the drivers on top join them. A package imports only packages listed before it in its own list or in a
+# list below it (BOTTOM for a side; BOTTOM and both sides for the drivers).
+BOTTOM = [
+    "__version__",
+    "errors",
+    "c_runtime",
+    "actuators",
+    "atomic",
+    "workers",
+    "filekind",
+    "actuator",
+    "geometry",
+    "ir",
+    "plotting",
+    "modelfile",
+    "defaults",
+    "runtime",
+]
+PHYSICS = ["plant", "data", "fit", "discrepancy"]
+COMPILER = ["quant", "frontends", "reference", "codegen", "toolchain", "pil"]
+DRIVERS = ["control", "datacheck", "export", "verify", "bench", "testing", "demo", "cli"]
+
+
+def allowed(src: str) -> set[str]:
+    """The packages `src` may import."""
+    for i, layer in enumerate((BOTTOM, PHYSICS, COMPILER, DRIVERS)):
+        if src in layer:
+            below = set(layer[: layer.index(src)]) | set(BOTTOM)
+            return below | (set(PHYSICS) | set(COMPILER) if i == 3 else set())
+    raise AssertionError(f"package '{src}' is in no layer of tests/test_structure.py: place it")
+
+
+def violations(graph: dict[str, dict[str, str]]) -> list[str]:
+    """Every import of a package not below the importer, as 'src -> dst (file)'."""
+    return [
+        f"{src} -> {dst} ({where})"
+        for src, dsts in sorted(graph.items())
+        for dst, where in sorted(dsts.items())
+        if dst not in allowed(src)
+    ]
+
+
+def test_packages_import_only_lower_layers():
+    """Every package (function-level imports included) imports only packages below it in LAYERS."""
+    graph = package_graph()
+    for name in {n for n in graph} | {d for ds in graph.values() for d in ds}:
+        allowed(name)  # every package is placed
+    assert not violations(graph), "imports from a higher layer or across sides: " + "; ".join(
+        violations(graph)
+    )
+
+
+def test_layer_checker_finds_planted_violations():
+    """The checker itself: an import across the sides, an upward import and a driver import are found."""
+    planted = {
+        "plant": {"codegen": "seagen/plant/x.py", "geometry": "seagen/plant/sim.py"},
+        "quant": {"reference": "seagen/quant/y.py"},
+        "toolchain": {"export": "seagen/toolchain/z.py"},
+        "cli": {"plant": "seagen/cli/data.py"},
+    }
+    assert violations(planted) == [
+        "plant -> codegen (seagen/plant/x.py)",
+        "quant -> reference (seagen/quant/y.py)",
+        "toolchain -> export (seagen/toolchain/z.py)",
+    ]
+
+
 def test_package_imports_form_a_dag():
     """No cycle between seagen's packages (each top-level module counts as its own node)."""
     graph = package_graph()
@@ -105,7 +174,7 @@ def test_integer_reference_loads_no_plant_or_torch():
     import sys
 
     probe = (
-        "import sys, seagen.reference.numpy_ref, seagen.quant.primitives, seagen.quant.kernels;"
+        "import sys, seagen.reference.numpy_ref, seagen.runtime.fixed, seagen.runtime.nn;"
         "print(sorted(m for m in sys.modules if m.startswith(('seagen.plant', 'seagen.data', 'torch'))))"
     )
     res = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
@@ -113,7 +182,7 @@ def test_integer_reference_loads_no_plant_or_torch():
 
 
 def test_unpickling_only_behind_the_opt_in():
-    """`weights_only=False` appears once, in fit.modelfile.safe_load, inside its `if allow_pickle:` branch;
+    """`weights_only=False` appears once, in modelfile.safe_load, inside its `if allow_pickle:` branch;
     every allow_pickle parameter in seagen defaults to False (the CLI flags are store_true: off unless
     given)."""
     unsafe, guarded, defaults = [], [], []
@@ -142,3 +211,36 @@ def test_unpickling_only_behind_the_opt_in():
                         (guarded if any(call is c for c in opt_in) else unsafe).append(where)
     assert guarded == ["modelfile.py:safe_load"] and not unsafe, (guarded, unsafe)
     assert not defaults, f"allow_pickle without a False default: {defaults}"
+
+
+def test_torch_archive_readers_only_behind_the_opt_in_or_the_check():
+    """`torch.export.load` is called only inside an `if allow_pickle:` branch (without it a .pt2 is rebuilt
+    from its checked JSON and raw tensors); `torch.jit.load` only there or after `check_torchscript` in the
+    same function."""
+    found: list[tuple[str, str, bool]] = []
+    for path in sorted(ROOT.rglob("*.py")):
+        tree = ast.parse(path.read_text(), str(path))
+        for fn in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)):
+            opt_in = {
+                id(c)
+                for i in ast.walk(fn)
+                if isinstance(i, ast.If) and isinstance(i.test, ast.Name) and i.test.id == "allow_pickle"
+                for b in i.body
+                for c in ast.walk(b)
+            }
+            checked = [
+                c.lineno
+                for c in ast.walk(fn)
+                if isinstance(c, ast.Call)
+                and isinstance(c.func, ast.Name)
+                and c.func.id == "check_torchscript"
+            ]
+            for call in (c for c in ast.walk(fn) if isinstance(c, ast.Call)):
+                name = ast.unparse(call.func)
+                if name.endswith(("export.load", "jit.load")):
+                    ok = id(call) in opt_in or (
+                        name.endswith("jit.load") and any(line < call.lineno for line in checked)
+                    )
+                    found.append((f"{path.name}:{fn.name}", name, ok))
+    assert {n for _w, n, _ok in found} == {"torch.export.load", "torch.jit.load"}, found
+    assert all(ok for _w, _n, ok in found), found

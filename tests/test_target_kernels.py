@@ -8,8 +8,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from seagen.build.equivalence import edge_inputs, first_mismatch, random_inputs, recorded, step_problem
-from seagen.build.model import CModel, sanitized_infer
 from seagen.codegen.render import render
 from seagen.codegen.targets import kernel_context
 from seagen.data.schema import load_split
@@ -18,8 +16,10 @@ from seagen.errors import UserError
 from seagen.export import prepare
 from seagen.ir import FloatLayer, FloatMLP, Signal
 from seagen.quant.mlp import quantize_mlp
-from seagen.quant.primitives import rshift_rne
 from seagen.reference import numpy_ref
+from seagen.runtime.fixed import rshift_rne
+from seagen.toolchain.equivalence import edge_inputs, first_mismatch, random_inputs, recorded, step_problem
+from seagen.toolchain.model import CModel, sanitized_infer
 
 MODELS = sorted(DEFAULT_PREFIX)  # both MLPs and both surface fits
 TARGETS = ("cortex-m4", "cortex-m0plus")
@@ -64,7 +64,7 @@ def test_m4_fallback_sanitized(exports, model):
 def test_on_own_core_bit_exact(exports, key, data_dir):
     """Each kernel cross-compiled for its own core equals numpy on random/edge inputs and recorded trials."""
     pytest.importorskip("unicorn", reason="unicorn (the Cortex-M emulator) is not installed")
-    from seagen.build.cortexm import CortexM, toolchain_missing
+    from seagen.toolchain.cortexm import CortexM, toolchain_missing
 
     if msg := toolchain_missing():
         pytest.skip(msg)
@@ -125,8 +125,8 @@ def prepare_runtime(target: str) -> dict[str, str]:
 def test_dsp_helpers_match_python_twins():
     """sea_dsp.h fallbacks: folded rounding == rshift_rne, SMLAD == exact sum, pack/unpack round-trip, and
     both forms of the Horner product equal floor(x * r / 2^s) where the planner allows them."""
-    from seagen.build.host import build
     from seagen.codegen.runtime import runtime_sources
+    from seagen.toolchain.host import build
 
     cdef = (
         "int32_t t_rne32(int32_t v, int s); int64_t t_rne64(int64_t v, int s);"
@@ -189,10 +189,10 @@ def test_32_bit_paths_of_sea_fixed_match_twins():
     """sea_rshift_rne_s64's int32 fast path, sea_div_rne_s32's unsigned 32-bit division (and its reciprocal
     path for divisors 1..16) and sea_to_s16's saturation decided before scaling equal the Python twins at the
     limits, on ties and on random values."""
-    from seagen.build.host import build
     from seagen.codegen.runtime import FIXED, runtime_sources
-    from seagen.quant.kernels import to_s16
-    from seagen.quant.primitives import div_rne
+    from seagen.runtime.fixed import div_rne
+    from seagen.runtime.nn import to_s16
+    from seagen.toolchain.host import build
 
     cdef = (
         "int64_t sea_rshift_rne_s64(int64_t v, int s); int32_t sea_div_rne_s32(int32_t num, int32_t den);"

@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from seagen.build.cortexm import toolchain_missing
-from seagen.build.targets import NAMES, build_target
-from seagen.control.controller import ControlConfig, control_run, q16, sensor_walk
-from seagen.control.firmware import tick_config
+from seagen.codegen.controller import tick_config
 from seagen.control.gentwin import MODEL_FILES, StepTwin
 from seagen.defaults import GENERATED
 from seagen.export import prepare
+from seagen.runtime.control import ControlConfig, control_run, q16, sensor_walk
+from seagen.toolchain.cortexm import toolchain_missing
+from seagen.toolchain.targets import NAMES, build_target
 
 PREFIXES = ("ctl_sf", "ctl_mlp")
 

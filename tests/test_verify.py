@@ -84,7 +84,7 @@ def test_bad_input_exits_2(args, message):
 def test_junit_has_one_case_per_check(tmp_path):
     """--junit writes XML that parses, one test case per check, failures marked."""
     out = one_export(tmp_path)
-    (out / "cal_mlp.h").write_text((out / "cal_mlp.h").read_text() + "\n")
+    (out / "cal_mlp.h").write_text((out / "cal_mlp.h").read_text() + "extern int cal_mlp_extra;\n")
     report = tmp_path / "verify.xml"
     code, stdout, _ = run("verify", str(out), "--model", str(CAL), "--vectors", "200", "--junit", str(report))
     assert code == 1
@@ -123,7 +123,7 @@ def test_assert_equivalent_raises_with_the_report(tmp_path):
     """seagen.testing.assert_equivalent passes on a good export and raises with the report on an edit."""
     out = one_export(tmp_path)
     assert_equivalent(str(out), str(CAL), vectors=200)
-    (out / "sea_nn.c").write_text((out / "sea_nn.c").read_text().replace("\n", "\n\n", 1))
+    (out / "sea_nn.c").write_text((out / "sea_nn.c").read_text() + "typedef int sea_nn_extra;\n")
     with pytest.raises(AssertionError, match="sea_nn.c: edited since export"):
         assert_equivalent(str(out), str(CAL), vectors=200)
 
@@ -131,7 +131,7 @@ def test_assert_equivalent_raises_with_the_report(tmp_path):
 def test_cortex_m4_core(tmp_path, capsys):
     """--core cortex-m4 builds the C on disk with arm-none-eabi-gcc and runs it in unicorn: exit 0."""
     pytest.importorskip("unicorn")
-    from seagen.build.cortexm import toolchain_missing
+    from seagen.toolchain.cortexm import toolchain_missing
 
     if msg := toolchain_missing():
         pytest.skip(msg)
@@ -172,7 +172,7 @@ def test_bare_network_export_verifies_without_step(tmp_path, capsys):
     for core in ("host", "cortex-m0plus"):
         if core != "host":
             pytest.importorskip("unicorn")
-            from seagen.build.cortexm import toolchain_missing
+            from seagen.toolchain.cortexm import toolchain_missing
 
             if toolchain_missing():
                 continue
@@ -208,3 +208,188 @@ def test_data_rows_and_recorded_trials(name, data_dir, capsys):
     for split in ("test", "validation"):
         assert re.search(rf"ok   \w+_step on {split} trials \(\d+ rows\)", text), text
         assert re.search(rf"ok   \w+_infer on {split} rows", text), text
+
+
+def rehash(out: Path, name: str) -> None:
+    """Recompute NAME's sha256 in the manifest (a tamper that hides an edit from the file hashes)."""
+    from seagen.codegen.manifest import sha256_file
+
+    man = out / "cal_mlp.seagen.json"
+    doc = json.loads(man.read_text())
+    doc["files"][name] = sha256_file(out / name)
+    man.write_text(json.dumps(doc))
+
+
+def edit(out: Path, name: str, old: str, new: str, count: int = 1, recompute: bool = False) -> None:
+    """Replace text in one file of the export (the first `count` times), optionally hiding it by rehash."""
+    text = (out / name).read_text()
+    assert old in text, (name, old)
+    (out / name).write_text(text.replace(old, new, count))
+    if recompute:
+        rehash(out, name)
+
+
+def manifest_field(out: Path, change) -> None:
+    """Apply `change` to the parsed manifest and write it back."""
+    man = out / "cal_mlp.seagen.json"
+    doc = json.loads(man.read_text())
+    change(doc)
+    man.write_text(json.dumps(doc))
+
+
+def weight_edit(out: Path) -> None:
+    """One weight of cal_mlp_w0 plus one."""
+    c = (out / "cal_mlp.c").read_text()
+    m = re.search(r"(cal_mlp_w0\[[^{]*\{\s*)(-?\d+)", c)
+    assert m
+    (out / "cal_mlp.c").write_text(c[: m.start(2)] + str(int(m.group(2)) + 1) + c[m.end(2) :])
+
+
+def newline_style(out: Path, name: str, sep: str) -> None:
+    """Rewrite a file's line ends (bytes as written, no newline translation)."""
+    (out / name).write_bytes((out / name).read_bytes().replace(b"\n", sep.encode()))
+
+
+# Every tamper `seagen verify` must catch: (id, edit of a fresh copy of generated/cal_mlp*, exit code,
+# text the report (JSON on stdout, or the error line) must hold). Exit 0 rows are edits that keep the C.
+TAMPERS = [
+    ("weight edited", weight_edit, 1, "cal_mlp.c: edited since export"),
+    (
+        "weight edited, hash recomputed",
+        lambda o: (weight_edit(o), rehash(o, "cal_mlp.c")),
+        1,
+        "C differs at row",
+    ),
+    (
+        "header constant edited, hash recomputed",
+        lambda o: edit(o, "cal_mlp.h", "#define CAL_MLP_OUT_Q 7", "#define CAL_MLP_OUT_Q 8", recompute=True),
+        1,
+        "cal_mlp.h: CAL_MLP_OUT_Q compiles to 8; the export's value is 7",
+    ),
+    (
+        "header constant removed, hash recomputed",
+        lambda o: edit(o, "cal_mlp.h", "#define CAL_MLP_IN_Q_POT 3", "", recompute=True),
+        1,
+        "CAL_MLP_IN_Q_POT compiles to not defined",
+    ),
+    (
+        "error bound edited",
+        lambda o: manifest_field(o, lambda d: d["resolved"].__setitem__("error_bound", 0.01)),
+        1,
+        "error_bound 0.01 (recomputed: 0.163",
+    ),
+    (
+        "output unit edited",
+        lambda o: manifest_field(o, lambda d: d["resolved"].__setitem__("output", ["force_n", "kN"])),
+        1,
+        "resolved.output",
+    ),
+    (
+        "file dropped from the manifest",
+        lambda o: manifest_field(o, lambda d: d["files"].pop("cal_mlp.onnx")),
+        1,
+        "files omits cal_mlp.onnx",
+    ),
+    (
+        "stray NAME_extra.c",
+        lambda o: (o / "cal_mlp_extra.c").write_text("int cal_mlp_extra;\n"),
+        1,
+        "cal_mlp_extra.c: not part of the export in cal_mlp.seagen.json",
+    ),
+    ("file missing", lambda o: (o / "sea_fixed.h").unlink(), 1, "sea_fixed.h: missing"),
+    (
+        "prefix renamed in NAME.c, hash recomputed",
+        lambda o: edit(o, "cal_mlp.c", "cal_mlp_infer", "foo_infer", count=-1, recompute=True),
+        1,
+        "the C does not build",
+    ),
+    (
+        "NAME.onnx truncated, hash recomputed",
+        lambda o: ((o / "cal_mlp.onnx").write_bytes(b"\x08\x07garbage"), rehash(o, "cal_mlp.onnx")),
+        1,
+        "cal_mlp.onnx: not a readable ONNX graph",
+    ),
+    (
+        "manifest from a newer seagen",
+        lambda o: manifest_field(o, lambda d: d.__setitem__("seagen_version", "9.0")),
+        2,
+        "written by seagen 9.0, newer than this seagen",
+    ),
+    ("unknown default model", lambda o: None, 2, "default:nope: no shipped model 'nope'"),
+    (
+        "manifest not JSON",
+        lambda o: (o / "cal_mlp.seagen.json").write_text("{"),
+        2,
+        "not a readable seagen manifest",
+    ),
+    (
+        "CRLF line ends",
+        lambda o: [newline_style(o, n, "\r\n") for n in ("cal_mlp.c", "cal_mlp.h", "sea_nn.c")],
+        0,
+        "same C",
+    ),
+    (
+        "reformatted (indent, blank lines, comment)",
+        lambda o: (
+            edit(o, "cal_mlp.c", "\n", "\n\n", count=5),
+            edit(o, "cal_mlp.h", "#define CAL_MLP_OUT_Q 7", "#define   CAL_MLP_OUT_Q   7 /* Q */"),
+            edit(o, "sea_fixed.c", "    ", "\t", count=-1),
+        ),
+        0,
+        "cal_mlp.h: whitespace, comments or line ends differ from the export (same C)",
+    ),
+]
+
+
+@pytest.mark.parametrize("tamper, code, message", [t[1:] for t in TAMPERS], ids=[t[0] for t in TAMPERS])
+def test_tamper_table(tamper, code, message, tmp_path, capsys):
+    """Each tamper: the exit code (1 behaviour, 2 bad input, 0 same C), the file named in the report, and
+    JUnit XML plus JSON written with the outcome, whatever the exit code."""
+    out = one_export(tmp_path)
+    tamper(out)
+    junit = tmp_path / "verify.xml"
+    model = "default:nope" if "default:nope" in message else "default:mlp_calibration"
+    got = main(["verify", str(out), "--model", model, "--vectors", "200", "--json", "--junit", str(junit)])
+    stdout, stderr = capsys.readouterr()
+    doc = json.loads(stdout)
+    suite = ET.parse(junit).getroot()
+    assert got == code, stdout + stderr
+    assert doc["ok"] == (code == 0)
+    assert message in stdout + stderr, stdout + stderr
+    assert "Traceback" not in stdout + stderr and "seagen-cffi" not in stdout + stderr
+    if code == 2:
+        assert (
+            message in doc["error"]
+            and suite.get("errors") == "1"
+            and suite.find("testcase/error") is not None
+        )
+    elif code == 1:
+        assert int(suite.get("failures", "0")) >= 1
+    else:
+        assert suite.get("failures") == "0" and any(message in n for n in doc["notes"])
+
+
+def test_junit_names_are_stable_and_skips_are_marked(tmp_path):
+    """JUnit test names do not change with --vectors; checks not run after a drift are marked skipped."""
+    out = one_export(tmp_path)
+    names = []
+    for n in ("100", "300"):
+        report = tmp_path / f"v{n}.xml"
+        assert main(["verify", str(out), "--model", str(CAL), "--vectors", n, "--junit", str(report)]) == 0
+        names.append([c.get("name") for c in ET.parse(report).getroot().findall("testcase")])
+    assert names[0] == names[1] and not any(re.search(r"\d{3}", n) for n in names[0]), names
+    report = tmp_path / "other.xml"
+    other = str(default_model("mlp_control"))
+    assert main(["verify", str(out), "--model", other, "--junit", str(report)]) == 1
+    cases = ET.parse(report).getroot().findall("testcase")
+    skipped = [c.get("name") for c in cases if c.find("skipped") is not None]
+    assert set(skipped) >= set(names[0]) - {c.get("name") for c in cases if c.find("skipped") is None}
+    assert "quantization unchanged" in skipped and any("cal_mlp_infer" in n for n in skipped)
+
+
+def test_target_and_core_are_the_same_option(capsys):
+    """--target chooses where the C runs, as in export and bench; --core is kept as its alias."""
+    for flag in ("--target", "--core"):
+        args = ["verify", str(GENERATED), "--model", str(default_model("sf_calibration")), "--vectors", "50"]
+        assert main([*args, flag, "host"]) == 0
+        assert "(host)" in capsys.readouterr().out

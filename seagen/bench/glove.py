@@ -5,7 +5,7 @@ The example's glove.c/.h are taken as they are (cal_mlp + the ctl_mlp controller
 models (e.g. the SF control predictor) the prefixes cal_mlp / ctl_mlp in their text are replaced by the
 other models' prefixes, nothing else. Sensor sequence: `sensors` (random walks of the raw counts, desired
 forces stepping every 40 ticks), the same one tests/test_firmware_example.py checks against the Python twins.
-Cycles: the model in seagen/build/mcu_trace.py; the load is cycles per tick / (48 MHz / 100 Hz).
+Cycles: the model in seagen/toolchain/mcu_trace.py; the load is cycles per tick / (48 MHz / 100 Hz).
 """
 
 from __future__ import annotations
@@ -17,10 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from seagen.build import cortexm as cm
-from seagen.build.host import compile_objects
-from seagen.build.mcu_trace import disassemble, traced_call
 from seagen.defaults import DEFAULT_PREFIX, default_model
+from seagen.toolchain import cortexm as cm
+from seagen.toolchain.host import compile_objects
+from seagen.toolchain.mcu_trace import disassemble, traced_call
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "firmware"
 N_SEA, TICKS = 7, 120
@@ -41,6 +41,8 @@ class GloveLoad:
     instr_mean: float
     cycles_mean: float
     cycles_max: int
+    flash_wait: int = 0  # flash wait states priced into the cycles
+    it_skipped: float = 0.0  # of instr_mean: instructions skipped inside IT blocks (M4)
 
     @property
     def percent(self) -> float:
@@ -50,14 +52,14 @@ class GloveLoad:
 
 def sensors(seed: int, ticks: int = TICKS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(enc, pot, desired force Q16) per tick and actuator: random walks, forces stepping within range."""
-    from seagen.control.controller import sensor_walk
+    from seagen.runtime.control import sensor_walk
 
     return sensor_walk(seed, ticks, (N_SEA,), start=(300, 1200), force_n=(1.0, 15.0), hold=40)
 
 
 def glove_files(target: str = "portable", cal: str = "cal_mlp", ctl: str = "ctl_mlp") -> dict[str, str]:
     """What the example's README exports into one folder (with `--target target`), plus glove.c/.h."""
-    from seagen.control.firmware import controller_files
+    from seagen.codegen.controller import controller_files
     from seagen.export import prepare
 
     c = prepare(str(default_model(MODEL_OF[cal])), prefix=cal, target=target)
@@ -69,29 +71,38 @@ def glove_files(target: str = "portable", cal: str = "cal_mlp", ctl: str = "ctl_
     return files
 
 
-def _run(machine, code, seed: int, traced: range) -> tuple[list[int], list[int]]:
-    """glove_init, then ticks up to the end of `traced`; (instructions, cycles) of each traced tick."""
+def _run(
+    machine, code, seed: int, traced: range, flash_wait: int = 0
+) -> tuple[list[int], list[int], list[int]]:
+    """glove_init, then ticks to the end of `traced`; instructions, cycles, IT-skipped of each traced tick."""
     enc, pot, force = sensors(seed)
     i32 = np.int32
     g = machine.call("glove_init", np.zeros(16384, np.uint8), enc[0].astype(i32), pot[0].astype(i32))[0][0]
-    instr, cycles = [], []
+    instr, cycles, skipped = [], [], []
     for k in range(traced.stop):
         out, est = np.zeros(N_SEA, np.int16), np.zeros(N_SEA, np.int16)
         args = (g, enc[k].astype(i32), pot[k].astype(i32), force[k].astype(i32), out, est)
         if k in traced:
-            back, t = traced_call(machine, code, "glove_tick", *args)
+            back, t = traced_call(machine, code, "glove_tick", *args, flash_wait=flash_wait)
             instr.append(t.instructions)
             cycles.append(t.cycles)
+            skipped.append(t.it_skipped)
         else:
             back, _ = machine.call("glove_tick", *args)
         g = back[0]
-    return instr, cycles
+    return instr, cycles, skipped
 
 
 def glove_load(
-    cpu: str, cal: str = "cal_mlp", ctl: str = "ctl_mlp", target: str | None = None, traced: range = TRACED
+    cpu: str,
+    cal: str = "cal_mlp",
+    ctl: str = "ctl_mlp",
+    target: str | None = None,
+    traced: range = TRACED,
+    flash_wait: int = 0,
 ) -> GloveLoad:
-    """Build the example with the core's target kernels (or `target`) and trace the ticks `traced`."""
+    """Build the example with the core's target kernels (or `target`) and trace the ticks `traced`, cycles
+    at `flash_wait` flash wait states."""
     from seagen.bench.run import _machine
 
     target = target or cpu
@@ -103,11 +114,20 @@ def glove_load(
         )
         (work / "link.ld").write_text(cm.LINKER_SCRIPT)
         elf = cm.link(work, objs, flags, ("glove_init", "glove_tick"), "glove")
-        instr, cycles = _run(_machine(elf, cpu), disassemble(elf), 7, traced)
+        instr, cycles, skipped = _run(_machine(elf, cpu), disassemble(elf), 7, traced, flash_wait)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return GloveLoad(
-        cpu, target, cal, ctl, len(traced), float(np.mean(instr)), float(np.mean(cycles)), int(max(cycles))
+        cpu,
+        target,
+        cal,
+        ctl,
+        len(traced),
+        float(np.mean(instr)),
+        float(np.mean(cycles)),
+        int(max(cycles)),
+        flash_wait,
+        float(np.mean(skipped)),
     )
 
 
@@ -130,13 +150,14 @@ def as_json(r: GloveLoad) -> dict:
 def table(rows: list[GloveLoad]) -> str:
     """The README table of the glove's load (Markdown)."""
     lines = [
-        "| core | models (`--target` = the core) | instr / tick | cycles / tick (max) "
-        "| % of 48 MHz at 100 Hz |",
-        "| --- | --- | --- | --- | --- |",
+        "| core | models (`--target` = the core) | instr / tick (IT-skipped) | flash wait states "
+        "| cycles / tick (max) | % of 48 MHz at 100 Hz |",
+        "| --- | --- | --- | --- | --- | --- |",
     ]
     for r in rows:
         lines.append(
             f"| {CORE[r.cpu]} | 7 × ({r.cal} `_step` + {r.ctl} controller tick) | {r.instr_mean:,.0f} "
-            f"| {r.cycles_mean:,.0f} ({r.cycles_max:,}) | {r.percent:.1f} % |"
+            f"({r.it_skipped:,.0f}) | {r.flash_wait} | {r.cycles_mean:,.0f} ({r.cycles_max:,}) "
+            f"| {r.percent:.1f} % |"
         )
     return "\n".join(lines)

@@ -18,9 +18,9 @@ import sys
 
 import numpy as np
 
-from seagen.build.cortexm import CPUS, CortexM, Machine, build_image, toolchain_missing
 from seagen.defaults import DEFAULT_PREFIX, GENERATED
 from seagen.ir import FloatMLP, FloatSF
+from seagen.toolchain.cortexm import CPUS, CortexM, Machine, build_image, toolchain_missing
 
 MODELS = GENERATED / "models"
 PREFIX = DEFAULT_PREFIX

@@ -3,10 +3,10 @@
 For every model NAME in DIR (a header declaring NAME_infer) and each core: executed instructions of
 NAME_infer (inputs drawn across the calibrated box), NAME_step (a synthetic raw enc/pot run after NAME_reset)
 and, for a control predictor (NAME_predict_q16), one controller tick (sea_control_step with the predictor
-and the tuned PID, templates/bench_tick.c.j2); a cycle estimate (seagen/build/mcu_trace.py); flash (.text +
-.rodata of an image linked from that entry point alone, library helpers included) and RAM (.data + .bss);
-the stack: static worst case from -fstack-usage over the call graph, and the deepest stack measured; every
-library helper linked (float ones must be none) and an ISA check of every executed instruction.
+and the tuned PID, templates/bench_tick.c.j2); a cycle estimate (seagen/toolchain/mcu_trace.py);
+flash (.text + .rodata of an image linked from that entry point alone, library helpers included) and RAM
+(.data + .bss); the stack: static worst case from -fstack-usage over the call graph, and the deepest stack
+measured; every library helper linked (none may be float) and an ISA check of each executed instruction.
 """
 
 from __future__ import annotations
@@ -20,11 +20,11 @@ from pathlib import Path
 import numpy as np
 
 from seagen import __version__
-from seagen.build import cortexm as cm
-from seagen.build.elfinfo import library_helpers, stack_usage, static_stack
-from seagen.build.host import compile_objects
-from seagen.build.mcu_trace import Trace, disassemble, traced_call
 from seagen.errors import UserError
+from seagen.toolchain import cortexm as cm
+from seagen.toolchain.elfinfo import library_helpers, stack_usage, static_stack
+from seagen.toolchain.host import compile_objects
+from seagen.toolchain.mcu_trace import Trace, disassemble, traced_call
 
 FLOAT_HELPER = re.compile(  # soft-float helpers of libgcc (AEABI and GCC names); integer helpers do not match
     r"^__(aeabi_([fd][a-z0-9]+|u?[il]2[fd])|(add|sub|mul|div|neg)[sdt]f3|(eq|ne|lt|le|gt|ge|un|cmp)[sdt]f2"
@@ -52,6 +52,8 @@ class Entry:
     helpers: list[str]
     float_helpers: list[str]
     isa_violations: list[str]
+    flash_wait: int = 0  # wait states priced into cycles_mean (seagen/toolchain/mcu_trace.py)
+    it_skipped_mean: float = 0.0  # of instr_mean: skipped inside IT blocks (M4)
 
 
 def find_models(d: Path) -> list[str]:
@@ -93,7 +95,7 @@ def _trajectory(n: int) -> tuple[np.ndarray, np.ndarray]:
 def _tick_driver(prefix: str) -> dict[str, str]:
     """The controller-tick driver of a control predictor with the tuned PID (templates/bench_tick.c.j2)."""
     from seagen.codegen.render import environment
-    from seagen.control.controller import MLP_PRED_AVG, ControlConfig
+    from seagen.runtime.control import MLP_PRED_AVG, ControlConfig
 
     c = ControlConfig()
     text = (
@@ -134,7 +136,7 @@ def _calls(prefix: str, entry: str, header: str, box: tuple[np.ndarray, np.ndarr
     ]
 
 
-def _run(machine, code, setup, calls) -> list[Trace]:
+def _run(machine, code, setup, calls, flash_wait: int = 0) -> list[Trace]:
     """Run the set-up calls, then trace each measured call; 'state' is one RAM block carried through."""
     state = np.zeros(1024, np.uint8)  # first argument everywhere: it stays at the same RAM address
 
@@ -147,7 +149,7 @@ def _run(machine, code, setup, calls) -> list[Trace]:
             state = back[0].copy()
     traces = []
     for sym, a in calls:
-        back, t = traced_call(machine, code, sym, *args(a))
+        back, t = traced_call(machine, code, sym, *args(a), flash_wait=flash_wait)
         if isinstance(a[0], str):
             state = back[0].copy()
         traces.append(t)
@@ -178,7 +180,7 @@ ROOTS = {
 }
 
 
-def bench_model(d: Path, prefix: str, cpu: str) -> list[Entry]:
+def bench_model(d: Path, prefix: str, cpu: str, flash_wait: int = 0) -> list[Entry]:
     """Measure every entry point of model `prefix` in export folder d on `cpu`."""
     if msg := cm.toolchain_missing():
         raise UserError(msg)
@@ -200,7 +202,7 @@ def bench_model(d: Path, prefix: str, cpu: str) -> list[Entry]:
             keep = (ROOTS[e][0].format(p=prefix), measured) if e == "tick" else (measured,)
             alone = cm.link(work, objs, flags, keep, e)
             setup, calls = _calls(prefix, e, sources[f"{prefix}.h"], box)
-            traces = _run(machine, code, setup, calls)
+            traces = _run(machine, code, setup, calls, flash_wait)
             n = np.array([t.instructions for t in traces])
             sections = cm._sections(alone)
             helpers = library_helpers(alone, objs)
@@ -220,6 +222,8 @@ def bench_model(d: Path, prefix: str, cpu: str) -> list[Entry]:
                     helpers,
                     [h for h in helpers if FLOAT_HELPER.match(h)],
                     sorted(set().union(*(t.violations for t in traces))),
+                    flash_wait,
+                    float(np.mean([t.it_skipped for t in traces])),
                 )
             )
         return out
@@ -227,11 +231,13 @@ def bench_model(d: Path, prefix: str, cpu: str) -> list[Entry]:
         shutil.rmtree(work, ignore_errors=True)
 
 
-def bench_dir(d: Path, cpus: tuple[str, ...]) -> list[Entry]:
-    """Every model of the export folder on every named core."""
+def bench_dir(d: Path, cpus: tuple[str, ...], flash_wait: int = 0) -> list[Entry]:
+    """Every model of the export folder on every named core, cycles at `flash_wait` wait states."""
     if not d.is_dir():
         raise UserError(f"{d}: not a directory")
-    return [e for prefix in find_models(d) for cpu in cpus for e in bench_model(d, prefix, cpu)]
+    if not 0 <= flash_wait <= 15:
+        raise UserError(f"--flash-wait must be 0..15 wait states, got {flash_wait}")
+    return [e for prefix in find_models(d) for cpu in cpus for e in bench_model(d, prefix, cpu, flash_wait)]
 
 
 def table(rows: list[Entry]) -> str:
@@ -249,6 +255,11 @@ def table(rows: list[Entry]) -> str:
             f"{', '.join(r.float_helpers) or 'none':>13} {'ok' if not r.isa_violations else 'BAD':>4}"
         )
     lines.append("stack: static worst case (-fstack-usage over the call graph) / deepest measured")
+    waits = sorted({r.flash_wait for r in rows})
+    lines.append(
+        f"cycles: at {', '.join(map(str, waits)) or 0} flash wait state(s) (paid by flash data reads and "
+        "refetches after taken branches); instr counts those skipped inside IT blocks (M4)"
+    )
     helpers = sorted({h for r in rows for h in r.helpers})
     lines.append(f"library helpers linked: {', '.join(helpers) or 'none'}")
     return "\n".join(lines)

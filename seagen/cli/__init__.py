@@ -8,6 +8,7 @@ import sys
 
 from seagen import __version__
 from seagen.errors import CheckFailed, UserError
+from seagen.workers import Terminated, stop_on_sigterm
 
 # Each module defines register(subparsers); its handlers take the parsed args and return an exit code.
 COMMAND_MODULES = (
@@ -18,6 +19,8 @@ COMMAND_MODULES = (
     "seagen.cli.discrepancy",
     "seagen.cli.verify",
     "seagen.cli.bench",
+    "seagen.cli.pil",
+    "seagen.cli.models",
     "seagen.demo",
 )
 
@@ -36,10 +39,16 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns the exit code (2 for bad input, 1 for a failed check, with a message)."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    """Entry point; returns the exit code (2 for bad input, 1 for a failed check, 130 / 143 when stopped by
+    SIGINT / SIGTERM, each with one line)."""
+    with stop_on_sigterm():
+        return _run(argv)
+
+
+def _run(argv: list[str] | None) -> int:
+    """Parse and dispatch; every error and stop becomes one line on stderr and an exit code."""
     try:
+        args = build_parser().parse_args(argv)
         return int(args.func(args) or 0)
     except UserError as e:
         print(f"seagen: error: {e}", file=sys.stderr)
@@ -51,6 +60,9 @@ def main(argv: list[str] | None = None) -> int:
         where = e.filename if e.filename is not None else ""
         print(f"seagen: error: {where}: {e.strerror or e}", file=sys.stderr)
         return 2
+    except Terminated:
+        print("seagen: stopped (SIGTERM)", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print("seagen: interrupted", file=sys.stderr)
         return 130

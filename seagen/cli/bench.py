@@ -25,6 +25,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         choices=("cortex-m0plus", "cortex-m4"),
         help="core to measure on (repeatable; default both)",
     )
+    p.add_argument(
+        "--flash-wait",
+        type=int,
+        default=0,
+        metavar="N",
+        help="flash wait states priced into the cycles (default 0: zero-wait memory; "
+        "1: e.g. a SAMD21 M0+ at 48 MHz)",
+    )
     p.add_argument("--json", action="store_true", help="print the rows as JSON")
     p.set_defaults(func=cmd_bench)
 
@@ -33,7 +41,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     """Measure, print, exit 1 on a float helper or an ISA violation."""
     from seagen.bench.run import as_json, bench_dir, failures, table
 
-    rows = bench_dir(Path(args.dir), tuple(args.target or ("cortex-m4", "cortex-m0plus")))
+    rows = bench_dir(Path(args.dir), tuple(args.target or ("cortex-m4", "cortex-m0plus")), args.flash_wait)
     print(json.dumps(as_json(rows), indent=2) if args.json else table(rows))
     bad = failures(rows)
     for line in bad:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from seagen.defaults import model_arg
 from seagen.errors import UserError
 
 
@@ -18,13 +19,46 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="The paper's force-control experiment on the simulated SEA: start at 5 deg, close on the "
         "load cell at ten contact angles, targets 5/10/15 N, 6 s runs, for sf_mcu (the generated SF in C at "
         "100 Hz), mlp_cloud (the float MLP behind a 10 Hz Bluetooth link) and mlp_mcu (the generated MLP in "
-        "C at 100 Hz); prints the average error and settling time per configuration and target.",
+        "C at 100 Hz); prints the average error and settling time per configuration and target. With "
+        "--model, the same experiment on your own control model: NAME_mcu (exported to C, 100 Hz) and "
+        "NAME_cloud (its float model behind the 10 Hz link); --calibration adds your calibration model's "
+        "force estimate from the recorded sensors and its error.",
+    )
+    p.add_argument(
+        "--model",
+        metavar="CONTROL_MODEL",
+        type=model_arg,
+        help="your control model (seagen train --task control, or a supported network with --features), "
+        "or default:NAME; runs NAME_mcu and NAME_cloud instead of the default configurations",
+    )
+    p.add_argument(
+        "--calibration",
+        metavar="CAL_MODEL",
+        type=model_arg,
+        help="your calibration model: estimates the force of every run from its sensors (est. err column)",
+    )
+    p.add_argument("--features", metavar="SPEC", help="feature specification of --model (bare networks)")
+    p.add_argument(
+        "--allow-pickle",
+        action="store_true",
+        help="unpickle model files holding arbitrary Python objects (RUNS CODE: trusted files only)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object keyed by configuration")
     p.add_argument("--plots", metavar="DIR", help="write a step-response plot per configuration (first seed)")
     p.add_argument("--config", action="append", choices=sorted(CONFIGS), help="configurations (default all)")
     p.add_argument("--latency", type=float, default=0.1, help="cloud round-trip latency, s (default 0.1)")
-    p.add_argument("--impl", choices=("c", "py"), default="c", help="controller: C via cffi or Python twin")
+    p.add_argument(
+        "--impl",
+        choices=("c", "py", "pil"),
+        default="c",
+        help="controller: C via cffi, the Python twin, or the firmware on an emulated board (QEMU; --core)",
+    )
+    p.add_argument(
+        "--core",
+        choices=("cortex-m4", "cortex-m0plus"),
+        default="cortex-m4",
+        help="with --impl pil: the board's core (mps2-an386 or microbit; default cortex-m4)",
+    )
     p.add_argument("--seed", type=int, default=0, help="plant noise seed (default 0)")
     p.add_argument(
         "--seeds",
@@ -44,15 +78,38 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise UserError(f"--latency must be >= 0 s, got {args.latency}")
     if args.seeds < 1:
         raise UserError(f"--seeds must be >= 1, got {args.seeds}")
-    names = tuple(args.config or TABLE2_CONFIGS)
+    from seagen.control.experiment import CONFIGS
+
+    setups, rows, estimator = dict(CONFIGS), {}, None
+    names = tuple(args.config or (() if args.model else TABLE2_CONFIGS))
+    if args.model:
+        from seagen.control.user import control_setups
+
+        mine, row = control_setups(args.model, args.features, args.allow_pickle)
+        setups |= mine
+        rows = dict.fromkeys(mine, row)
+        names = (*names, *mine)
+    if args.calibration:
+        from seagen.control.user import force_estimator
+
+        estimator = force_estimator(args.calibration, args.allow_pickle)
+    impl = f"pil:{args.core}" if args.impl == "pil" else args.impl
     if args.seeds == 1:
-        table = simulate(names, args.latency, args.impl, args.seed, args.plots)
+        table = simulate(names, args.latency, impl, args.seed, args.plots, setups, estimator)
     else:
         from tqdm import tqdm
 
         with tqdm(total=args.seeds, desc="seeds", unit="seed", disable=args.json) as bar:
             table = sweep(
-                names, args.seeds, args.latency, args.impl, args.seed, lambda _k: bar.update(), args.plots
+                names,
+                args.seeds,
+                args.latency,
+                impl,
+                args.seed,
+                lambda _k: bar.update(),
+                args.plots,
+                setups,
+                estimator,
             )
-    print(json.dumps(table, indent=2) if args.json else format_table2(table))
+    print(json.dumps(table, indent=2) if args.json else format_table2(table, rows))
     return 0

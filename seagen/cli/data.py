@@ -57,7 +57,9 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
 def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None) -> None:
     """Write every split (and the `extra` {file name: text}) into a staging folder inside `out`, then
-    rename each into place."""
+    rename each into place under a lock on `out` (two commands writing one folder at once leave the
+    files of one of them)."""
+    from seagen.atomic import locked_folder
     from seagen.data.schema import save_csv
 
     out.mkdir(parents=True, exist_ok=True)
@@ -67,8 +69,9 @@ def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None) 
             save_csv(df, Path(staged) / f"{name}.csv")
         for name, text in (extra or {}).items():
             (Path(staged) / name).write_text(text)
-        for name in [f"{k}.csv" for k in splits] + list(extra or {}):
-            os.replace(Path(staged) / name, out / name)
+        with locked_folder(out):
+            for name in [f"{k}.csv" for k in splits] + list(extra or {}):
+                os.replace(Path(staged) / name, out / name)
     finally:
         for f in Path(staged).glob("*"):
             f.unlink()
@@ -89,7 +92,7 @@ def cmd_import(args: argparse.Namespace) -> int:
 
 def cmd_summary(args: argparse.Namespace) -> int:
     """Print the summary of a data directory."""
-    from seagen.summary import format_summary, summarize
+    from seagen.fit.data_summary import format_summary, summarize
 
     s = summarize(args.dir)
     print(json.dumps(s, indent=2) if args.json else format_summary(s))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -48,6 +49,7 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
         return cmd_bench(args)
     if not args.measured or not args.out:
         raise UserError("discrepancy: --measured and --out are required (or use `discrepancy bench`)")
+    from seagen.atomic import locked_folder
     from seagen.discrepancy.replay import load_measured, load_timing, runs_from_frames
     from seagen.discrepancy.report import summary, write_report
     from seagen.discrepancy.workflow import identify
@@ -57,7 +59,8 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
     timing = load_timing(args.measured)
     runs = runs_from_frames(load_measured(args.measured), timing)
     res = identify(runs, base, pinned=timing.get("lag"))
-    write_report(res, args.out, str(args.measured))
+    with locked_folder(Path(args.out).resolve().parent):  # another report onto --out waits, then replaces
+        write_report(res, args.out, str(args.measured))
     s = summary(res)
     if args.json:
         print(json.dumps(s, indent=2))

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from seagen.defaults import model_arg
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the `export` command."""
@@ -18,7 +20,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         "or Sigmoid. Bare networks need --features. Every export is checked against the original model run "
         "by its own runtime. Exit codes: 0 written, 1 a check disagreed (nothing written), 2 bad input.",
     )
-    p.add_argument("model", metavar="MODEL", help="model file (.pt, TorchScript, .pt2 or .onnx)")
+    p.add_argument(
+        "model",
+        metavar="MODEL",
+        type=model_arg,
+        help="model file (.pt, TorchScript, .pt2 or .onnx), or default:NAME (see seagen models)",
+    )
     p.add_argument("--out", default=".", help="output directory (default: current)")
     p.add_argument("--prefix", help="C symbol prefix NAME (default: from the file name)")
     p.add_argument(
@@ -75,7 +82,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         target=args.target,
     )
     if args.check:
-        from seagen.build.equivalence import check_data_dir
+        from seagen.datacheck import check_data_dir
 
         rep = check_data_dir(ex, args.check)
         print(rep.report())

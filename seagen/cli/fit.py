@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from seagen.defaults import model_arg
 from seagen.errors import UserError
 
 TRAIN_EPILOG = """\
@@ -65,7 +66,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Score model files on DIR/test.csv and DIR/validation.csv the paper's way (rows with "
         "force > 5 N; maximum = worst contact angle's mean), with the naive kinematics beside them.",
     )
-    e.add_argument("models", nargs="+", metavar="MODEL", help="model files written by seagen train")
+    e.add_argument(
+        "models",
+        nargs="+",
+        metavar="MODEL",
+        type=model_arg,
+        help="model files written by seagen train, or default:NAME (see seagen models)",
+    )
     e.add_argument("--data", required=True, metavar="DIR", help="data directory with test.csv (+ validation)")
     e.add_argument("--json", action="store_true", help="print one JSON object keyed by model name")
     e.add_argument("--plots", metavar="DIR", help="write PNGs: SF surfaces and validation predictions")

@@ -10,12 +10,20 @@ import jinja2
 import numpy as np
 
 from seagen import __version__
-from seagen.codegen.cfmt import assert_valid_prefix, c_array, c_int
-from seagen.codegen.summary import buffer_width, summary_lines
+from seagen.codegen.cfmt import (
+    assert_valid_prefix,
+    c_array,
+    c_comment,
+    c_ident,
+    c_int,
+    check_input_macros,
+    input_macro,
+)
+from seagen.codegen.quant_summary import buffer_width, summary_lines
 from seagen.codegen.targets import kernel_context
 from seagen.ir import QMLP, QSF, QLayer, QModel
-from seagen.quant import features as F
-from seagen.quant.primitives import linkage_table_q16
+from seagen.runtime import features as F
+from seagen.runtime.fixed import linkage_table_q16
 
 RUNTIME = ("sea_fixed.h", "sea_fixed.c", "sea_nn.h", "sea_nn.c", "sea_features.h", "sea_features.c")
 
@@ -32,6 +40,8 @@ def environment() -> jinja2.Environment:
     )
     env.filters["c_array"] = c_array
     env.filters["c_int"] = c_int
+    env.filters["c_comment"] = c_comment  # user text in a comment (units, the output name)
+    env.filters["c_ident"] = c_ident  # user names in identifiers and comments
     return env
 
 
@@ -152,6 +162,7 @@ def context(qm: QModel, prefix: str) -> dict[str, Any]:
     """Everything the templates print, decided here."""
     pipeline = F.has_pipeline(qm)
     prefix = assert_valid_prefix(prefix)
+    check_input_macros(prefix, [q.signal.name for q in qm.inputs])
     return {
         "P": prefix,
         "PU": prefix.upper(),
@@ -159,6 +170,7 @@ def context(qm: QModel, prefix: str) -> dict[str, Any]:
         "hash": model_hash(qm),
         "n_in": len(qm.inputs),
         "inputs": qm.inputs,
+        "in_macros": [input_macro(prefix, c_ident(q.signal.name)) for q in qm.inputs],
         "output": qm.output,
         "out_frac": qm.out_frac,
         "summary": summary_lines(qm),

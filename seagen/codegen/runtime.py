@@ -7,6 +7,9 @@ from importlib import resources
 
 from seagen.c_runtime import COMMENT, define_of
 
+# The C runtime of the controller: what NAME_controller.c and a controller tick link against.
+CONTROL_RUNTIME = ("sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c")
+
 
 def runtime_sources(*names: str) -> dict[str, str]:
     """{filename: text} of the named c_runtime files (e.g. 'sea_fixed.h', 'sea_fixed.c')."""

@@ -19,7 +19,8 @@ import numpy as np
 from seagen.codegen.cfmt import c_int
 from seagen.errors import UserError
 from seagen.ir import QMLP, QSF, QHorner, QModel
-from seagen.quant.primitives import rshift_rne
+from seagen.quant.interval import acc_interval
+from seagen.runtime.fixed import rshift_rne
 
 TARGETS = ("portable", "cortex-m0plus", "cortex-m4")
 TEMPLATES = {"cortex-m4": "mlp_cortex_m4.c.j2", "cortex-m0plus": "mlp_cortex_m0plus.c.j2"}
@@ -47,17 +48,6 @@ def _half(shift: int) -> int:
     return 1 << (shift - 1) if shift > 0 else 0
 
 
-def _acc_interval(w: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[list, list, list]:
-    """Exact per-neuron [min, max] of b + W x and the worst partial sum |b| + sum |w| max|x| (Python ints)."""
-    w = w.astype(object)
-    a, c = w * lo[None, :], w * hi[None, :]
-    bo = b.astype(object)
-    mn = list(np.minimum(a, c).sum(axis=1) + bo)
-    mx = list(np.maximum(a, c).sum(axis=1) + bo)
-    worst = list((abs(w) * np.maximum(abs(lo), abs(hi))[None, :]).sum(axis=1) + abs(bo))
-    return mn, mx, worst
-
-
 def _check_layers(qm: QModel, target: str) -> None:
     """Target kernels fuse ReLU/linear only, int16 outputs, a single model output, shifts >= 1."""
     if not isinstance(qm, QMLP):
@@ -74,7 +64,7 @@ def _check_layers(qm: QModel, target: str) -> None:
         raise UserError(f"--target {target}: the last layer must have one output")
 
 
-def _proven16(mn: list, mx: list, shift: int) -> bool:
+def _proven16(mn: np.ndarray, mx: np.ndarray, shift: int) -> bool:
     """Every neuron's shifted accumulator lies in int16 over the box (saturation would never act)."""
     lo, hi = int(rshift_rne(int(min(mn)), shift)), int(rshift_rne(int(max(mx)), shift))
     return lo >= -(2**15) and hi <= 2**15 - 1
@@ -113,7 +103,7 @@ def m4_layers(qm: QMLP) -> list[dict[str, Any]]:
     for k, (q, (lo, hi)) in enumerate(zip(qm.layers, _in_bounds(qm), strict=True)):
         n_out, n_in = q.w_q.shape
         half = _half(q.shift)
-        mn, mx, worst = _acc_interval(q.w_q, q.b_q, lo, hi)
+        mn, mx, worst = acc_interval(q.w_q, q.b_q, lo, hi)
         acc = 32 if max(worst) + half <= INT32_MAX else 64
         unroll = 4 if len(_words(q.w_q[0])) % 4 == 0 else (2 if len(_words(q.w_q[0])) % 2 == 0 else 1)
         bias = [int(b) + half for b in q.b_q]
@@ -139,7 +129,7 @@ def m4_layers(qm: QMLP) -> list[dict[str, Any]]:
     return out
 
 
-def _m0_acc(mn: list, mx: list, bias: list) -> int:
+def _m0_acc(mn: np.ndarray, mx: np.ndarray, bias: list) -> int:
     """32 when every neuron's b + 2^(s-1) and final b + W x + 2^(s-1) are int32 (the uint32 sum is exact)."""
     fits = min(mn) >= INT32_MIN and max(mx) <= INT32_MAX
     return 32 if fits and min(bias) >= INT32_MIN and max(bias) <= INT32_MAX else 64
@@ -151,10 +141,10 @@ def m0plus_layers(qm: QMLP) -> list[dict[str, Any]]:
     for k, (q, (lo, hi)) in enumerate(zip(qm.layers, _in_bounds(qm), strict=True)):
         n_out, n_in = q.w_q.shape
         half = _half(q.shift)
-        mn, mx, _ = _acc_interval(q.w_q, q.b_q + half, lo, hi)
+        mn, mx, _ = acc_interval(q.w_q, q.b_q + half, lo, hi)
         bias = [int(b) + half for b in q.b_q]
         acc = _m0_acc(mn, mx, bias)
-        proven = _proven16(*_acc_interval(q.w_q, q.b_q, lo, hi)[:2], q.shift)
+        proven = _proven16(*acc_interval(q.w_q, q.b_q, lo, hi)[:2], q.shift)
         u = (q.w_q.astype(np.int64) + 32768).tolist()
         order = [j for p in range(0, n_out - 1, 2) for j in (p, p + 1)] + ([n_out - 1] if n_out % 2 else [])
         out.append(

@@ -1,1 +1,1 @@
-"""Controller twins (fixed-point PID, the paper's two-level controller) and the closed-loop simulation."""
+"""The closed loop (the simulated SEA with the C controller or its twin) and the paper's Table II."""

@@ -6,9 +6,9 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
-from seagen.control.controller import MLP_PRED_AVG, ControlConfig
 from seagen.control.loop import CloudPredictor, McuPredictor, run_closed_loop
 from seagen.control.predictors import generated_cloud, generated_mcu, kinematic_mcu
+from seagen.runtime.control import MLP_PRED_AVG, ControlConfig
 
 TARGETS_N = (5.0, 10.0, 15.0)
 CONTACT_DEG = tuple(float(a) for a in np.linspace(7.0, 25.0, 10))  # ten contact angles
@@ -83,11 +83,26 @@ def runs(
         yield target, rec
 
 
-def run_config(name: str, latency_s: float = 0.1, impl: str = "c", seed: int = 0) -> dict[str, dict]:
-    """Every target at every contact angle for one configuration: {target: {metric: value, ...}};
-    settling_s is the mean over the angles that settle (`settled` of them), None if none does."""
+def estimate_error(rec: dict[str, np.ndarray]) -> float:
+    """Mean |estimated - load-cell force| over the last window (both smoothed), over the contact angles."""
+    t = rec["t_s"][:, 0]
+    win = t >= t[-1] - ERROR_WINDOW_S
+    return float(np.abs(smoothed(rec["estimate_n"])[win] - smoothed(rec["force_n"])[win]).mean())
+
+
+def run_config(
+    name: str,
+    latency_s: float = 0.1,
+    impl: str = "c",
+    seed: int = 0,
+    setups: dict[str, Callable[[float], Setup]] | None = None,
+    estimator: Callable[[dict[str, np.ndarray]], np.ndarray] | None = None,
+) -> dict[str, dict]:
+    """Every target at every contact angle for one configuration (of `setups`, default CONFIGS):
+    {target: {metric: value, ...}}; settling_s is the mean over the angles that settle (`settled` of them),
+    None if none does. `estimator` (a calibration model) adds its force estimate and its error."""
     out: dict[str, dict] = {}
-    for target, rec in runs(*CONFIGS[name](latency_s), impl=impl, seed=seed):
+    for target, rec in runs(*(setups or CONFIGS)[name](latency_s), impl=impl, seed=seed):
         m = metrics(rec)
         s = m["settling_s"]
         out[f"{target:g}"] = {
@@ -97,6 +112,9 @@ def run_config(name: str, latency_s: float = 0.1, impl: str = "c", seed: int = 0
             "settling_final_s": round(float(np.nanmean(m["settling_final_s"])), 3),
             "trace": rec,
         }
+        if estimator is not None:
+            rec["estimate_n"] = estimator(rec)
+            out[f"{target:g}"]["estimate_error_n"] = round(estimate_error(rec), 4)
     return out
 
 
@@ -106,9 +124,12 @@ def simulate(
     impl: str = "c",
     seed: int = 0,
     plots: str | None = None,
+    setups: dict[str, Callable[[float], Setup]] | None = None,
+    estimator: Callable[[dict[str, np.ndarray]], np.ndarray] | None = None,
 ) -> dict[str, dict[str, dict]]:
-    """Run the configurations, write a step-response plot of each into `plots`, return Table II."""
-    results = {n: run_config(n, latency_s, impl, seed) for n in names}
+    """Run the configurations (of `setups`, default CONFIGS), write a step-response plot of each into
+    `plots`, return Table II."""
+    results = {n: run_config(n, latency_s, impl, seed, setups, estimator) for n in names}
     if plots:
         from pathlib import Path
 
@@ -130,13 +151,15 @@ def sweep(
     seed: int = 0,
     progress: Callable[[int], None] | None = None,
     plots: str | None = None,
+    setups: dict[str, Callable[[float], Setup]] | None = None,
+    estimator: Callable[[dict[str, np.ndarray]], np.ndarray] | None = None,
 ) -> dict[str, dict[str, dict]]:
     """Table II over plant-noise seeds seed..seed+seeds-1: per configuration and target the mean over seeds
     of error and settling time, the settling range over seeds, and the angles settled out of all runs
     (plots, if asked for, are of the first seed)."""
     runs = []
     for k in range(seeds):
-        runs.append(simulate(names, latency_s, impl, seed + k, plots if k == 0 else None))
+        runs.append(simulate(names, latency_s, impl, seed + k, plots if k == 0 else None, setups, estimator))
         if progress:
             progress(k)
     out: dict[str, dict[str, dict]] = {}
@@ -155,18 +178,27 @@ def sweep(
                 "settling_final_s": round(float(np.mean([r["settling_final_s"] for r in rows])), 3),
                 "seeds": seeds,
             }
+            if "estimate_error_n" in rows[0]:
+                est = np.mean([r["estimate_error_n"] for r in rows])
+                out[n][t]["estimate_error_n"] = round(float(est), 4)
     return out
 
 
-def format_table2(table: dict[str, dict[str, dict]]) -> str:
+def format_table2(table: dict[str, dict[str, dict]], paper_rows: dict[str, str] | None = None) -> str:
     """Table II as text: measured error and settling time per configuration and target beside the paper's
-    (a seed sweep adds the settling range over seeds)."""
+    (a seed sweep adds the settling range over seeds; a calibration model its force-estimate error).
+    `paper_rows`: configuration -> the paper's row (SF or MLP) for configurations not in PAPER_ROW."""
+    rows_of = {**PAPER_ROW, **(paper_rows or {})}
     ranged = any("settling_min_s" in r for rows in table.values() for r in rows.values())
+    est = any("estimate_error_n" in r for rows in table.values() for r in rows.values())
     head = f"{'config':<11}{'force':>6}{'error N':>9}{'settling s':>12}"
     head += f"{'range s':>12}" if ranged else ""
-    lines = [head + f"{'settled':>9}{'to final s':>12}{'paper':>8}{'error N':>9}{'settling s':>12}"]
+    head += f"{'settled':>9}{'to final s':>12}" + (f"{'est. err N':>12}" if est else "")
+    lines = [head + f"{'paper':>8}{'error N':>9}{'settling s':>12}"]
+    width = max([11, *(len(n) + 1 for n in table)])
+    lines[0] = f"{'config':<{width}}" + lines[0][11:]
     for name, rows in table.items():
-        paper = PAPER_TABLE2[PAPER_ROW.get(name, "SF")]
+        paper = PAPER_TABLE2[rows_of.get(name, "SF")]
         for t, r in rows.items():
             s = "never" if r["settling_s"] is None else f"{r['settling_s']:.2f}"
             rng = ""
@@ -175,8 +207,9 @@ def format_table2(table: dict[str, dict[str, dict]]) -> str:
                 rng = f"{'-' if lo is None else f'{lo:.2f}-{hi:.2f}':>12}"
             pe, ps = paper[t]
             settled = f"{r['settled']}/{r.get('angles', len(CONTACT_DEG))}"
+            e = f"{r['estimate_error_n']:>12.2f}" if est else ""
             lines.append(
-                f"{name:<11}{t + ' N':>6}{r['error_avg_n']:>9.2f}{s:>12}{rng}{settled:>9}"
-                f"{r['settling_final_s']:>12.2f}{PAPER_ROW.get(name, 'SF'):>8}{pe:>9.2f}{ps:>12.2f}"
+                f"{name:<{width}}{t + ' N':>6}{r['error_avg_n']:>9.2f}{s:>12}{rng}{settled:>9}"
+                f"{r['settling_final_s']:>12.2f}{e}{rows_of.get(name, 'SF'):>8}{pe:>9.2f}{ps:>12.2f}"
             )
     return "\n".join(lines)

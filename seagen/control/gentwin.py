@@ -8,14 +8,14 @@ from functools import cache
 import numpy as np
 import pandas as pd
 
-from seagen.control.controller import FORCE_FRAC
 from seagen.data.features import derive
 from seagen.defaults import DEFAULT_PREFIX, GENERATED
 from seagen.ir import FloatModel, QModel
-from seagen.quant import features as F
-from seagen.quant import kernels as K
-from seagen.quant import primitives as P
 from seagen.reference import float_ref, numpy_ref
+from seagen.runtime import features as F
+from seagen.runtime import fixed as P
+from seagen.runtime import nn as K
+from seagen.runtime.control import FORCE_FRAC
 
 MODEL_FILES = {prefix: f"{name}.pt" for name, prefix in DEFAULT_PREFIX.items()}  # prefix -> model file
 
@@ -41,7 +41,7 @@ def export(prefix: str) -> DefaultModel:
 class StepTwin:
     """Twin of NAME_predict_q16 (NAME_step + scaling to Q16 mm) for a batch, one call per tick.
 
-    The feature pipeline is sea_features' twin (seagen.quant.features.Pipeline): its state starts reset,
+    The feature pipeline is sea_features' twin (seagen.runtime.features.Pipeline): its state starts reset,
     like NAME_reset.
     """
 

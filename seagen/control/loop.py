@@ -9,9 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from seagen.control.controller import ControlConfig, ControlState, Predictor, control_reset, control_step, q16
-from seagen.control.controller import set_desired as py_set_desired
 from seagen.plant import Plant, PlantConfig
+from seagen.runtime.control import ControlConfig, ControlState, Predictor, control_reset, control_step, q16
+from seagen.runtime.control import set_desired as py_set_desired
 
 PLANT_STEPS_PER_TICK = 10  # 1 kHz plant, 100 Hz controller
 TICK_S = 0.01
@@ -78,14 +78,19 @@ class PyController:
 
 
 def make_controller(impl: str, pred: McuPredictor | CloudPredictor, c: ControlConfig) -> Any:
-    """The C (`impl='c'`, built by cffi) or Python (`'py'`) controller for this predictor."""
+    """The C (`impl='c'`, built by cffi), Python (`'py'`) or emulated-board (`'pil'`, `'pil:CORE'`: the
+    firmware in QEMU, seagen.pil) controller for this predictor."""
     if isinstance(pred, McuPredictor):  # the C controller calls the C predictor; only the twin needs its twin
         c = replace(c, predictor=pred.make_twin() if impl == "py" else None, predict_every=pred.predict_every)
     else:
         c = replace(c, predictor=None)
     if impl == "py":
         return PyController(c)
-    from seagen.control.cbuild import CController, build_control
+    if impl.startswith("pil"):
+        from seagen.control.pil import loop_controller
+
+        return loop_controller(impl, pred, c)
+    from seagen.toolchain.controller import CController, build_control
 
     if isinstance(pred, McuPredictor):
         mod = build_control(pred.cdef, pred.sources)
@@ -114,6 +119,15 @@ def run_closed_loop(
     """Run the experiment; returns per-tick records (ticks x actuators) of sensors, controller and plant."""
     plant = Plant(plant_cfg or PlantConfig(), contact_deg, seed=seed)
     ctrl = make_controller(impl, pred, control_cfg or ControlConfig())
+    try:
+        return _run(plant, ctrl, pred, target_n, duration_s, sensor_hook)
+    finally:
+        if hasattr(ctrl, "close"):  # a board in QEMU
+            ctrl.close()
+
+
+def _run(plant: Plant, ctrl, pred, target_n, duration_s: float, sensor_hook) -> dict[str, np.ndarray]:
+    """The loop of run_closed_loop with its plant and controller."""
     s = plant.read()
     ctrl.reset(s.enc, s.pot)
     target = target_n if callable(target_n) else (lambda _k: float(target_n))

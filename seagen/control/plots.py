@@ -4,45 +4,56 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from seagen.plotting import figure, save_png
+from seagen.plotting import band_legend, figure, save_png, target_line
 
 
 def step_plot(name: str, results: dict[str, dict], path: Path, angle_index: int = 2) -> None:
     """One configuration: smoothed shaft force vs time for each target at one contact angle."""
-    from seagen.control.experiment import CONTACT_DEG, smoothed
+    save_png(step_figure(name, results, angle_index), path, dpi=120)
+
+
+def step_figure(name: str, results: dict[str, dict], angle_index: int = 2):
+    """The step-response figure: force per target, each target's labelled line and its settling band, and
+    a calibration model's force estimate (dotted) when the runs carry one."""
+    from seagen.control.experiment import BAND_N, CONTACT_DEG, smoothed
 
     fig = figure(figsize=(6, 3.5))
     ax = fig.add_subplot()
-    for target, r in results.items():
+    angle_index = min(angle_index, len(CONTACT_DEG) - 1)
+    for k, (target, r) in enumerate(results.items()):
         rec = r["trace"]
         f = smoothed(rec["force_n"])[:, angle_index]
-        ax.plot(rec["t_s"][:, angle_index], f, label=f"{target} N")
-        ax.axhline(float(target), color="grey", lw=0.5, ls="--")
+        t = rec["t_s"][:, angle_index]
+        ax.plot(t, f, color=f"C{k}", label=f"load cell, {target} N target")
+        if "estimate_n" in rec:
+            est = smoothed(rec["estimate_n"])[:, angle_index]
+            ax.plot(t, est, ":", color=f"C{k}", label=f"calibration model, {target} N target")
+        target_line(ax, float(target), BAND_N, "N")
     ax.set(xlabel="time (s)", ylabel="force at the SEA shaft (N)")
     ax.set_title(f"{name}: contact at {CONTACT_DEG[angle_index]:.0f} deg")
-    _save(fig, ax, path)
+    band_legend(ax, BAND_N, "N")
+    fig.tight_layout()
+    return fig
 
 
 def comparison_plot(results: dict[str, dict[str, dict]], path: Path, angle_index: int = 2) -> None:
     """Paper Fig. 17 style: every configuration's force at every target, one contact angle, one panel."""
-    from seagen.control.experiment import CONTACT_DEG, smoothed
+    from seagen.control.experiment import BAND_N, CONTACT_DEG, smoothed
 
     fig = figure(figsize=(7, 4))
     ax = fig.add_subplot()
+    angle_index = min(angle_index, len(CONTACT_DEG) - 1)
     styles = dict(zip(results, ("-", "--", ":", "-."), strict=False))
     for (name, res), color in zip(results.items(), ("C0", "C1", "C2", "C3"), strict=False):
-        for k, (target, r) in enumerate(res.items()):
+        for k, r in enumerate(res.values()):
             rec = r["trace"]
             f = smoothed(rec["force_n"])[:, angle_index]
             ax.plot(rec["t_s"][:, angle_index], f, styles[name], color=color, label=name if k == 0 else None)
-            ax.axhline(float(target), color="grey", lw=0.5)
+    for target in next(iter(results.values()), {}):
+        target_line(ax, float(target), BAND_N, "N")
     ax.set(xlabel="time (s)", ylabel="force at the SEA shaft (N)", xlim=(0, 4))
-    ax.set_title(f"5 / 10 / 15 N, contact at {CONTACT_DEG[angle_index]:.0f} deg")
-    _save(fig, ax, path)
-
-
-def _save(fig, ax, path: Path) -> None:
-    """Legend, tight layout, PNG written atomically, figure closed."""
-    ax.legend()
+    targets = " / ".join(next(iter(results.values()), {}))
+    ax.set_title(f"{targets} N, contact at {CONTACT_DEG[angle_index]:.0f} deg")
+    band_legend(ax, BAND_N, "N")
     fig.tight_layout()
     save_png(fig, path, dpi=120)

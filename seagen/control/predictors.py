@@ -7,15 +7,15 @@ from types import ModuleType
 import numpy as np
 import pandas as pd
 
-from seagen.control.controller import KinParams, predict_kinematic
 from seagen.control.loop import CloudPredictor, McuPredictor
 from seagen.fit.predict import kinematics_predict
+from seagen.runtime.control import KinParams, predict_kinematic
 
 KIN = KinParams()
 
 
 def _kin_ctx(mod: ModuleType) -> object:
-    from seagen.control.cbuild import kin_ctx
+    from seagen.toolchain.controller import kin_ctx
 
     return kin_ctx(mod, KIN)
 
@@ -41,16 +41,17 @@ def generated_mcu(prefix: str, predict_every: int = 1) -> McuPredictor:
     Its feature pipeline differences consecutive calls, so it is meant to be called at 100 Hz (the
     training rate); at predict_every > 1 its d_/dd_ inputs are predict_every times the trained scale.
     """
-    from seagen.control.cbuild import generated_cdef, generated_ctx, generated_sources
     from seagen.control.gentwin import StepTwin
+    from seagen.defaults import GENERATED
+    from seagen.toolchain.controller import generated_cdef, generated_ctx, generated_sources
 
     return McuPredictor(
         f"{prefix}_predict_q16",
         generated_ctx(prefix),
         lambda: StepTwin(prefix),
         predict_every,
-        generated_cdef(prefix),
-        generated_sources(prefix),
+        generated_cdef(prefix, GENERATED),
+        generated_sources(prefix, GENERATED),
         stateful=True,
     )
 

@@ -16,7 +16,7 @@ from seagen.control.experiment import (
     metrics,
     runs,
 )
-from seagen.control.pid import DEFAULT_PID_SI, PidParams
+from seagen.runtime.pid import DEFAULT_PID_SI, PidParams
 
 # The shipped choice (DEFAULT_PID, MLP_PRED_AVG) in the search's parameters: the first trial, as a baseline.
 SHIPPED = {**DEFAULT_PID_SI, "pred_avg": MLP_PRED_AVG}

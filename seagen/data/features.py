@@ -5,7 +5,7 @@ from __future__ import annotations
 import pandas as pd
 
 from seagen import geometry as g
-from seagen.quant import features as F
+from seagen.runtime import features as F
 
 # Order of the calibration MLP's nine inputs (paper §V-A).
 MLP_FEATURES = (
@@ -24,7 +24,7 @@ SAMPLE_RATE_HZ = 100.0
 
 def derive(df: pd.DataFrame) -> pd.DataFrame:
     """Add derived columns: angle_deg (Eq. 5), compression_mm (Eq. 2) and the d_/dd_ differences of the
-    feature pipeline's base signals (its Python twin, seagen.quant.features: same table, same warm-up)."""
+    feature pipeline's base signals (its Python twin, seagen.runtime.features: same table, same warm-up)."""
     out = df.copy()
     out["angle_deg"] = g.angle_from_pot(df["pot"].to_numpy())
     out["compression_mm"] = g.compression_mm(out["angle_deg"].to_numpy(), df["enc"].to_numpy())

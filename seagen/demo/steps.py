@@ -12,11 +12,11 @@ def _banner(title: str) -> None:
 
 def step_data(out: Path, seed: int) -> Path:
     """Generate the three splits and print the paper-figure table."""
+    from seagen.data.friction import measure_friction
     from seagen.data.protocol import generate
     from seagen.data.schema import save_csv
-    from seagen.experiments import measure_friction
+    from seagen.fit.data_summary import format_summary, summarize
     from seagen.plant import PlantConfig
-    from seagen.summary import format_summary, summarize
 
     _banner("1. data on the simulated SEA (paper §VIII-A protocol)")
     data = out / "data"
@@ -50,7 +50,7 @@ def step_models(out: Path, data: Path, seed: int) -> dict[str, Path]:
 
 def step_export(out: Path, data: Path, models: dict[str, Path]) -> None:
     """Export every model to C and check C == numpy == torch == onnxruntime on the data."""
-    from seagen.build.equivalence import check_data_dir
+    from seagen.datacheck import check_data_dir
     from seagen.demo import export_defaults
 
     _banner("3. seagen export: integer-only C, checked bit for bit")

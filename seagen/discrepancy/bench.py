@@ -156,13 +156,11 @@ def bench(seeds: int, jobs: int = 2) -> dict:
 
 
 def run_all(fn, todo: list, jobs: int) -> list[dict]:
-    """fn over every item of todo in `jobs` worker processes, in order, with a progress bar on stderr."""
-    from concurrent.futures import ProcessPoolExecutor
+    """fn over every item of todo in `jobs` worker processes (seagen.workers), in order, with a progress
+    bar on stderr when it is a terminal."""
+    from seagen.workers import run_in_workers
 
-    from tqdm import tqdm
-
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
-        return list(tqdm(pool.map(fn, todo), total=len(todo), desc="data sets", unit="set", leave=False))
+    return run_in_workers(fn, todo, jobs, desc="data sets", unit="set")
 
 
 def _run(args: tuple[str, tuple[str, ...], int]) -> dict:

@@ -47,6 +47,8 @@ def residual_maps(res: Result, path: Path) -> None:
     """Mean residual (noise sigmas) over measured force x contact angle, per channel, before and after."""
     import matplotlib
 
+    from seagen.plotting import masked_cmap
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -65,14 +67,15 @@ def residual_maps(res: Result, path: Path) -> None:
             means[title, c] = np.where(n > 0, s / np.maximum(n, 1), np.nan)
     for row, title in enumerate(("before", "after")):
         for col, c in enumerate(SCORE_CHANNELS):
-            mean = means[title, c]
             # one colour scale for a channel's before and after maps (the larger of the two)
             lim = max(3.0, *(float(np.nanmax(np.abs(means[k, c]), initial=0.0)) for k in ("before", "after")))
-            im = axes[row, col].pcolormesh(fe, ae, mean.T, cmap="RdBu_r", vmin=-lim, vmax=lim)
+            cells = np.ma.masked_invalid(means[title, c].T)  # no data: grey, not the white of a zero residual
+            im = axes[row, col].pcolormesh(fe, ae, cells, cmap=masked_cmap("RdBu_r"), vmin=-lim, vmax=lim)
             axes[row, col].set_title(f"{c} residual, {title}")
             axes[row, col].set_xlabel("measured force at the shaft (N)")
             axes[row, col].set_ylabel("contact angle (deg)")
             fig.colorbar(im, ax=axes[row, col], label="mean residual (noise sigma)")
+    fig.suptitle("grey cells: no samples there (not a zero residual)", fontsize=9)
     fig.savefig(path, dpi=90)
     plt.close(fig)
 

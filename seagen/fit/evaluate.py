@@ -9,9 +9,9 @@ from typing import Any
 import pandas as pd
 
 from seagen.errors import UserError
-from seagen.fit.modelfile import load_model
 from seagen.fit.predict import TASKS, UNIT, kinematics_predict, predict, task_errors
 from seagen.fit.train import load_derived
+from seagen.modelfile import load_model
 
 SCORED_SPLITS = ("test", "validation")
 REQUIRED_KEYS = ("kind", "task", "features", "output_name")

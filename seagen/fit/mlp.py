@@ -13,7 +13,7 @@ import torch
 from torch import nn
 
 from seagen.data.features import MLP_FEATURES, SAMPLE_RATE_HZ
-from seagen.fit.modelfile import FeatureSpec
+from seagen.modelfile import FeatureSpec
 
 CONTROL_FEATURES = ("force_n", "pot", "d_pot", "dd_pot", "d_enc", "dd_enc", "d_compression_mm")
 MLP_INPUTS = {"calibration": MLP_FEATURES, "control": CONTROL_FEATURES}

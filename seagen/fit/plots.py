@@ -27,7 +27,8 @@ def plot_surface(model: dict[str, Any], train: pd.DataFrame, path: Path, title: 
     rows = train.iloc[:: max(1, len(train) // MAX_SCATTER)]
     fig = figure(figsize=(7, 5), dpi=100)
     ax = fig.add_subplot(projection="3d")
-    ax.plot_surface(ga, gb, gz, cmap="viridis", alpha=0.6, linewidth=0)
+    surf = ax.plot_surface(ga, gb, gz, cmap="viridis", alpha=0.6, linewidth=0)
+    fig.colorbar(surf, ax=ax, shrink=0.6, pad=0.1, label=f"fitted {LABELS.get(out, out)}")
     ax.scatter(rows[a], rows[b], rows[out], s=2, c="k", alpha=0.4, label="training data")
     ax.set_xlabel(LABELS.get(a, a))
     ax.set_ylabel(LABELS.get(b, b))
@@ -41,12 +42,12 @@ def plot_validation(task: str, named: dict[str, dict[str, Any]], val: pd.DataFra
     """Measured vs predicted output per validation sample: kinematics and every model of the task."""
     fig = figure(figsize=(7, 5), dpi=100)
     ax = fig.add_subplot()
-    x = np.arange(len(val))
+    x = validation_time(val)
     ax.plot(x, val[TARGET[task]], "k-", lw=2, label="measured")
     ax.plot(x, kinematics_predict(task, val), ":", label="kinematics")
     for name, m in named.items():
         ax.plot(x, predict(m, val), "--", label=name)
-    ax.set_xlabel("validation sample (100 Hz)")
+    ax.set_xlabel("time (s)")
     ax.set_ylabel(f"{TARGET[task]} ({UNIT[task]})")
     angle = float(val["angle_set_deg"].iloc[0])
     kind = "force calibration" if task == "calibration" else "compression prediction"
@@ -54,6 +55,16 @@ def plot_validation(task: str, named: dict[str, dict[str, Any]], val: pd.DataFra
     ax.grid(alpha=0.3)
     ax.legend()
     save_png(fig, path, bbox_inches="tight")
+
+
+def validation_time(val: pd.DataFrame) -> np.ndarray:
+    """Seconds along the validation set: its t_s, continued across trials, else the sample index at 100 Hz."""
+    if "t_s" not in val.columns:
+        return np.arange(len(val)) / 100.0
+    t = val["t_s"].to_numpy(dtype=float)
+    step = np.diff(t, prepend=t[0])
+    step[step < 0] = 0.01  # a new trial restarts its clock: keep the axis running
+    return t[0] + np.cumsum(step) if len(t) else t
 
 
 def write_plots(

@@ -10,7 +10,7 @@ import pandas as pd
 from seagen import geometry as g
 from seagen.errors import UserError
 from seagen.fit import kinematics
-from seagen.fit.modelfile import FeatureSpec
+from seagen.modelfile import FeatureSpec
 
 TASKS = ("calibration", "control")
 TARGET = {"calibration": "force_n", "control": "compression_mm"}

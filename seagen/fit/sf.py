@@ -6,6 +6,8 @@ from typing import Any
 
 import numpy as np
 
+from seagen.ir import poly2
+
 ORDER = 3
 # Ascending total degree, then descending power of the first input: 1, a, b, a², ab, b², a³, a²b, ab², b³.
 POWERS: tuple[tuple[int, int], ...] = tuple((d - j, j) for d in range(ORDER + 1) for j in range(d + 1))
@@ -79,4 +81,4 @@ def fit_sf(a: np.ndarray, b: np.ndarray, y: np.ndarray, loss: str) -> dict[str, 
 def eval_sf(sf: dict[str, Any], a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Evaluate a stored surface {"powers", "coef"} at raw inputs (float64 reference)."""
     powers = tuple((int(i), int(j)) for i, j in sf["powers"])
-    return design(a, b, powers) @ np.asarray(sf["coef"], dtype=float)
+    return poly2(powers, np.asarray(sf["coef"], dtype=float), a, b)

@@ -15,9 +15,9 @@ from seagen.data.features import SAMPLE_RATE_HZ, derive
 from seagen.data.schema import SPLITS, load_split
 from seagen.errors import UserError
 from seagen.fit.mlp import MLP_OUTPUT, RAW_SIGNALS, MlpConfig, fit_mlp, unit_of
-from seagen.fit.modelfile import FeatureSpec, save_model
 from seagen.fit.predict import TASKS, predict, task_errors
 from seagen.fit.sf import SF_INPUTS, SF_OUTPUT, fit_sf
+from seagen.modelfile import FeatureSpec, save_model
 
 KINDS = ("sf", "mlp")
 DEFAULT_HIDDEN = {"calibration": (16, 32), "control": (8, 16)}  # paper Tables I and III

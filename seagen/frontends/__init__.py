@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import io
+import re
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +27,8 @@ class Network:
     n_in: int
     run: Callable[[np.ndarray], np.ndarray]  # float64 (N, n_in) -> (N, n_out) through the original runtime
     runtime: str  # e.g. "torch forward (float32)"
+    dtype: str = "float32"  # the narrowest float type the original computes in (its rounding sets the margin)
+    notes: list[str] = field(default_factory=list)  # one line each: how the file was read, when not literally
 
 
 def read_onnx(p: Path) -> Network:
@@ -34,11 +37,44 @@ def read_onnx(p: Path) -> Network:
 
     model = load_onnx(p)
     items, n_in = onnx_items(p, model)
-    return Network(to_layers(items, n_in, str(p)), n_in, _ort_runner(model, str(p)), "onnxruntime (float32)")
+    dtype = onnx_dtype(model)
+    run = _ort_runner(model, str(p))
+    return Network(to_layers(items, n_in, str(p)), n_in, run, f"onnxruntime ({dtype})", dtype)
+
+
+def onnx_dtype(model: Any) -> str:
+    """The narrowest float type among the graph's inputs and initializers (float32 when there is none)."""
+    from onnx import TensorProto
+
+    names = {TensorProto.DOUBLE: "float64", TensorProto.FLOAT: "float32"}
+    names |= {TensorProto.FLOAT16: "float16", TensorProto.BFLOAT16: "bfloat16"}
+    types = [i.type.tensor_type.elem_type for i in model.graph.input]
+    types += [t.data_type for t in model.graph.initializer]
+    return narrowest([names[t] for t in types if t in names])
+
+
+def narrowest(dtypes: list[str]) -> str:
+    """The float type with the largest unit roundoff among the names given (float32 for none)."""
+    from seagen.frontends.margin import UNIT_ROUNDOFF
+
+    return max(dtypes or ["float32"], key=lambda d: UNIT_ROUNDOFF[d])
+
+
+def _first_line(e: BaseException) -> str:
+    """The first line of an exception's message (its type when it has none); for an error raised inside a
+    TorchScript forward, its last line (the original exception, after the TorchScript traceback)."""
+    lines = [ln.strip() for ln in str(e).strip().splitlines() if ln.strip()]
+    if not lines:
+        return type(e).__name__
+    if "TorchScript interpreter" in lines[0]:
+        raised = [ln for ln in lines if re.match(r"[\w.]*(Error|Exception): ", ln)]
+        return raised[-1] if raised else lines[-1]
+    return lines[0]
 
 
 def _ort_runner(model: Any, where: str) -> Callable[[np.ndarray], np.ndarray]:
-    """onnxruntime on the original graph, inputs cast to the graph input's type."""
+    """onnxruntime on the original graph, inputs cast to the graph input's type; a batch dimension the graph
+    fixes is respected (rows are fed in batches of that size, the last one padded)."""
     import onnxruntime as ort
     from onnx import helper
 
@@ -46,16 +82,39 @@ def _ort_runner(model: Any, where: str) -> Callable[[np.ndarray], np.ndarray]:
         sess = ort.InferenceSession(model.SerializeToString(), providers=["CPUExecutionProvider"])
     except Exception as e:  # onnxruntime raises its own types
         raise UserError(
-            f"{where}: onnxruntime cannot run the original graph (the oracle needs it): {e}"
+            f"{where}: onnxruntime cannot run the original graph (the oracle needs it): {_first_line(e)}"
         ) from None
     inp = model.graph.input[[i.name for i in model.graph.input].index(sess.get_inputs()[0].name)]
     dtype = helper.tensor_dtype_to_np_dtype(inp.type.tensor_type.elem_type)
+    dim0 = inp.type.tensor_type.shape.dim[0]
+    fixed = dim0.dim_value if dim0.HasField("dim_value") and dim0.dim_value > 0 else None
 
-    def run(x: np.ndarray) -> np.ndarray:
-        y = sess.run(None, {inp.name: np.asarray(x, dtype=dtype)})[0]
+    def once(x: np.ndarray) -> np.ndarray:
+        try:
+            y = sess.run(None, {inp.name: np.asarray(x, dtype=dtype)})[0]
+        except Exception as e:  # onnxruntime raises its own types
+            raise UserError(
+                f"{where}: onnxruntime failed running the original graph: {_first_line(e)}"
+            ) from None
         return np.asarray(y, dtype=float).reshape(len(x), -1)
 
-    return run
+    return once if fixed is None else batched(once, fixed)
+
+
+def batched(run: Callable[[np.ndarray], np.ndarray], size: int) -> Callable[[np.ndarray], np.ndarray]:
+    """Run a fixed-batch original on any number of rows: batches of `size`, the last padded with its own
+    first row, the padding dropped from the result."""
+
+    def run_all(x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x)
+        n = len(x)
+        if n == 0:
+            return np.zeros((0, 1))
+        pad = (-n) % size
+        xs = np.concatenate([x, np.repeat(x[:1], pad, axis=0)]) if pad else x
+        return np.vstack([run(xs[i : i + size]) for i in range(0, len(xs), size)])[:n]
+
+    return run_all
 
 
 def read_module(obj: Any, p: Path, n_in: int) -> Network:
@@ -69,21 +128,41 @@ def read_module(obj: Any, p: Path, n_in: int) -> Network:
     if isinstance(obj, torch.nn.Module):
         from seagen.frontends.torch_reader import sequential_items
 
-        obj.eval()
+        notes = _eval_mode(obj, p)
         seq = sequential_items(obj)
         if seq is not None:
-            run = _torch_runner(obj, None, _dtype(obj))
-            return Network(to_layers(seq, n_in, str(p)), n_in, run, "torch forward")
-        return _read_exported(_export(obj, p, n_in), obj, p, None)
+            d = _dn(_dtype(obj))
+            run = _torch_runner(obj, None, _in_dtype(obj), str(p))
+            return Network(to_layers(seq, n_in, str(p)), n_in, run, f"torch forward ({d})", d, notes)
+        net = _read_exported(_export(obj, p, n_in), obj, p, None)
+        net.notes = notes
+        return net
     raise UserError(f"{p}: holds a {type(obj).__name__}, not a torch module or a seagen model file")
 
 
 def _read_script(sm: Any, p: Path, n_in: int) -> Network:
-    """TorchScript: its inlined graph through the TorchScript-based ONNX exporter; the original is sm."""
+    """TorchScript: its inlined graph through the TorchScript-based ONNX exporter; the original is sm (in
+    eval mode, the inference behaviour)."""
     from seagen.frontends.onnx_reader import onnx_items
 
+    notes = _eval_mode(sm, p)
     items, width = onnx_items(p, _script_to_onnx(sm, p, n_in))
-    return Network(to_layers(items, width, str(p)), width, _torch_runner(sm, None, _dtype(sm)), "TorchScript")
+    d = _dn(_dtype(sm))
+    run = _torch_runner(sm, None, _in_dtype(sm), str(p))
+    return Network(to_layers(items, width, str(p)), width, run, f"TorchScript ({d})", d, notes)
+
+
+def _eval_mode(m: Any, p: Path) -> list[str]:
+    """Switch a module saved in training mode to eval mode (what inference runs: Dropout off, BatchNorm on
+    its running statistics); the one-line note that says so, or none."""
+    training = any(c.training for c in m.modules())
+    m.eval()
+    if not training:
+        return []
+    return [
+        f"note: {p.name} was saved in training mode; exported its inference (eval-mode) behaviour "
+        "(Dropout off, BatchNorm on running statistics)"
+    ]
 
 
 def _read_exported(ep: Any, runner: Any, p: Path, fixed: int | None) -> Network:
@@ -91,17 +170,31 @@ def _read_exported(ep: Any, runner: Any, p: Path, fixed: int | None) -> Network:
     from seagen.frontends.torch_reader import exported_items
 
     items, width = exported_items(ep, str(p))
-    dtype = _user_input(ep, p).meta["val"].dtype
-    return Network(
-        to_layers(items, width, str(p)), width, _torch_runner(runner, fixed, dtype), "torch forward"
-    )
+    d_in = _user_input(ep, p).meta["val"].dtype
+    weights = [_dn(v.dtype) for v in ep.state_dict.values() if v.is_floating_point()]
+    d = narrowest([_dn(d_in), *weights])
+    run = _torch_runner(runner, fixed, d_in, str(p))
+    return Network(to_layers(items, width, str(p)), width, run, f"torch forward ({d})", d)
 
 
 def _dtype(m: Any) -> Any:
-    """The floating dtype of a module's first parameter (float32 when it has none)."""
+    """The narrowest floating dtype of a module's parameters and buffers (float32 when it has none)."""
+    import torch
+
+    ds = {q.dtype for q in [*m.parameters(), *m.buffers()] if q.is_floating_point()}
+    return max(ds, key=lambda d: torch.finfo(d).eps) if ds else torch.float32
+
+
+def _in_dtype(m: Any) -> Any:
+    """The floating dtype of a module's first parameter (what its forward takes; float32 when none)."""
     import torch
 
     return next((q.dtype for q in m.parameters() if q.is_floating_point()), torch.float32)
+
+
+def _dn(d: Any) -> str:
+    """torch.float16 -> 'float16'."""
+    return str(d).removeprefix("torch.")
 
 
 def _user_input(ep: Any, p: Path) -> Any:
@@ -133,7 +226,7 @@ def _export(m: Any, p: Path, n_in: int) -> Any:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            return torch.export.export(m, (torch.zeros(TRACE_BATCH, n_in, dtype=_dtype(m)),))
+            return torch.export.export(m, (torch.zeros(TRACE_BATCH, n_in, dtype=_in_dtype(m)),))
     except Exception as e:  # export raises many types for modules it cannot follow
         msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
         first = next((x for x in m.modules() if isinstance(x, torch.nn.Linear)), None)
@@ -157,7 +250,7 @@ def _script_to_onnx(sm: Any, p: Path, n_in: int) -> Any:
             warnings.simplefilter("ignore")
             torch.onnx.export(
                 sm,
-                (torch.zeros(TRACE_BATCH, n_in, dtype=_dtype(sm)),),
+                (torch.zeros(TRACE_BATCH, n_in, dtype=_in_dtype(sm)),),
                 buf,  # type: ignore[arg-type]  # the TorchScript-based exporter writes to file objects
                 dynamo=False,
                 input_names=["x"],
@@ -169,21 +262,24 @@ def _script_to_onnx(sm: Any, p: Path, n_in: int) -> Any:
     return onnx.load_from_string(buf.getvalue())
 
 
-def _torch_runner(m: Any, fixed_batch: int | None, dtype: Any) -> Callable[[np.ndarray], np.ndarray]:
-    """The module's own forward in its dtype (in chunks of the exported batch size for a .pt2)."""
+def _torch_runner(
+    m: Any, fixed_batch: int | None, dtype: Any, where: str
+) -> Callable[[np.ndarray], np.ndarray]:
+    """The module's own forward in its dtype (in batches of the exported batch size for a .pt2); an error
+    the forward raises is one line naming the file."""
     import torch
 
     def run(x: np.ndarray) -> np.ndarray:
-        n = len(x)
         t = torch.as_tensor(np.asarray(x, dtype=np.float64)).to(dtype)
-        if fixed_batch is not None:
-            t = torch.cat([t, t.new_zeros(((-n) % fixed_batch, t.shape[1]))])
-        with torch.no_grad():
-            chunks = [t] if fixed_batch is None else list(torch.split(t, fixed_batch))
-            ys = [m(c).double().numpy().reshape(len(c), -1) for c in chunks]
-        return np.vstack(ys)[:n]
+        try:
+            with torch.no_grad():
+                return m(t).double().numpy().reshape(len(x), -1)
+        except Exception as e:  # any forward can raise anything
+            raise UserError(
+                f"{where}: the model's own forward failed (the oracle needs it): {_first_line(e)}"
+            ) from None
 
-    return run
+    return run if fixed_batch is None else batched(run, fixed_batch)
 
 
 __all__ = ["Item", "Network", "read_module", "read_onnx"]

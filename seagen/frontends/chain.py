@@ -68,10 +68,17 @@ def refuse(where: str, item: Item, why: str) -> UserError:
     return UserError(f"{where}: {item.path or '?'} ({item.op}): {why}; {SUPPORTED}")
 
 
+def _number(v: object) -> float:
+    """A bound given as a number or a one-element array."""
+    return float(np.asarray(v, dtype=float).reshape(-1)[0])
+
+
 def clip_act(op: str, path: str, lo: float | None, hi: float | None) -> Act:
-    """Clip/clamp/Hardtanh/ReLU6 with one or two bounds (None = unbounded) as an IR activation."""
-    lo_f = -np.inf if lo is None else float(lo)
-    hi_f = np.inf if hi is None else float(hi)
+    """Clip/clamp/Hardtanh/ReLU6 with one or two bounds (None = unbounded) as an IR activation; min > max
+    gives max everywhere (as ONNX Clip and torch.clamp define it)."""
+    lo_f = -np.inf if lo is None else _number(lo)
+    hi_f = np.inf if hi is None else _number(hi)
+    lo_f = min(lo_f, hi_f)
     if lo_f == 0.0 and hi_f == np.inf:
         return Act(op, path, "relu")
     return Act(op, path, "hardtanh", lo=lo_f, hi=hi_f)
@@ -169,7 +176,11 @@ def to_layers(items: list[Item], n_in: int, where: str) -> list[FloatLayer]:
             if last.activation != "linear":
                 raise refuse(where, it, f"a second activation right after {last.activation} (stacked)")
             if it.kind == "hardtanh" and not it.lo <= it.hi:
-                raise refuse(where, it, f"clip bounds [{it.lo}, {it.hi}] are empty")
+                raise refuse(where, it, f"clip bounds [{it.lo}, {it.hi}] are not numbers")
+            if it.kind == "leaky_relu" and not -1.0 <= it.alpha <= 1.0:
+                raise refuse(
+                    where, it, f"LeakyReLU slope {it.alpha} (seagen reads slopes between -1 and 1 exactly)"
+                )
             layers[-1] = FloatLayer(last.weight, last.bias, it.kind, it.alpha, it.lo, it.hi)
         else:
             raise refuse(where, it, "not a supported op")

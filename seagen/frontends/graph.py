@@ -34,7 +34,7 @@ def chain_nodes(
         node = producer.get(edge)
         if node is None:
             raise UserError(f"{where}: edge '{edge}' is neither computed from the input nor a constant")
-        computed = [i for i in node.inputs if i and i not in consts]
+        computed = list(dict.fromkeys(i for i in node.inputs if i and i not in consts))  # x + x: one edge
         if len(computed) != 1:
             what = ", ".join(computed) if computed else "nothing"
             raise UserError(

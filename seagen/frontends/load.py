@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import re
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -14,11 +13,13 @@ from typing import Any
 import numpy as np
 
 from seagen.errors import UserError, not_a_file
-from seagen.fit.modelfile import FORMAT, FeatureSpec
+from seagen.filekind import ONNX, UNKNOWN, file_kind
 from seagen.frontends import Network, read_module, read_onnx
-from seagen.frontends.margin import float32_margin
+from seagen.frontends import modeldict as D
+from seagen.frontends.margin import forward_margin
 from seagen.frontends.torch_files import load_torch
-from seagen.ir import FloatLayer, FloatMLP, FloatModel, FloatSF, Signal
+from seagen.ir import FloatLayer, FloatMLP, FloatModel, FloatSF, Signal, poly2
+from seagen.modelfile import FORMAT, FeatureSpec
 from seagen.quant.qformat import widened, widened_box
 
 UNITS = {"pot": "count", "enc": "count", "angle_deg": "deg", "compression_mm": "mm", "force_n": "N"}
@@ -55,30 +56,20 @@ def fold_normalization(layers: list[FloatLayer], spec: FeatureSpec, where: str =
 
 
 def signals(spec: FeatureSpec, ranges: Any, units: Any, where: str) -> tuple[Signal, ...]:
-    """Input signals with their calibrated ranges; a missing or bad range is an error."""
-    if callable(ranges):
-        ranges = ranges(list(spec.inputs))
+    """Input signals with their calibrated ranges (a list of [lo, hi], or a function of the input names:
+    --calib); a missing or bad range or unit is an error naming the field."""
+    names = list(spec.inputs)
     if ranges is None:
         raise UserError(f"{where}: no calibrated input range (give --calib DATA_DIR or 'input_range')")
-    try:
-        ranges = [[float(r[0]), float(r[1])] for r in ranges if len(r) == 2]
-    except (TypeError, ValueError) as e:
-        raise UserError(f"{where}: input_range is not a list of [lo, hi] pairs: {e}") from None
-    if len(ranges) != len(spec.inputs):
-        raise UserError(
-            f"{where}: input_range has {len(ranges)} [lo, hi] pairs for {len(spec.inputs)} inputs"
-        )
-    units = [str(u) for u in units] if units else [unit_of(n) for n in spec.inputs]
-    if len(units) != len(spec.inputs):
-        raise UserError(f"{where}: input_units has {len(units)} entries for {len(spec.inputs)} inputs")
-    out = []
-    for n, (lo, hi), u in zip(spec.inputs, ranges, units, strict=True):
-        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]{0,30}", n):
-            raise UserError(f"{where}: input name {n!r} is not a C identifier (letters, digits, _)")
-        if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
-            raise UserError(f"{where}: input '{n}' has an invalid range [{lo}, {hi}] (needs lo < hi)")
-        out.append(Signal(n, u, lo, hi))
-    return tuple(out)
+    if callable(ranges):
+        box = [(float(lo), float(hi)) for lo, hi in ranges(names)]
+        for n, (lo, hi) in zip(names, box, strict=True):
+            if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
+                raise UserError(f"{where}: input '{n}' has an invalid range [{lo}, {hi}] (needs lo < hi)")
+    else:
+        box = D.ranges(ranges, len(names), where)
+    unit = D.units(units, len(names), where) if units else [unit_of(n) for n in names]
+    return tuple(Signal(n, u, lo, hi) for n, (lo, hi), u in zip(names, box, unit, strict=True))
 
 
 @dataclass
@@ -88,47 +79,35 @@ class Loaded:
     model: FloatModel
     original: Callable[[np.ndarray], np.ndarray]  # physical inputs (N, n_in) float64 -> outputs (N,)
     runtime: str
-    margin: float  # stated allowance for the original's own rounding (float32 forward, float64 polynomial)
+    margin: float  # stated allowance for the original's own rounding (its float type's forward error)
+    dtype: str = "float64"  # the float type the original computes in (the margin derives from it)
+    notes: list[str] = dataclasses.field(default_factory=list)  # how the file was read, when not literally
 
 
 def _sf_model(d: dict[str, Any], where: str, rng: Any, output: Signal, task: str) -> Loaded:
     """A seagen surface fit; the original is the polynomial in float64 from its coefficients."""
-    sf = d["sf"]
-    try:
-        powers = tuple((int(i), int(j)) for i, j in sf["powers"])
-        coef = np.asarray(sf["coef"], dtype=float).reshape(-1)
-        names = tuple(sf["inputs"])
-    except (KeyError, TypeError, ValueError) as e:
-        raise UserError(f"{where}: field 'sf' is invalid: {e}") from None
-    if len(coef) != len(powers) or len(names) != 2:
-        raise UserError(
-            f"{where}: field 'sf' has {len(coef)} coefficients for {len(powers)} powers and "
-            f"{len(names)} inputs (needs equal lengths and 2 inputs)"
-        )
-    if not np.all(np.isfinite(coef)):
-        raise UserError(f"{where}: sf coefficients contain NaN or Inf")
+    names, powers, coef_t = D.sf_fields(d.get("sf"), where)
+    coef = np.array(coef_t)
     a, b = signals(FeatureSpec(names, (0.0, 0.0), (1.0, 1.0)), rng, d.get("input_units"), where)
-    model = FloatSF((a, b), output, powers, tuple(coef.tolist()), task)
+    model = FloatSF((a, b), output, powers, coef_t, task)
 
     def poly(x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=np.float64)
-        return sum(c * x[:, 0] ** i * x[:, 1] ** j for c, (i, j) in zip(coef, powers, strict=True))
+        return poly2(powers, coef, x[:, 0], x[:, 1])
 
     box = [widened(s.lo, s.hi) for s in (a, b)]
     am, bm = (max(abs(lo), abs(hi)) for lo, hi in box)
-    size = sum(abs(c) * am**i * bm**j for c, (i, j) in zip(coef, powers, strict=True))
-    return Loaded(model, poly, "float64 polynomial from the coefficients", 2.0**-40 * (1.0 + size))
+    size = float(poly2(powers, np.abs(coef), am, bm))  # the largest term magnitudes over the box
+    return Loaded(model, poly, "float64 polynomial from the coefficients", 2.0**-40 * (1.0 + size), "float64")
 
 
 def _mlp_model(
-    net: Network, spec: FeatureSpec, d: dict[str, Any], where: str, rng: Any, out: Signal
+    net: Network, spec: FeatureSpec, d: dict[str, Any], where: str, rng: Any, out: Signal, task: str
 ) -> Loaded:
     """A network with its feature normalisation folded in; the original runs the network between the
     normalisation and de-normalisation the spec states."""
     layers = fold_normalization(net.layers, spec, where)
-    model = FloatMLP(
-        signals(spec, rng, d.get("input_units"), where), out, tuple(layers), d.get("task", "calibration")
-    )
+    model = FloatMLP(signals(spec, rng, d.get("input_units"), where), out, tuple(layers), task)
     mean, std = np.array(spec.mean), np.array(spec.std)
     w = np.array(spec.weights())
 
@@ -138,42 +117,64 @@ def _mlp_model(
 
     box = np.array(widened_box(model.inputs))
     xmax = np.max(np.abs((box - mean) / std * w), axis=0)
-    margin = float32_margin(net.layers, xmax) * spec.output_std
-    return Loaded(model, original, net.runtime, margin)
+    _deterministic(net, xmax, where)
+    margin = forward_margin(net.layers, xmax, net.dtype, where) * spec.output_std
+    return Loaded(model, original, net.runtime, margin, net.dtype, list(net.notes))
+
+
+def _deterministic(net: Network, xmax: np.ndarray, where: str) -> None:
+    """The original gives the same outputs twice on the same inputs (an oracle that draws random numbers,
+    e.g. Dropout left in training mode, cannot check anything)."""
+    x = np.random.default_rng(0).uniform(-1.0, 1.0, (16, net.n_in)) * np.maximum(xmax, 1e-3)
+    a, b = net.run(x), net.run(x)
+    if not np.array_equal(a, b, equal_nan=True):
+        raise UserError(
+            f"{where}: the model gives different outputs for the same inputs on two runs (Dropout or another "
+            "random op active at inference?); seagen exports deterministic models (save it in eval mode)"
+        )
 
 
 def from_model_dict(d: dict[str, Any], where: str, ranges: Any = None, net: Network | None = None) -> Loaded:
-    """Float IR (and the original) from a seagen model dict or a bare network with a features dict."""
+    """Float IR (and the original) from a seagen model dict or a bare network with a features dict; every
+    field is checked (seagen.frontends.modeldict) before it is used."""
     rng = ranges if ranges is not None else d.get("input_range")
-    out_rng = d.get("output_range") or [0.0, 0.0]
-    try:
-        output = Signal(
-            d.get("output_name", "y"), d.get("output_units", ""), float(out_rng[0]), float(out_rng[1])
-        )
-    except (TypeError, ValueError, IndexError) as e:
-        raise UserError(f"{where}: field 'output_range' is invalid: {e}") from None
-    if d.get("kind") == "sf":
-        return _sf_model(d, where, rng, output, d.get("task", "calibration"))
+    output = D.output_signal(d, where)
+    task = D.task(d, where)
+    if D.kind(d, where) == "sf":
+        return _sf_model(d, where, rng, output, task)
     if not d.get("features"):
         raise UserError(f"{where}: no feature specification (give --features SPEC)")
     spec = FeatureSpec.from_dict(d["features"], where)
     if net is None:
         net = read_module(d.get("module"), Path(where), len(spec.inputs))
-    return _mlp_model(net, spec, d, where, rng, output)
+    return _mlp_model(net, spec, d, where, rng, output, task)
 
 
 def read_features_file(path: str | None) -> dict[str, Any]:
-    """A --features SPEC file (JSON or TOML) -> dict with 'features' and optional range/unit keys."""
+    """A --features SPEC file (JSON or TOML) -> dict with 'features' and optional range/unit keys, every
+    field checked, errors naming the file and the field."""
     if path is None:
         return {}
     p = Path(path)
     if not p.is_file():
         raise UserError(not_a_file(p, "feature specification file"))
     try:
-        raw = tomllib.loads(p.read_text()) if p.suffix == ".toml" else json.loads(p.read_text())
-    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as e:
+        content = p.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise UserError(
+            f"{p}: not a text file (JSON or TOML in UTF-8): byte {e.start} is not UTF-8"
+        ) from None
+    except OSError as e:
+        raise UserError(f"{p}: cannot read: {e.strerror or e}") from None
+    try:
+        raw = tomllib.loads(content) if p.suffix == ".toml" else json.loads(content)
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError, RecursionError) as e:
         raise UserError(f"{p}: cannot parse: {e}") from None
-    keys = ("input_range", "input_units", "output_name", "output_units", "output_range", "task")
+    if not isinstance(raw, dict):
+        raise UserError(
+            f"{p}: the feature specification must be a JSON object or TOML table, not a {type(raw).__name__}"
+        )
+    keys = D.SPEC_KEYS
     out = {k: raw[k] for k in keys if k in raw}
     out["features"] = {k: v for k, v in raw.items() if k not in keys}
     known = {f.name for f in dataclasses.fields(FeatureSpec)}
@@ -182,7 +183,8 @@ def read_features_file(path: str | None) -> dict[str, Any]:
         raise UserError(
             f"{p}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(known | set(keys)))})"
         )
-    FeatureSpec.from_dict(out["features"], str(p))
+    spec = FeatureSpec.from_dict(out["features"], str(p))
+    D.spec_extras(out, len(spec.inputs), str(p))
     return out
 
 
@@ -206,7 +208,13 @@ def load_with_original(
     if not p.is_file():
         raise UserError(not_a_file(p, "model file"))
     extra = features if isinstance(features, dict) else read_features_file(features)
-    if p.suffix == ".onnx":
+    kind = file_kind(p)
+    if kind == UNKNOWN:
+        raise UserError(
+            f"{p}: not a model file seagen reads (by its content it is neither an ONNX model, a readable zip "
+            "archive nor a torch pickle)"
+        )
+    if kind == ONNX:
         if not extra:
             _need_features(p)
         return from_model_dict({"kind": "mlp", **extra}, str(p), ranges, read_onnx(p))
@@ -214,7 +222,9 @@ def load_with_original(
     if isinstance(obj, dict) and obj.get("format") == FORMAT:
         return from_model_dict({**obj, **extra}, str(p), ranges)
     if isinstance(obj, dict):
-        raise UserError(f"{p}: a dict but not a seagen model file (no format '{FORMAT}')")
+        from seagen.frontends.checkpoint import describe_dict
+
+        raise UserError(describe_dict(obj, p, FORMAT))
     if not extra:
         _need_features(p)
     return from_model_dict({"kind": "mlp", **extra, "module": obj}, str(p), ranges)

@@ -102,26 +102,56 @@ def onnx_items(path: Path, model: Any) -> tuple[list[Item], int]:
         )
     dims = [d.dim_value for d in inputs[0].type.tensor_type.shape.dim]
     if len(dims) != 2 or dims[1] <= 0:
-        raise UserError(f"{where}: input '{inputs[0].name}' has shape {dims}; seagen needs (batch, features)")
+        raise UserError(
+            f"{where}: input '{inputs[0].name}' has shape {shape_text(inputs[0])}; "
+            "seagen needs (batch, features)"
+        )
     chain = chain_nodes(nodes, set(consts), inputs[0].name, g.output[0].name, where)
+    batch = dims[0] or -1  # a fixed batch size (or -1): a Reshape to (batch, width) keeps the rows
     items: list[Item] = []
     for n in chain:
-        items.extend(_item(n, consts, where))
+        items.extend(_item(n, consts, where, batch))
     return items, dims[1]
 
 
-def _c(n: Node, consts: dict, k: int) -> np.ndarray | None:
-    """Constant input k of a node (None when absent)."""
-    return np.asarray(consts[n.inputs[k]], dtype=float) if len(n.inputs) > k and n.inputs[k] else None
+def shape_text(value_info: Any) -> str:
+    """A graph input's shape as ONNX declares it: numbers, symbolic dimensions by name, '?' when unknown."""
+    dims = value_info.type.tensor_type.shape.dim
+    return (
+        "["
+        + ", ".join(d.dim_param or (str(d.dim_value) if d.HasField("dim_value") else "?") for d in dims)
+        + "]"
+    )
 
 
-def _item(n: Node, consts: dict, where: str) -> list[Item]:
+def _c(n: Node, consts: dict, k: int, where: str = "") -> np.ndarray | None:
+    """Constant input k of a node (None when absent); a computed one is refused."""
+    if len(n.inputs) <= k or not n.inputs[k]:
+        return None
+    if n.inputs[k] not in consts:
+        raise refuse(where, Item(n.op, n.path), f"input {k} ('{n.inputs[k]}') is computed, not a constant")
+    return np.asarray(consts[n.inputs[k]], dtype=float)
+
+
+def _bound(n: Node, consts: dict, k: int, attr: str, where: str) -> float | None:
+    """A Clip bound: input k (shape () or (1,), as onnxruntime accepts) or the opset < 11 attribute."""
+    v = _c(n, consts, k, where)
+    if v is None:
+        return n.attrs.get(attr)
+    if v.size != 1:
+        raise refuse(where, Item(n.op, n.path), f"clip bound of shape {v.shape} (needs one number)")
+    return float(v.reshape(-1)[0])
+
+
+def _item(n: Node, consts: dict, where: str, batch: int = -1) -> list[Item]:
     """One chain node -> zero or more chain items; anything unsupported is refused."""
     op, p, a = n.op, n.path, n.attrs
     if op == "Gemm":
         return [_gemm(n, consts, where)]
+    if op in ("Add", "Sub", "Mul", "Div", "MatMul") and len(n.inputs) == 2 and n.inputs[0] == n.inputs[1]:
+        return [_same_operands(n, where)]
     if op == "MatMul" and n.inputs[1] in consts:
-        w = _c(n, consts, 1)
+        w = _c(n, consts, 1, where)
         assert w is not None
         if w.ndim != 2:
             raise refuse(where, Item(op, p), f"weight of shape {w.shape}")
@@ -133,22 +163,33 @@ def _item(n: Node, consts: dict, where: str) -> list[Item]:
     if op == "LeakyRelu":
         return [Act(op, p, "leaky_relu", alpha=float(a.get("alpha", 0.01)))]
     if op == "Clip":
-        lo, hi = _c(n, consts, 1), _c(n, consts, 2)
-        lo_v = float(lo) if lo is not None else a.get("min")
-        hi_v = float(hi) if hi is not None else a.get("max")
-        return [clip_act(op, p, lo_v, hi_v)]
+        return [clip_act(op, p, _bound(n, consts, 1, "min", where), _bound(n, consts, 2, "max", where))]
     if op == "BatchNormalization" and not a.get("training_mode", 0):
-        g_, b_, m_, v_ = (_c(n, consts, k) for k in (1, 2, 3, 4))
+        g_, b_, m_, v_ = (_c(n, consts, k, where) for k in (1, 2, 3, 4))
         return [batchnorm_affine(op, p, g_, b_, m_, v_, float(a.get("epsilon", 1e-5)))]
+    if op == "Dropout" and _dropout_trains(n, consts, where):
+        raise refuse(where, Item(op, p), "Dropout in training mode (random at inference)")
+    if op == "BatchNormalization":
+        raise refuse(where, Item(op, p), "BatchNormalization in training mode")
     if op in _NOOPS or (op == "Cast" and a.get("to") in _FLOAT):
         return []
     if op == "Flatten" and int(a.get("axis", 1)) == 1:
         return []
     if op == "Reshape":
-        shape = _c(n, consts, 1)
-        if shape is not None and shape.size == 2 and shape[0] in (-1, 0):
+        shape = _c(n, consts, 1, where)
+        if shape is not None and shape.size == 2 and shape[0] in (-1, 0, batch):
             return [Reshape(op, p, int(shape[1]))]
     raise refuse(where, Item(op, p), "unsupported op")
+
+
+def _dropout_trains(n: Node, consts: dict, where: str) -> bool:
+    """Dropout (opset 12+) whose constant training_mode input is true and whose ratio is not 0; opset < 7
+    Dropout with is_test=0 likewise."""
+    mode = _c(n, consts, 2, where)
+    ratio = _c(n, consts, 1, where)
+    r = float(n.attrs.get("ratio", 0.5)) if ratio is None else float(ratio.reshape(-1)[0])
+    training = bool(mode is not None and mode.reshape(-1)[0]) or n.attrs.get("is_test", 1) == 0
+    return training and r != 0.0
 
 
 def _gemm(n: Node, consts: dict, where: str) -> Dense:
@@ -157,15 +198,26 @@ def _gemm(n: Node, consts: dict, where: str) -> Dense:
     item = Item("Gemm", n.path)
     if n.inputs[0] in consts or n.inputs[1] not in consts or a.get("transA", 0):
         raise refuse(where, item, "the computed input must be A (transA=0) and B a constant")
-    w = _c(n, consts, 1)
+    w = _c(n, consts, 1, where)
     assert w is not None
     w = w if a.get("transB", 0) else w.T
-    c = _c(n, consts, 2)
+    c = _c(n, consts, 2, where)
     c = np.zeros(w.shape[0]) if c is None else c
     if c.size not in (1, w.shape[0]) or (c.ndim == 2 and c.shape[0] != 1) or c.ndim > 2:
         raise refuse(where, item, f"bias of shape {c.shape} for {w.shape[0]} outputs")
     b = np.broadcast_to(c.reshape(-1), (w.shape[0],)) * float(a.get("beta", 1.0))
     return Dense("Gemm", n.path, w * float(a.get("alpha", 1.0)), b.copy())
+
+
+def _same_operands(n: Node, where: str) -> Affine:
+    """Add(x, x) is a scale of 2, Sub(x, x) of 0; a product or quotient of two computed values is refused."""
+    if n.op == "Add":
+        return Affine(n.op, n.path, np.array(2.0), np.array(0.0))
+    if n.op == "Sub":
+        return Affine(n.op, n.path, np.array(0.0), np.array(0.0))
+    what, sym = {"Mul": ("a product", "*"), "MatMul": ("a product", "@"), "Div": ("a quotient", "/")}[n.op]
+    x = n.inputs[0]
+    raise refuse(where, Item(n.op, n.path), f"{what} of two computed values ({x} {sym} {x}) is not affine")
 
 
 def _arith(n: Node, consts: dict, where: str) -> Affine:

@@ -115,14 +115,18 @@ def _item(n: Any, consts: dict, fx: dict, where: str) -> list[Item]:
         "aten.clamp_min.default",
         "aten.clamp_max.default",
     ):
-        return [_clamp(n, t, p, consts)]
+        return [_clamp(n, t, p, consts, where)]
     if t == "aten.relu6.default":
         return [clip_act(t, p, 0.0, 6.0)]
     if t in ("aten.batch_norm.default", "aten._native_batch_norm_legit_no_training.default"):
         return [_batchnorm(n, t, p, consts, where)]
     if t in _NOOPS and (t != "<built-in function getitem>" or n.args[1] == 0):
         return []
-    if t == "aten.dropout.default" and not _arg(n, 2, "train", False, consts):
+    if t == "aten.dropout.default":
+        if _arg(n, 2, "train", False, consts) and _arg(n, 1, "p", 0.5, consts) != 0:
+            raise refuse(
+                where, Item(t, p), "Dropout in training mode (random at inference; export in eval mode)"
+            )
         return []
     if t in ("aten.to.dtype", "aten._to_copy.default", "aten.to.dtype_layout"):
         dtype = n.kwargs.get("dtype", n.args[1] if len(n.args) > 1 else None)
@@ -140,9 +144,11 @@ def _dense(n: Any, t: str, p: str, consts: dict, where: str) -> Dense:
     if t == "aten.linear.default":
         w = _arg(n, 1, "weight", None, consts)
         b = _arg(n, 2, "bias", None, consts)
-    elif t == "aten.addmm.default":
+    elif t == "aten.addmm.default":  # beta * b + alpha * (x @ W^T)
         b, w = _arg(n, 0, "self", None, consts), _arg(n, 2, "mat2", None, consts)
-        w = w.T if isinstance(w, np.ndarray) else w
+        beta, alpha = _scalar_kw(n, "beta", t, p, where), _scalar_kw(n, "alpha", t, p, where)
+        w = w.T * alpha if isinstance(w, np.ndarray) else w
+        b = b * beta if isinstance(b, np.ndarray | float | int) else b
     else:
         w = _arg(n, 1, "other", None, consts)
         w = w.T if isinstance(w, np.ndarray) else w
@@ -157,10 +163,42 @@ def _dense(n: Any, t: str, p: str, consts: dict, where: str) -> Dense:
     return Dense(t, p, w, np.array(b, dtype=float))
 
 
+def _scalar_kw(n: Any, key: str, t: str, p: str, where: str) -> float:
+    """A keyword scale of an ATen call (addmm's alpha/beta), 1 when absent; anything but a finite number is
+    refused."""
+    v = n.kwargs.get(key, 1.0)
+    if isinstance(v, bool) or not isinstance(v, int | float) or not np.isfinite(v):
+        raise refuse(where, Item(t, p), f"{key}={v!r} is not a finite number")
+    return float(v)
+
+
+def _same_operands(n: Any, t: str, p: str, where: str) -> Affine:
+    """x + x, x - x, rsub(x, x): the scale they are; x * x and x / x are refused by name."""
+    op = t.split(".")[1]
+    alpha = float(n.kwargs.get("alpha", n.args[2] if len(n.args) > 2 else 1.0))
+    x = _name(n.args[0])
+    if op == "add":
+        return Affine(t, p, np.array(1.0 + alpha), np.array(0.0))
+    if op in ("sub", "rsub"):
+        return Affine(t, p, np.array(1.0 - alpha), np.array(0.0))
+    what = "a product" if op == "mul" else "a quotient"
+    raise refuse(
+        where,
+        Item(t, p),
+        f"{what} of two computed values ({x} {'*' if op == 'mul' else '/'} {x}) is not affine",
+    )
+
+
 def _arith(n: Any, t: str, p: str, consts: dict, where: str) -> Affine:
     """add/sub/mul/div/rsub by a constant (tensor or scalar) as an elementwise affine map."""
+    names = [_name(a) for a in n.args[:2]]
+    if len(names) == 2 and names[0] is not None and names[0] == names[1] and names[0] not in consts:
+        return _same_operands(n, t, p, where)
     first_computed = _name(n.args[0]) is not None and _name(n.args[0]) not in consts
-    c = np.asarray(_arg(n, 1 if first_computed else 0, "other", None, consts), dtype=float)
+    c_arg = _arg(n, 1 if first_computed else 0, "other", None, consts)
+    if _name(c_arg) is not None or c_arg is None:
+        raise refuse(where, Item(t, p), "an operand that is neither a constant nor the one computed input")
+    c = np.asarray(c_arg, dtype=float)
     alpha = float(n.kwargs.get("alpha", n.args[2] if len(n.args) > 2 else 1.0))
     one, zero = np.ones_like(c), np.zeros_like(c)
     op = t.split(".")[1]
@@ -177,8 +215,13 @@ def _arith(n: Any, t: str, p: str, consts: dict, where: str) -> Affine:
     raise refuse(where, Item(t, p), "division by a computed value, by zero or with rounding")
 
 
-def _clamp(n: Any, t: str, p: str, consts: dict) -> Act:
-    """hardtanh(lo, hi), clamp(min, max), clamp_min, clamp_max -> relu or hardtanh."""
+def _clamp(n: Any, t: str, p: str, consts: dict, where: str) -> Act:
+    """hardtanh(lo, hi), clamp(min, max), clamp_min, clamp_max -> relu or hardtanh (bounds must be numbers
+    or one-element constants)."""
+    for a in (*n.args[1:], *n.kwargs.values()):
+        nm = _name(a)
+        if nm is not None and (nm not in consts or consts[nm].numel() != 1):
+            raise refuse(where, Item(t, p), f"the bound '{nm}' is not one constant number")
     if t == "aten.hardtanh.default":
         return clip_act(t, p, _arg(n, 1, "min_val", -1.0, consts), _arg(n, 2, "max_val", 1.0, consts))
     if t == "aten.clamp_min.default":

@@ -11,6 +11,8 @@ from typing import Any
 
 import tomli_w
 
+from seagen import geometry as g
+from seagen.actuator import default_actuator
 from seagen.atomic import write_text
 from seagen.errors import UserError
 
@@ -19,15 +21,28 @@ class ConfigError(UserError):
     """A plant config file that cannot be used (names the file and the key)."""
 
 
+_ACT = default_actuator()
+
+
 @dataclass
 class Motor:
     """12 V micro-gear motor, 380:1 gearbox, lead screw, seen at the nut (back-drivable)."""
 
-    supply_v: float = 12.0
-    no_load_rpm: float = 32300.0  # paper §VI-A
-    counts_per_rev: int = 12
+    supply_v: float = _ACT.motor.supply_v  # the actuator description's (seagen/actuators/paper.toml)
+    no_load_rpm: float = _ACT.motor.no_load_rpm
+    counts_per_rev: int = _ACT.motor.counts_per_rev
     time_constant_s: float = 0.015  # chosen: electrical + rotor lag seen at the nut
     stall_force_n: float = 150.0  # chosen: nut force that stalls the motor at 12 V
+
+    @property
+    def v_max_mm_s(self) -> float:
+        """No-load speed seen at the nut (mm/s): motor counts per second times the nut travel per count."""
+        return self.no_load_rpm / 60.0 * self.counts_per_rev * g.MM_PER_COUNT
+
+    def current(self, volts: Any, v_mm_s: Any) -> Any:
+        """Motor current normalised to stall at the supply voltage, from the command and the nut speed: the
+        one estimate the plant steps with and the discrepancy analysis reads."""
+        return volts / self.supply_v - v_mm_s / self.v_max_mm_s
 
 
 @dataclass

@@ -70,7 +70,7 @@ class Plant:
         self.pot_drop = np.zeros(n)
         self.t = 0.0
         m = cfg.motor
-        self.v_max = m.no_load_rpm / 60.0 * m.counts_per_rev * g.MM_PER_COUNT  # mm/s at the nut
+        self.v_max = m.v_max_mm_s  # mm/s at the nut
         td = cfg.effects.transport_delay
         self._delay_n = int(round(td.delay_s / cfg.dt_s)) if td.enabled else 0
         self._history = np.zeros((self._delay_n + 1, n))
@@ -147,7 +147,7 @@ class Plant:
         load = self.spring_force(self.nut_mm - self.shaft_mm)
         v_target = self.v_max * (volts / m.supply_v - load / m.stall_force_n)
         self.v_motor = self.v_motor + (v_target - self.v_motor) * min(dt / m.time_constant_s, 1.0)
-        self.current = volts / m.supply_v - self.v_motor / self.v_max
+        self.current = m.current(volts, self.v_motor)
         self.motor_mm = self.motor_mm + self.v_motor * dt
         self._move_nut()
         self._move_shaft(dt)

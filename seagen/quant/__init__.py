@@ -1,1 +1,1 @@
-"""Quantization: Q-format choice, interval analysis, float IR -> quantized IR, and the integer primitives."""
+"""Quantization: Q-format choice, interval analysis (overflow, error bound), float IR -> quantized IR."""

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from seagen.ir import QMLP, FloatMLP
-from seagen.quant.activations import table_error
 from seagen.quant.qformat import widened
+from seagen.runtime.activations import table_error
 
 
 def mlp_error_bound(model: FloatMLP, qm: QMLP) -> float:

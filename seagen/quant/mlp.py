@@ -8,11 +8,12 @@ import numpy as np
 
 from seagen.errors import UserError
 from seagen.ir import QMLP, FloatLayer, FloatMLP, QInput, QLayer, QTable
-from seagen.quant.activations import TABLE_OUT_FRAC, make_table
 from seagen.quant.bound import mlp_error_bound
-from seagen.quant.features import frac_cap, source_of
-from seagen.quant.primitives import rshift_rne
+from seagen.quant.interval import acc_interval
 from seagen.quant.qformat import frac_for, quantize, widened
+from seagen.runtime.activations import TABLE_OUT_FRAC, make_table
+from seagen.runtime.features import frac_cap, source_of
+from seagen.runtime.fixed import rshift_rne
 
 INT16_MAX = 2**15 - 1
 ACC32_LIMIT = 2**31 - 1
@@ -33,18 +34,6 @@ def quantize_inputs(model: FloatMLP) -> tuple[QInput, ...]:
     return tuple(out)
 
 
-def _acc_bounds(w_q: np.ndarray, b_q: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple:
-    """Exact integer interval of W x + b over the box, and the worst partial-sum magnitude."""
-    w = w_q.astype(object)
-    a, c = w * lo.astype(object)[None, :], w * hi.astype(object)[None, :]
-    mn = np.minimum(a, c).sum(axis=1) + b_q.astype(object)
-    mx = np.maximum(a, c).sum(axis=1) + b_q.astype(object)
-    worst = (abs(w) * np.maximum(abs(lo), abs(hi)).astype(object)[None, :]).sum(axis=1) + abs(
-        b_q.astype(object)
-    )
-    return mn, mx, max(worst)
-
-
 def _out_frac(mn: np.ndarray, mx: np.ndarray, acc_frac: int, activation: str) -> int:
     """Largest output format with no saturation over the box (acc_frac >= result >= acc_frac - 62)."""
     hi = max(max(mx), 0) if activation == "relu" else max(max(abs(mn)), max(abs(mx)))
@@ -62,11 +51,20 @@ def quantize_layer(
     """One layer: weight format, integer weights and bias, accumulator width, output format, activation."""
     w_frac = frac_for(float(np.max(np.abs(w_eff))), wmax)
     w_q = quantize(w_eff, w_frac)
+    if int(np.max(np.abs(w_q))) > wmax:
+        raise UserError(
+            f"layer {index}: weights up to {float(np.max(np.abs(w_eff))):.3g} do not fit "
+            f"int{wmax.bit_length() + 1} even at Q{w_frac} (with the normalisation folded in)"
+        )
     acc_frac = w_frac + in_frac
     b_q = quantize(layer.bias, acc_frac)
-    mn, mx, worst = _acc_bounds(w_q, b_q, lo, hi)
+    mn, mx, per_neuron = acc_interval(w_q, b_q, lo, hi)
+    worst = max(per_neuron)
     if worst >= 2**62:
-        raise UserError(f"layer {index}: accumulator bound 2^{int(worst).bit_length()} exceeds int64")
+        raise UserError(
+            f"layer {index}: accumulator bound 2^{int(worst).bit_length()} exceeds int64 (weights and bias "
+            "too large for the input box, with the normalisation folded in)"
+        )
     out_frac = _out_frac(mn, mx, acc_frac, layer.activation)
     shift = acc_frac - out_frac
     # the interval end points fit int64 (|acc| < 2^62 was checked above)
@@ -107,8 +105,11 @@ def _activation(layer: FloatLayer, pre_frac: int, index: int) -> tuple[tuple[int
 def _act_bounds(act: str, params: tuple[int, ...], table: QTable | None, lo: np.ndarray, hi: np.ndarray):
     if act == "relu":
         return np.maximum(lo, 0), np.maximum(hi, 0)
-    if act == "leaky_relu":
+    if act == "leaky_relu" and params[0] >= 0:
         return np.minimum(lo, 0) * params[0] // 2**15 - 1, hi
+    if act == "leaky_relu":  # a negative slope maps the negative side to [0, alpha * lo]
+        top = -((-np.minimum(lo, 0) * params[0]) // 2**15) + 1
+        return np.zeros_like(lo), np.minimum(np.maximum(hi, top), INT16_MAX)
     if act == "hardtanh":
         return np.clip(lo, params[0], params[1]), np.clip(hi, params[0], params[1])
     if table is not None:

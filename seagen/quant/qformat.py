@@ -24,9 +24,15 @@ def frac_for(maxabs: float, limit: int) -> int:
     return max(MIN_FRAC, min(MAX_FRAC, f))
 
 
+SATURATE = 2.0**62  # quantize() saturates here: the callers' range checks refuse such values
+
+
 def quantize(x: np.ndarray | float, frac: int) -> np.ndarray:
-    """round(x * 2^frac) half to even, as int64 (exact for |x * 2^frac| < 2^53)."""
-    return np.rint(np.asarray(x, dtype=float) * 2.0**frac).astype(np.int64)
+    """round(x * 2^frac) half to even, as int64 (exact for |x * 2^frac| < 2^53); beyond +-2^62 it saturates
+    (no undefined float -> int64 cast) and the caller's range check refuses the value."""
+    with np.errstate(over="ignore"):  # an overflow to +-inf saturates like any value beyond 2^62
+        y = np.rint(np.asarray(x, dtype=float) * 2.0**frac)
+    return np.clip(y, -SATURATE, SATURATE).astype(np.int64)
 
 
 def widened(lo: float, hi: float, margin: float = INPUT_MARGIN) -> tuple[float, float]:

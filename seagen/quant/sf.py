@@ -7,10 +7,10 @@ import dataclasses
 import numpy as np
 
 from seagen.errors import UserError
-from seagen.ir import QSF, FloatSF, QHorner
+from seagen.ir import QSF, FloatSF, QHorner, poly2
 from seagen.quant.mlp import INT16_MAX, quantize_inputs
-from seagen.quant.primitives import rshift_rne
 from seagen.quant.qformat import frac_for, widened
+from seagen.runtime.fixed import rshift_rne
 
 REG_LIMIT = 2**30  # registers keep a bit of headroom below int32
 # Every product is shifted right by at least 16: the M4 kernel then takes the high word of one SMMUL/SMMLA
@@ -112,4 +112,4 @@ def quantize_sf(model: FloatSF) -> QSF:
 def float_sf(model: FloatSF, x: np.ndarray) -> np.ndarray:
     """The float polynomial on physical-unit inputs (N, 2)."""
     x = np.asarray(x, dtype=float)
-    return sum(c * x[:, 0] ** i * x[:, 1] ** j for (i, j), c in zip(model.powers, model.coef, strict=True))
+    return poly2(model.powers, model.coef, x[:, 0], x[:, 1])

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from seagen.ir import QSF, QLayer, QModel, QTable
-from seagen.quant import kernels as K
+from seagen.runtime import nn as K
 
 
 def clamp_inputs(qm: QModel, x: np.ndarray) -> np.ndarray:

@@ -2,20 +2,36 @@
 
 from __future__ import annotations
 
+import json
+import re
 from pathlib import Path
 
 import numpy as np
 
-from seagen.build.equivalence import check_data_dir, compare, edge_inputs, random_inputs, step_problem
-from seagen.build.targets import NAMES, build_target
 from seagen.codegen.manifest import Manifest
+from seagen.datacheck import check_data_dir
+from seagen.defaults import resolve_model
 from seagen.errors import CheckFailed, UserError
 from seagen.reference import onnx_ref
-from seagen.verify.drift import check_drift, select
+from seagen.toolchain.equivalence import compare, edge_inputs, random_inputs, step_problem
+from seagen.toolchain.targets import NAMES, build_target
+from seagen.verify.constants import constants_problem
+from seagen.verify.drift import (
+    changed_files,
+    check_fields,
+    check_files,
+    check_model,
+    check_stray,
+    check_version,
+    fields_name,
+    select,
+)
 from seagen.verify.result import Verdict
 
 
-def rebuild(man: Manifest, model: Path, features: str | None, allow_pickle: bool = False):
+def rebuild(
+    man: Manifest, model: Path, features: str | None, allow_pickle: bool = False, with_onnx: bool = False
+):
     """The export MODEL gives today with the manifest's resolved options (ranges, features, weights)."""
     from seagen.export import prepare
 
@@ -26,7 +42,7 @@ def rebuild(man: Manifest, model: Path, features: str | None, allow_pickle: bool
         opts["weights"],
         None,
         features if features is not None else (res.get("features") or {}),
-        False,
+        with_onnx,
         allow_pickle,
         controller=bool(opts.get("controller")),
         target=opts.get("target", "portable"),
@@ -57,7 +73,7 @@ def synthetic_trials(qm, n_trials: int = 4, n: int = 400, seed: int = 0):
 
 def check_steps(v: Verdict, ex, target, data: str | None, onnx_model) -> None:
     """NAME_step on the recorded trials of DATA (test, validation), or on synthetic sequences in the box."""
-    from seagen.quant.features import external_inputs
+    from seagen.runtime.features import external_inputs
 
     qm, p = ex.qmodel, ex.prefix
     ext_names = external_inputs(qm)
@@ -69,13 +85,14 @@ def check_steps(v: Verdict, ex, target, data: str | None, onnx_model) -> None:
             or [np.zeros((len(enc), 0), dtype=np.int64)]
         )
         v.add(
-            f"{p}_step on {len(set(trial))} synthetic sequences",
+            f"{p}_step on synthetic sequences",
             step_problem(qm, target, enc, pot, trial, ext),
+            info=f"{len(set(trial))} sequences",
         )
         return
     rep = check_data_dir(ex, data, target, onnx_model)
     for chk in rep.checks:
-        v.add(f"{chk.name} ({chk.rows} rows): {chk.compared}", _problem(chk))
+        v.add(chk.name, _problem(chk), chk.compared, info=f"{chk.rows} rows")
     for o in rep.oracles:
         v.add(o.what, None if o.ok else o.line(), o.line() if o.ok else "")
 
@@ -83,6 +100,78 @@ def check_steps(v: Verdict, ex, target, data: str | None, onnx_model) -> None:
 def _problem(chk) -> str | None:
     """The first mismatch of a Check as one line, or None."""
     return None if chk.ok else "; ".join(f"{k} differs at {m}" for k, m in chk.mismatches.items())
+
+
+def numbers_names(root: Path, man: Manifest, core: str, data: str | None) -> list[str]:
+    """The stable names of the checks that follow drift, in order (to mark them skipped)."""
+    p = man.prefix
+    head = root / f"{p}.h"
+    step = head.is_file() and f"{p}_step(" in head.read_text(errors="replace")
+    names = [constants_name(p), infer_name(p, core), oracle_name(p)]
+    if step and data is None:
+        names.append(f"{p}_step on synthetic sequences")
+    elif step:
+        for split in ("test", "validation"):
+            names += [f"{p}_infer on {split} rows", f"{p}_step on {split} trials"]
+        names += ["C vs original on test rows", "C vs original on validation rows"]
+    if man.data["options"].get("controller"):
+        from seagen.verify.tick import tick_name
+
+        names.append(tick_name(p))
+    return names
+
+
+def constants_name(p: str) -> str:
+    """The stable name of the header-constants check."""
+    return f"{p} header constants (compiled) == the export's"
+
+
+def infer_name(p: str, core: str) -> str:
+    """The stable name of the NAME_infer check on random and edge vectors."""
+    return f"{p}_infer on random and edge vectors ({core}): C == numpy == torch == onnxruntime"
+
+
+def oracle_name(p: str) -> str:
+    """The stable name of the oracle check."""
+    return f"{p}: integer reference within the proven bound of the original model"
+
+
+def skip_rest(v: Verdict, names: list[str], why: str) -> Verdict:
+    """Mark every check not run yet as skipped, with the reason."""
+    done = {i.name for i in v.items}
+    for n in names:
+        if n not in done:
+            v.skip(n, why)
+    return v
+
+
+def build_problem(e: BaseException, root: Path) -> str:
+    """A build failure of the C on disk as one line: the first compiler error, its file named in DIR."""
+    text = getattr(e, "stderr", None) or str(e)
+    for line in text.splitlines():
+        m = re.search(r"([\w.+-]+\.[ch]):(\d+):(?:\d+:)? (?:fatal )?error: (.*)", line)
+        if m:
+            return f"{root / m.group(1)}:{m.group(2)}: does not compile: {m.group(3)}"
+    if m := re.search(r"undefined (?:symbol|reference to)[: ]*[`'\"]?(\w+)", text):
+        return f"{root}: the C does not build: {m.group(1)} is declared but not defined"
+    for line in text.splitlines():
+        if "error" in line.lower():
+            return f"{root}: the C does not build: {line.strip()}"
+    return f"{root}: the C does not build: {text.strip().splitlines()[0] if text.strip() else e}"
+
+
+def build_errors() -> tuple[type[BaseException], ...]:
+    """Exceptions a build of the C on disk raises when the C is broken."""
+    import cffi
+
+    errors: list[type[BaseException]] = [UserError, ImportError, cffi.VerificationError]
+    try:
+        from setuptools.errors import CompileError, LinkError
+
+        errors += [CompileError, LinkError]
+    except ImportError:  # pragma: no cover - setuptools ships with cffi's build
+        pass
+    return tuple(errors)
 
 
 def verify(
@@ -95,25 +184,39 @@ def verify(
     features: str | None = None,
     allow_pickle: bool = False,
 ) -> Verdict:
-    """Every check of `seagen verify`, in order: drift first, then numbers (see the README, "Use in CI")."""
+    """Every check of `seagen verify`, in order: drift first (model, files, manifest, quantization), then
+    numbers (header constants, NAME_infer, the oracle, NAME_step, the controller); checks after a failure
+    that makes them meaningless are marked skipped (see the README, "Use in CI")."""
     from seagen.codegen.render import model_hash
-    from seagen.quant.features import has_pipeline
+    from seagen.runtime.features import has_pipeline
 
     if core not in NAMES:
-        raise UserError(f"--core must be one of {', '.join(NAMES)}, not {core!r}")
+        raise UserError(f"--target must be one of {', '.join(NAMES)}, not {core!r}")
     if vectors < 0:
         raise UserError(f"--vectors must be >= 0, got {vectors}")
-    root, mpath = Path(folder), Path(model)
+    root, mpath = Path(folder), Path(resolve_model(model))
     man, matches = select(root, mpath, prefix)
     v = Verdict(man.prefix, str(root))
-    check_drift(v, root, man, mpath, matches)
-    if not matches or any(not (root / n).is_file() for n in man.files):
-        return v  # numbers against another model, or without every file, say nothing more
+    check_version(v, man)
+    check_model(v, man, mpath, matches)
+    changed = changed_files(root, man)
+    later = numbers_names(root, man, core, data)
+    if not matches or "missing" in changed.values():
+        check_files(v, root, man, changed, None)
+        check_stray(v, root, man)
+        why = "another model" if not matches else "a file of the export is missing"
+        return skip_rest(v, [fields_name(man), "quantization unchanged", *later], f"not run: {why}")
     try:
-        ex = rebuild(man, mpath, features, allow_pickle)
+        ex = rebuild(man, mpath, features, allow_pickle, bool(man.data["options"].get("onnx")))
     except CheckFailed as e:  # the original model and the integer reference disagree beyond the bound
-        v.add("integer reference within the proven bound of the original model", str(e))
-        return v
+        check_files(v, root, man, changed, None)
+        check_stray(v, root, man)
+        v.add(oracle_name(man.prefix), str(e))
+        why = "not run: the model disagrees with its bound"
+        return skip_rest(v, [fields_name(man), "quantization unchanged", *later], why)
+    check_files(v, root, man, changed, ex.files)
+    check_stray(v, root, man)
+    check_fields(v, man, Manifest(man.path, json.loads(ex.files[man.path.name])))
     want, got = man.data["resolved"]["qmodel_hash"], model_hash(ex.qmodel)
     v.add(
         "quantization unchanged",
@@ -124,32 +227,47 @@ def verify(
         kind="drift",
     )
     if got != want:
-        return v
-    qm = ex.qmodel
+        return skip_rest(v, later, "not run: the quantization changed")
+    qm, p = ex.qmodel, man.prefix
     files = disk_files(root, man)
-    target = build_target(core, files, man.prefix, qm)
-    onnx_model = onnx_ref.build_onnx(qm)  # one graph for every comparison
+    try:
+        v.add(constants_name(p), constants_problem(root, files, ex.files, p))
+        target = build_target(core, files, p, qm)
+    except build_errors() as e:
+        v.add(infer_name(p, core), build_problem(e, root))
+        return skip_rest(v, later, "not run: the C on disk does not build")
+    onnx_model, onnx_what = onnx_ref.build_onnx(qm), ""
+    if f"{p}.onnx" in man.files:  # the graph on disk is the one onnxruntime runs
+        onnx_model, onnx_what = load_onnx(root / f"{p}.onnx"), f"onnxruntime ran {p}.onnx on disk"
+        if onnx_model is None:
+            v.add(infer_name(p, core), f"{root / f'{p}.onnx'}: not a readable ONNX graph")
+            return skip_rest(v, later, f"not run: {p}.onnx is unreadable")
     if vectors == 0:
         v.warnings.append("--vectors 0: NAME_infer is checked on the edge vectors only")
     edges = edge_inputs(len(qm.inputs))
     x = np.vstack([random_inputs(qm, vectors, seed=0), edges])
     chk = compare("infer", qm, target, x, onnx_model)
-    v.add(
-        f"{man.prefix}_infer on {vectors} random + {len(edges)} edge vectors ({core}): "
-        "C == numpy == torch == onnxruntime",
-        _problem(chk),
-    )
-    v.add(
-        f"{man.prefix}: integer reference within the proven bound of the original model",
-        None,
-        ex.oracle.line(),
-    )
+    v.add(infer_name(p, core), _problem(chk), onnx_what, info=f"{vectors} random + {len(edges)} edge vectors")
+    v.add(oracle_name(p), None, ex.oracle.line())
     if has_pipeline(qm):
         check_steps(v, ex, target, data, onnx_model)
     elif data is not None:
-        v.warnings.append(f"{man.prefix} has NAME_infer only (no feature pipeline): --data rows not used")
+        v.warnings.append(f"{p} has NAME_infer only (no feature pipeline): --data rows not used")
     if man.data["options"].get("controller"):
-        from seagen.verify.tick import check_controller
+        from seagen.verify.tick import check_controller, tick_name
 
-        check_controller(v, files, man.prefix, qm)
+        try:
+            check_controller(v, files, p, qm)
+        except build_errors() as e:
+            v.add(tick_name(p), build_problem(e, root))
     return v
+
+
+def load_onnx(path: Path):
+    """The export's NAME.onnx as on disk, or None when it does not parse (an edited graph)."""
+    import onnx
+
+    try:
+        return onnx.load(str(path))
+    except Exception:  # any parse failure of an edited graph is reported as a failed check
+        return None

@@ -9,7 +9,7 @@ from seagen.verify.result import Verdict
 
 def sequence(qm, n: int = 800, seed: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Raw enc/pot random walks and a desired force (Q16 N) stepping through the calibrated force range."""
-    from seagen.control.controller import sensor_walk
+    from seagen.runtime.control import sensor_walk
 
     force_n = next((i.signal.lo, i.signal.hi) for i in qm.inputs if i.signal.name == "force_n")
     return sensor_walk(seed, n, force_n=force_n)
@@ -17,7 +17,7 @@ def sequence(qm, n: int = 800, seed: int = 3) -> tuple[np.ndarray, np.ndarray, n
 
 def disk_ticks(files: dict[str, str], p: str, enc, pot, force) -> np.ndarray:
     """NAME_controller_init at the first sample, then NAME_controller_tick per sample (the files on disk)."""
-    from seagen.build.host import build
+    from seagen.toolchain.host import build
 
     cdef = (  # the actuator struct stays opaque: cffi takes its size from NAME_controller.h
         f"typedef struct {{ ...; }} {p}_controller_t;\n"
@@ -33,9 +33,9 @@ def disk_ticks(files: dict[str, str], p: str, enc, pot, force) -> np.ndarray:
 
 def twin_ticks(qm, prefix: str, enc, pot, force) -> np.ndarray:
     """The Python controller twin with the shipped configuration and the per-tick predictor twin."""
-    from seagen.control.controller import ControlConfig, control_run
-    from seagen.control.firmware import shipped_config
+    from seagen.codegen.controller import shipped_config
     from seagen.control.gentwin import StepTwin
+    from seagen.runtime.control import ControlConfig, control_run
 
     cfg = shipped_config(qm)
     return control_run(ControlConfig(**{**cfg.__dict__, "predictor": StepTwin(prefix, qm)}), enc, pot, force)
@@ -53,4 +53,9 @@ def check_controller(v: Verdict, files: dict[str, str], prefix: str, qm) -> None
         problem = (
             f"tick {k} (enc {enc[k]}, pot {pot[k]}, force_q16 {force[k]}): C {got[k]} vs twin {want[k]} mV"
         )
-    v.add(f"{prefix}_controller_tick over {len(enc)} ticks (host) == controller twin", problem)
+    v.add(tick_name(prefix), problem, info=f"{len(enc)} ticks")
+
+
+def tick_name(prefix: str) -> str:
+    """The stable name of the controller check."""
+    return f"{prefix}_controller_tick over the synthetic sequence (host) == controller twin"

@@ -1,0 +1,241 @@
+"""The actuator description: one validated TOML file holding every geometry number of a linear SEA.
+
+Fields and units (the paper's actuator, `seagen/actuators/paper.toml`, is the default):
+
+    kind                         "linear" (lead screw + compression spring); "rotary" reserved, refused today
+    name                         free text
+    [motor] supply_v             V      motor supply (the command range is +-supply_v)
+            no_load_rpm          rpm    no-load speed of the motor shaft at supply_v
+            gear_ratio           -      gearbox reduction (motor turns per output turn)
+            counts_per_rev       count  encoder counts per motor revolution (integer)
+    [transmission] lead_mm       mm     nut travel per gearbox output revolution
+    [spring] stiffness_n_per_mm  N/mm   series spring stiffness k_s
+    [linkage] cb_mm, ce_mm       mm     the constant lengths CB and CE of Eq. 2
+              home_deg           deg    contact angle at rest with the spring unloaded
+              angle_min_deg, angle_max_deg, split_deg   deg   contact-angle range; H_fit below the split
+              h_fit              -      R_l below the split, ascending powers of (angle - angle_min_deg)
+              v_fit_higher       -      R_l above the split: powers >= 2 of (angle - split_deg)
+    [pot] full_scale_deg         deg    angle change over the whole ADC range (2^adc_bits counts)
+          offset_deg             deg    angle at ADC count 0
+          adc_bits               bit    ADC resolution (8..16)
+    [control] loop_hz            Hz     controller tick rate
+
+Errors name the file and the field (`ActuatorError`, a user error: exit 2).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import tomllib
+from dataclasses import asdict, dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from seagen.errors import UserError
+
+
+class ActuatorError(UserError):
+    """An actuator description that cannot be used (names the file and the field)."""
+
+
+@dataclass(frozen=True)
+class Motor:
+    """The drive motor and its encoder."""
+
+    supply_v: float
+    no_load_rpm: float
+    gear_ratio: float
+    counts_per_rev: int
+
+
+@dataclass(frozen=True)
+class Linkage:
+    """Eq. 2 lengths, the contact-angle range and the force ratio R_l of Eq. 6."""
+
+    cb_mm: float
+    ce_mm: float
+    home_deg: float
+    angle_min_deg: float
+    angle_max_deg: float
+    split_deg: float
+    h_fit: tuple[float, ...]
+    v_fit_higher: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Pot:
+    """The linkage-angle potentiometer and its ADC."""
+
+    full_scale_deg: float
+    offset_deg: float
+    adc_bits: int
+
+
+@dataclass(frozen=True)
+class Actuator:
+    """A linear SEA as seagen sees it; derived quantities are properties."""
+
+    kind: str
+    name: str
+    motor: Motor
+    lead_mm: float
+    stiffness_n_per_mm: float
+    linkage: Linkage
+    pot: Pot
+    loop_hz: float
+
+    @property
+    def mm_per_count(self) -> float:
+        """Nut travel per encoder count (Eq. 3)."""
+        return self.lead_mm / (self.motor.gear_ratio * self.motor.counts_per_rev)
+
+    @property
+    def pot_deg_per_count(self) -> float:
+        """Linkage angle per pot ADC count (Eq. 4-5)."""
+        return self.pot.full_scale_deg / float(2**self.pot.adc_bits)
+
+    @property
+    def adc_max(self) -> int:
+        """The largest pot reading."""
+        return 2**self.pot.adc_bits - 1
+
+    def to_dict(self) -> dict[str, Any]:
+        """The parsed values as plain data (what a model file records)."""
+        return asdict(self)
+
+    def digest(self) -> str:
+        """sha256 of the parsed values (formatting and comments of the file do not count)."""
+        return hashlib.sha256(json.dumps(self.to_dict(), sort_keys=True).encode()).hexdigest()
+
+
+_TABLES: dict[str, dict[str, type]] = {
+    "motor": {"supply_v": float, "no_load_rpm": float, "gear_ratio": float, "counts_per_rev": int},
+    "transmission": {"lead_mm": float},
+    "spring": {"stiffness_n_per_mm": float},
+    "linkage": {
+        "cb_mm": float,
+        "ce_mm": float,
+        "home_deg": float,
+        "angle_min_deg": float,
+        "angle_max_deg": float,
+        "split_deg": float,
+        "h_fit": list,
+        "v_fit_higher": list,
+    },
+    "pot": {"full_scale_deg": float, "offset_deg": float, "adc_bits": int},
+    "control": {"loop_hz": float},
+}
+
+
+def _value(where: str, field: str, value: Any, kind: type) -> Any:
+    """One field, type-checked and finite."""
+    if kind is list:
+        if not isinstance(value, list) or not value:
+            raise ActuatorError(f"{where}: '{field}' must be a non-empty array of numbers")
+        return tuple(_value(where, f"{field}[{i}]", v, float) for i, v in enumerate(value))
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ActuatorError(f"{where}: '{field}' must be a number, got {value!r}")
+    if kind is int and not isinstance(value, int):
+        raise ActuatorError(f"{where}: '{field}' must be an integer, got {value!r}")
+    if not math.isfinite(value):
+        raise ActuatorError(f"{where}: '{field}' must be finite, got {value!r}")
+    return kind(value)
+
+
+def _tables(data: dict[str, Any], where: str) -> dict[str, dict[str, Any]]:
+    """Every table and field present, of its type, and nothing unknown."""
+    unknown = set(data) - set(_TABLES) - {"kind", "name"}
+    if unknown:
+        raise ActuatorError(
+            f"{where}: unknown key '{sorted(unknown)[0]}' (known: kind, name, {', '.join(_TABLES)})"
+        )
+    out: dict[str, dict[str, Any]] = {}
+    for table, spec in _TABLES.items():
+        got = data.get(table)
+        if not isinstance(got, dict):
+            raise ActuatorError(f"{where}: missing table [{table}]")
+        extra = set(got) - set(spec)
+        if extra:
+            raise ActuatorError(
+                f"{where}: unknown key '{table}.{sorted(extra)[0]}' (known: {', '.join(spec)})"
+            )
+        out[table] = {}
+        for key, kind in spec.items():
+            if key not in got:
+                raise ActuatorError(f"{where}: missing '{table}.{key}'")
+            out[table][key] = _value(where, f"{table}.{key}", got[key], kind)
+    return out
+
+
+def _check(a: Actuator, where: str) -> Actuator:
+    """Physical plausibility: positive sizes, an ordered angle range, a usable ADC."""
+    positive = {
+        "motor.supply_v": a.motor.supply_v,
+        "motor.no_load_rpm": a.motor.no_load_rpm,
+        "motor.gear_ratio": a.motor.gear_ratio,
+        "motor.counts_per_rev": a.motor.counts_per_rev,
+        "transmission.lead_mm": a.lead_mm,
+        "spring.stiffness_n_per_mm": a.stiffness_n_per_mm,
+        "linkage.cb_mm": a.linkage.cb_mm,
+        "pot.full_scale_deg": a.pot.full_scale_deg,
+        "control.loop_hz": a.loop_hz,
+    }
+    for field, v in positive.items():
+        if v <= 0:
+            raise ActuatorError(f"{where}: '{field}' must be positive, got {v!r}")
+    lk = a.linkage
+    if not lk.angle_min_deg < lk.split_deg < lk.angle_max_deg:
+        raise ActuatorError(f"{where}: 'linkage': need angle_min_deg < split_deg < angle_max_deg")
+    if not lk.angle_min_deg <= lk.home_deg <= lk.angle_max_deg:
+        raise ActuatorError(f"{where}: 'linkage.home_deg' must lie in [angle_min_deg, angle_max_deg]")
+    if not 0.0 < lk.angle_max_deg < 90.0:
+        raise ActuatorError(f"{where}: 'linkage.angle_max_deg' must lie in (0, 90) deg")
+    if not 8 <= a.pot.adc_bits <= 16:
+        raise ActuatorError(f"{where}: 'pot.adc_bits' must be 8..16, got {a.pot.adc_bits}")
+    return a
+
+
+def actuator_from_dict(data: dict[str, Any], where: str = "<dict>") -> Actuator:
+    """Validate a parsed description; every error names `where` and the field."""
+    kind = data.get("kind", "linear")
+    if kind != "linear":
+        raise ActuatorError(f"{where}: 'kind' {kind!r} is not supported (only \"linear\" SEAs today)")
+    name = data.get("name", "")
+    if not isinstance(name, str):
+        raise ActuatorError(f"{where}: 'name' must be a string")
+    t = _tables(data, where)
+    act = Actuator(
+        kind=kind,
+        name=name,
+        motor=Motor(**t["motor"]),
+        lead_mm=t["transmission"]["lead_mm"],
+        stiffness_n_per_mm=t["spring"]["stiffness_n_per_mm"],
+        linkage=Linkage(**t["linkage"]),
+        pot=Pot(**t["pot"]),
+        loop_hz=t["control"]["loop_hz"],
+    )
+    return _check(act, where)
+
+
+def load_actuator(path: str | os.PathLike[str]) -> Actuator:
+    """Read and validate an actuator description (TOML)."""
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ActuatorError(f"{p}: no such file") from None
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
+        raise ActuatorError(f"{p}: not a valid TOML file: {e}") from None
+    except OSError as e:
+        raise ActuatorError(f"{p}: cannot read: {e.strerror}") from None
+    return actuator_from_dict(data, str(p))
+
+
+def default_actuator() -> Actuator:
+    """The paper's actuator, shipped as package data (`seagen/actuators/paper.toml`)."""
+    text = resources.files("seagen.actuators").joinpath("paper.toml").read_text(encoding="utf-8")
+    return actuator_from_dict(tomllib.loads(text), "seagen/actuators/paper.toml")

@@ -1,0 +1,293 @@
+"""Archives by allow-list: every member of a .pt2 or TorchScript zip is one seagen knows and has checked, or
+the file is refused, naming the member, before torch opens it. Nothing here unpickles beyond weights-only."""
+
+from __future__ import annotations
+
+import ast
+import io
+import json
+import re
+import zipfile
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from seagen.errors import UserError
+from seagen.filekind import is_storage, pickle_globals, split_root
+
+OPT_IN = "only --allow-pickle opens it (with torch, which can run code the file carries)"
+META = frozenset({"byteorder", "version", ".data/version", ".data/serialization_id"})
+TS_PICKLES = frozenset({"data.pkl", "constants.pkl", "traced_inputs.pkl"})
+TS_STORAGES = ("data/", "constants/", "traced_inputs/")  # raw storage bytes, e.g. data/0
+# torch's own helpers a TorchScript pickle names (its C++ unpickler implements them; none imports code)
+TS_PICKLE_HELPERS = frozenset(
+    ["torch._utils._rebuild_tensor_v2", "collections.OrderedDict"]
+    + [f"torch.jit._pickle.{n}" for n in ("restore_type_tag", "build_tensor_from_id", "build_genericlist")]
+    + [f"torch.jit._pickle.build_{t}list" for t in ("int", "double", "bool", "tensor")]
+)
+STORAGE = re.compile(r"torch\.(Float|Double|Half|BFloat16|Long|Int|Short|Char|Byte|Bool)Storage")
+TARGET = re.compile(r"torch\.ops\.\w+\.\w+(\.\w+)?|_operator\.\w+|math\.\w+|torch\._?sym_\w+")
+# what a shape expression of a torch.export program may hold: torch hands it to sympy.sympify, which
+# evaluates it as Python; it is written by sympy's srepr, e.g. "Add(Integer(1), Symbol('s0', integer=True))"
+SYM_FUNCS = frozenset(
+    """Symbol Integer Rational Float Add Mul Pow Mod Max Min Abs floor ceiling Eq Ne Lt Le Gt Ge Equality
+    Unequality StrictLessThan LessThan StrictGreaterThan GreaterThan And Or Not Piecewise ExprCondPair
+    BooleanTrue BooleanFalse true false NegativeOne One Zero Half Infinity NegativeInfinity oo zoo nan NaN
+    ComplexInfinity IntInfinity NegativeIntInfinity int_oo FloorDiv ModularIndexing Where PythonMod CleanDiv
+    CeilToInt FloorToInt CeilDiv LShift RShift PowByNatural FloatPow FloatTrueDiv IntTrueDiv ToFloat Identity
+    IsNonOverlappingAndDenseIndicator TruncToFloat TruncToInt RoundToInt RoundDecimal""".split()  # noqa: SIM905
+)
+SYM_KEYWORDS = frozenset(
+    """positive negative nonnegative nonpositive integer real rational finite infinite zero nonzero even odd
+    commutative precision evaluate""".split()  # noqa: SIM905
+)
+SYM_NODES = (
+    ast.Expression, ast.Call, ast.Name, ast.Load, ast.Constant, ast.keyword, ast.BinOp, ast.UnaryOp,
+    ast.Compare, ast.BoolOp, ast.Add, ast.Sub, ast.Mult, ast.Div, ast.FloorDiv, ast.Mod, ast.Pow, ast.USub,
+    ast.UAdd, ast.Not, ast.And, ast.Or, ast.Eq, ast.NotEq, ast.Lt, ast.LtE, ast.Gt, ast.GtE,
+)  # fmt: skip
+SYMBOL = re.compile(r"[A-Za-z]\w{0,30}")
+
+
+def refuse(p: Path, member: str, why: str) -> UserError:
+    """The one-line refusal naming the member."""
+    return UserError(f"{p}: member {member}: {why}; {OPT_IN}")
+
+
+def _members(p: Path) -> tuple[zipfile.ZipFile, str, dict[str, str]]:
+    """The open zip, its root folder and {name below the root: full name}; a member outside the root or
+    named twice is refused."""
+    try:
+        z = zipfile.ZipFile(p)
+    except (zipfile.BadZipFile, OSError) as e:
+        raise UserError(f"{p}: not a readable zip archive: {e}") from None
+    names = z.namelist()
+    twice = [n for n, k in Counter(names).items() if k > 1]
+    if twice:
+        z.close()
+        raise refuse(p, twice[0], "appears twice in the archive")
+    root, rel = split_root(names)
+    for full, r in zip(names, rel, strict=True):
+        if r == full and root:
+            z.close()
+            raise refuse(p, full, f"lies outside the archive's folder {root}/")
+    return z, root, dict(zip(rel, names, strict=True))
+
+
+def _read(z: zipfile.ZipFile, p: Path, full: str) -> bytes:
+    """A member's bytes; an unreadable one is refused."""
+    try:
+        return z.read(full)
+    except Exception as e:  # zipfile raises several types (bad CRC, encryption, compression)
+        raise UserError(f"{p}: member {full}: cannot be read: {e}") from None
+
+
+def _check_meta(p: Path, z: zipfile.ZipFile, rel: str, full: str) -> None:
+    """Bookkeeping members: short ASCII text, little-endian byte order."""
+    data = _read(z, p, full)
+    if len(data) > 64 or not data.isascii():
+        raise refuse(p, full, "is not the short text torch writes there")
+    if rel == "byteorder" and data.strip() != b"little":
+        raise refuse(p, full, f"byte order {data.decode().strip()!r} (seagen reads little-endian archives)")
+
+
+# ---------------------------------------------------------------- TorchScript
+
+
+def check_torchscript(p: Path) -> None:
+    """A TorchScript archive: pickles that name only TorchScript classes (`__torch__.*`), torch storages and
+    torch's own list/tensor rebuilders, raw storages, TorchScript source that defines no `__setstate__` (the
+    one method torch.jit.load runs), bookkeeping and extra files; anything else is refused."""
+    z, _root, members = _members(p)
+    with z:
+        for rel, full in members.items():
+            if rel in TS_PICKLES or (rel.startswith("code/") and rel.endswith(".py.debug_pkl")):
+                _check_ts_pickle(p, full, _read(z, p, full))
+            elif rel.startswith("code/") and rel.endswith(".py"):
+                _check_ts_code(p, full, _read(z, p, full))
+            elif rel in META:
+                _check_meta(p, z, rel, full)
+            elif not (rel.startswith("extra/") or any(is_storage(rel, d) for d in TS_STORAGES)):
+                raise refuse(p, full, "is not part of a TorchScript archive seagen reads")
+        if "data.pkl" not in members:
+            raise UserError(f"{p}: not a TorchScript archive seagen reads: it has no data.pkl")
+
+
+def _check_ts_pickle(p: Path, full: str, data: bytes) -> None:
+    """Every import of a TorchScript pickle is a TorchScript class, a torch storage or a torch rebuilder."""
+    try:
+        names = pickle_globals(data)
+    except ValueError as e:
+        raise refuse(p, full, f"a pickle seagen cannot check ({e})") from None
+    for g in names:
+        if not (g.startswith("__torch__.") or STORAGE.fullmatch(g) or g in TS_PICKLE_HELPERS):
+            raise refuse(p, full, f"a pickle that names {g}, not a TorchScript class or torch storage")
+
+
+def _check_ts_code(p: Path, full: str, data: bytes) -> None:
+    """TorchScript source: UTF-8 Python syntax without a `__setstate__` (run by torch.jit.load)."""
+    try:
+        tree = ast.parse(data.decode("utf-8"))
+    except (UnicodeDecodeError, SyntaxError, ValueError):
+        raise refuse(p, full, "is not TorchScript source") from None
+    for node in ast.walk(tree):
+        if isinstance(node, ast.FunctionDef) and node.name == "__setstate__":
+            raise refuse(p, full, "defines __setstate__, code torch.jit.load would run on opening the file")
+
+
+# ---------------------------------------------------------------- torch.export (.pt2)
+
+
+@dataclass
+class Pt2:
+    """What seagen reads from a checked .pt2: the JSON program, its payload configs and sample inputs."""
+
+    program: dict[str, Any]
+    weights: dict[str, Any]  # {"config": {fqn: PayloadMeta as dict}}
+    constants: dict[str, Any]
+    sample_inputs: Any
+    tensors: dict[str, Any] = field(default_factory=dict)  # full member name -> pickled tensor (use_pickle)
+    raw: Callable[[str], bytes] = field(default=lambda _n: b"", repr=False)  # full member name -> bytes
+
+
+def check_pt2(p: Path) -> Pt2:
+    """A torch.export archive in the current layout: archive_format 'pt2', version 0, one models/NAME.json
+    (node targets torch operators, shape expressions arithmetic), its weights and constants configs, the raw
+    tensor bytes or tensor-only pickles they name, weights-only sample inputs, bookkeeping and extra files.
+    Any other member (the older layout, AOTInductor, shared objects, unknown files) is refused by name."""
+    z, root, members = _members(p)
+    with z:
+        programs = sorted(r for r in members if re.fullmatch(r"models/[^/]+\.json", r))
+        name = programs[0][len("models/") : -len(".json")] if programs else "model"
+        configs = (f"data/weights/{name}_weights_config.json", f"data/constants/{name}_constants_config.json")
+        known = {"archive_format", "archive_version", f"models/{name}.json", *configs, *META}
+        known.add(f"data/sample_inputs/{name}.pt")
+        payload = {f"data/weights/{n}" for n in _paths(z, p, members, configs[0])}
+        payload |= {f"data/constants/{n}" for n in _paths(z, p, members, configs[1])}
+        for rel, full in members.items():
+            if not (rel in known or rel in payload or rel.startswith("extra/")):
+                raise refuse(p, full, "is not part of a torch.export archive seagen reads")
+        for rel in ("archive_format", "archive_version", f"models/{name}.json"):
+            if rel not in members:
+                raise UserError(f"{p}: not a torch.export archive seagen reads: it has no {rel}")
+        for rel, want in (("archive_format", b"pt2"), ("archive_version", b"0")):
+            if _read(z, p, members[rel]).strip() != want:
+                raise refuse(p, members[rel], f"is not {want.decode()!r} (seagen reads the current layout)")
+        for rel in META & set(members):
+            _check_meta(p, z, rel, members[rel])
+        full = members[f"models/{name}.json"]
+        program = _json(z, p, full)
+        _check_program(p, full, program)
+        cfgs = [_json(z, p, members[r]) if r in members else {"config": {}} for r in configs]
+        tensors: dict[str, Any] = {}
+        for cfg, folder in zip(cfgs, ("data/weights/", "data/constants/"), strict=True):
+            for meta in cfg["config"].values():
+                f = members.get(folder + meta["path_name"])
+                if f is None:
+                    raise UserError(f"{p}: not a complete .pt2: {folder}{meta['path_name']} is missing")
+                if meta.get("use_pickle"):
+                    tensors[f] = _weights_only(z, p, f, tensor=True)
+        inputs = members.get(f"data/sample_inputs/{name}.pt")
+        sample = _weights_only(z, p, inputs, tensor=False) if inputs else None
+        data = {f: _read(z, p, f) for f in members.values() if f.startswith(f"{root}/data/")} if root else {}
+    return Pt2(program, cfgs[0], cfgs[1], sample, tensors, lambda n: data[n])
+
+
+def _json(z: zipfile.ZipFile, p: Path, full: str) -> Any:
+    """A JSON member (a dict)."""
+    try:
+        doc = json.loads(_read(z, p, full).decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise refuse(p, full, f"is not JSON ({e})") from None
+    if not isinstance(doc, dict):
+        raise refuse(p, full, "is not a JSON object")
+    return doc
+
+
+def _paths(z: zipfile.ZipFile, p: Path, members: dict[str, str], rel: str) -> set[str]:
+    """The payload file names (weight_N, tensor_N) a weights or constants config lists; a config entry of
+    another kind (custom or opaque objects: pickles of arbitrary classes) is refused."""
+    if rel not in members:
+        return set()
+    cfg = _json(z, p, members[rel])
+    entries = cfg.get("config")
+    if not isinstance(entries, dict):
+        raise refuse(p, members[rel], "has no 'config' object")
+    out = set()
+    for key, meta in entries.items():
+        path = meta.get("path_name") if isinstance(meta, dict) else None
+        if not isinstance(path, str) or not re.fullmatch(r"(weight|tensor)_\d+", path):
+            raise refuse(p, members[rel], f"entry {key!r} is a {path or 'non-tensor'} object, not a tensor")
+        if not meta.get("use_pickle") and not isinstance(meta.get("tensor_meta"), dict):
+            raise refuse(p, members[rel], f"entry {key!r} has no tensor_meta")
+        out.add(path)
+    return out
+
+
+def _weights_only(z: zipfile.ZipFile, p: Path, full: str, tensor: bool) -> Any:
+    """A member torch.load reads with weights_only=True; a tensor (or tuple/dict of them) is required."""
+    import torch
+
+    try:
+        obj = torch.load(io.BytesIO(_read(z, p, full)), map_location="cpu", weights_only=True)
+    except Exception:  # anything the weights-only unpickler rejects or cannot parse
+        raise refuse(p, full, "a pickle that weights-only loading rejects") from None
+    ok = isinstance(obj, torch.Tensor) if tensor else isinstance(obj, tuple | dict)
+    if not ok:
+        want = "a tensor" if tensor else "sample inputs"
+        raise refuse(p, full, f"holds a {type(obj).__name__}, not {want}")
+    return obj
+
+
+def _check_program(p: Path, full: str, doc: dict[str, Any]) -> None:
+    """Node targets are torch operators; shape expressions (parsed by sympy, which evaluates them) hold
+    only numbers, operators, shape symbols and sympy's arithmetic functions."""
+    for node in doc.get("graph_module", {}).get("graph", {}).get("nodes", []):
+        target = node.get("target") if isinstance(node, dict) else None
+        if not isinstance(target, str) or not TARGET.fullmatch(target):
+            raise refuse(p, full, f"node target {target!r} is not a torch operator")
+    for expr in _values(doc, "expr_str"):
+        if not plain_sym_expr(expr):
+            raise refuse(p, full, f"shape expression {str(expr)[:60]!r} is not plain arithmetic")
+
+
+def plain_sym_expr(expr: Any) -> bool:
+    """A shape expression built only of sympy's arithmetic (calls of the names above, numbers, symbol
+    names as strings, assumption keywords, operators): nothing sympify's eval could turn into a call of
+    anything else (no attribute, subscript, lambda or other name)."""
+    if not isinstance(expr, str) or len(expr) > 2000 or "__" in expr:
+        return False
+    try:
+        tree = ast.parse(expr, mode="eval")
+    except (SyntaxError, ValueError):
+        return False
+    for n in ast.walk(tree):
+        if not isinstance(n, SYM_NODES):
+            return False
+        if isinstance(n, ast.Call) and not (isinstance(n.func, ast.Name) and n.func.id in SYM_FUNCS):
+            return False  # only sympy's names are called
+        if isinstance(n, ast.Name) and n.id not in SYM_FUNCS and not SYMBOL.fullmatch(n.id):
+            return False
+        if isinstance(n, ast.keyword) and n.arg not in SYM_KEYWORDS:
+            return False
+        if isinstance(n, ast.Constant) and not (
+            isinstance(n.value, bool | int | float)
+            or (isinstance(n.value, str) and re.fullmatch(r"[\w.+\-]{1,64}", n.value))
+        ):
+            return False
+    return True
+
+
+def _values(doc: Any, key: str):
+    """Every value stored under `key` anywhere in a JSON document."""
+    stack = [doc]
+    while stack:
+        d = stack.pop()
+        if isinstance(d, dict):
+            if key in d:
+                yield d[key]
+            stack.extend(d.values())
+        elif isinstance(d, list):
+            stack.extend(d)

@@ -1,0 +1,122 @@
+"""Python twin of c_runtime/sea_pid.c: the same integers, vectorized over a batch (numpy int64)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from seagen.runtime.fixed import COMP_FRAC_BITS, clamp, rshift_rne, sat16, sat32
+
+GAIN_FRAC = 12  # SEA_PID_GAIN_FRAC
+ALPHA_FRAC = 16  # SEA_PID_ALPHA_FRAC
+OUT_FRAC = 16  # SEA_PID_OUT_FRAC
+TERM_SHIFT = GAIN_FRAC + COMP_FRAC_BITS - OUT_FRAC
+MOTOR_MAX_MV = 12000
+TICK_S = 0.01  # the controller's tick (100 Hz)
+PAPER_MARGIN_MM = 0.1  # the paper's control margin (its compression came from the noisy pot at 10 Hz)
+
+
+@dataclass(frozen=True)
+class PidParams:
+    """sea_pid_params: gains Q12 (mV/mm, mV/(mm tick), mV tick/mm), alpha Q16, margin Q16 mm, range mV."""
+
+    kp: int
+    ki: int
+    kd: int
+    d_alpha: int
+    margin: int
+    out_min: int = -MOTOR_MAX_MV
+    out_max: int = MOTOR_MAX_MV
+
+    @classmethod
+    def from_si(
+        cls,
+        kp_v_mm: float,
+        ki_v_mm_s: float,
+        kd_v_s_mm: float,
+        d_alpha: float,
+        margin_mm: float = PAPER_MARGIN_MM,
+        limit_v: float = MOTOR_MAX_MV / 1000,
+    ) -> PidParams:
+        """Quantize gains given in V/mm, V/(mm s), V s/mm at the 10 ms tick (rounded to nearest); the
+        output is limited to +-limit_v."""
+        q = float(1 << GAIN_FRAC)
+        lim = round(min(limit_v, MOTOR_MAX_MV / 1000) * 1000)
+        return cls(
+            kp=round(kp_v_mm * 1000 * q),
+            ki=round(ki_v_mm_s * 1000 * TICK_S * q),
+            kd=round(kd_v_s_mm * 1000 / TICK_S * q),
+            d_alpha=round(d_alpha * (1 << ALPHA_FRAC)),
+            margin=round(margin_mm * (1 << COMP_FRAC_BITS)),
+            out_min=-lim,
+            out_max=lim,
+        )
+
+    def as_tuple(self) -> tuple[int, ...]:
+        """Field values in C declaration order."""
+        return (self.kp, self.ki, self.kd, self.d_alpha, self.margin, self.out_min, self.out_max)
+
+
+# Tuned on the simulated plant (c_runtime/README.md "Tuned gains"; python -m seagen.control.tune).
+DEFAULT_PID_SI = {
+    "kp_v_mm": 31.0,
+    "ki_v_mm_s": 6.5,
+    "kd_v_s_mm": 0.85,
+    "d_alpha": 0.95,
+    "margin_mm": 0.025,
+    "limit_v": 6.5,
+}
+DEFAULT_PID = PidParams.from_si(**DEFAULT_PID_SI)
+
+
+@dataclass(frozen=True)
+class PidState:
+    """sea_pid_state for a batch: integrator Q16 mV, filtered rate Q16 mm/tick, last meas, last out mV."""
+
+    integ: np.ndarray
+    d_filt: np.ndarray
+    meas_prev: np.ndarray
+    out: np.ndarray
+
+
+def pid_reset(p: PidParams, meas: np.ndarray | int, out: np.ndarray | int = 0) -> PidState:
+    """Bumpless (re)start (sea_pid_reset): integrator = out (clamped), filter cleared, meas remembered."""
+    meas = np.atleast_1d(np.asarray(meas, dtype=np.int64))
+    o = np.broadcast_to(clamp(out, p.out_min, p.out_max), meas.shape).astype(np.int64)
+    return PidState(sat32(o * (1 << OUT_FRAC)), np.zeros_like(meas), meas.copy(), sat16(o))
+
+
+def _rate(p: PidParams, s: PidState, meas: np.ndarray) -> np.ndarray:
+    """Filtered measurement rate, Q16 mm per tick (sea_pid_rate)."""
+    alpha = int(clamp(p.d_alpha, 0, 1 << ALPHA_FRAC))
+    x = sat32(meas - s.meas_prev)
+    return sat32(s.d_filt + rshift_rne(alpha * (x - s.d_filt), ALPHA_FRAC))
+
+
+def pid_step(p: PidParams, s: PidState, setpoint: np.ndarray | int, meas: np.ndarray | int) -> PidState:
+    """One tick (sea_pid_step); returns the new state, whose `out` is the command in mV."""
+    sp = np.asarray(setpoint, dtype=np.int64)
+    meas = np.broadcast_to(np.asarray(meas, dtype=np.int64), s.integ.shape)
+    lo, hi = p.out_min * (1 << OUT_FRAC), p.out_max * (1 << OUT_FRAC)
+    margin = max(p.margin, 0)
+    e = sat32(sp - meas)
+    d_filt = _rate(p, s, meas)
+    e = np.where((e >= -margin) & (e <= margin), 0, e)
+    pterm = rshift_rne(p.kp * e, TERM_SHIFT)
+    dterm = -rshift_rne(p.kd * d_filt, TERM_SHIFT)
+    inc = rshift_rne(p.ki * e, TERM_SHIFT)
+    integ = clamp(s.integ + inc, lo, hi)
+    u = pterm + integ + dterm
+    hold = ((u > hi) & (inc > 0)) | ((u < lo) & (inc < 0))
+    integ = np.where(hold, s.integ, integ)
+    u = pterm + integ + dterm
+    out = sat16(clamp(rshift_rne(u, OUT_FRAC), p.out_min, p.out_max))
+    return PidState(sat32(integ), d_filt, meas.copy(), out)
+
+
+def merge(keep_old: np.ndarray, old: PidState, new: PidState) -> PidState:
+    """Per element: `old` where keep_old, else `new`."""
+    return replace(
+        new, **{f: np.where(keep_old, getattr(old, f), getattr(new, f)) for f in new.__dataclass_fields__}
+    )

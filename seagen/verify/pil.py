@@ -1,0 +1,176 @@
+"""`seagen pil`: an export's controller (and calibration model) as firmware on an emulated board, closing
+the paper's force loop with the Python plant; every tick compared with the Python twins bit for bit."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from seagen.control.loop import PLANT_STEPS_PER_TICK, PyController
+from seagen.errors import UserError
+from seagen.pil.controller import MAX_ACTUATORS, PilController
+from seagen.runtime.control import q16
+from seagen.verify.result import Verdict
+
+COMPARED = ("out", "desired", "comp", "pot_avg", "fault")  # the command (mV) and the controller state
+
+
+@dataclass
+class PilResult:
+    """The verdict and the firmware's own instruction counts per tick (all actuators)."""
+
+    verdict: Verdict
+    core: str
+    machine: str
+    actuators: int
+    instructions: list[int] = field(default_factory=list)
+
+    def summary(self) -> dict:
+        """Instructions per tick: mean, max, and mean per actuator."""
+        x = np.asarray(self.instructions or [0])
+        return {
+            "core": self.core,
+            "board": self.machine,
+            "ticks": len(self.instructions),
+            "instr_mean": round(float(x.mean()), 1),
+            "instr_max": int(x.max()),
+            "instr_per_actuator": round(float(x.mean()) / max(self.actuators, 1), 1),
+        }
+
+
+class CalTwin:
+    """Twin of NAME_step of a calibration model for a batch, one call per tick (starts reset)."""
+
+    def __init__(self, qm) -> None:
+        from seagen.runtime import features as F
+        from seagen.runtime import fixed as P
+
+        self.qm, self.F = qm, F
+        self.pipeline = F.Pipeline(P.linkage_table_q16())
+
+    def __call__(self, enc: np.ndarray, pot: np.ndarray) -> np.ndarray:
+        """The force estimates (int16 in Q out_frac) of this tick."""
+        from seagen.reference import numpy_ref
+
+        b, d, dd = self.pipeline.step(enc, pot)
+        return numpy_ref.infer(self.qm, self.F.inputs(self.qm.inputs, b, d, dd, None)).astype(np.int64)
+
+
+def _mismatch(k: int, enc, pot, force, got: dict[str, np.ndarray], want: dict[str, np.ndarray]) -> str | None:
+    """The first field and actuator where the board and the twin differ at tick k, with the tick's inputs."""
+    for name in want:
+        bad = np.flatnonzero(got[name] != want[name])
+        if bad.size:
+            i = int(bad[0])
+            return (
+                f"tick {k}, actuator {i} (enc {enc[i]}, pot {pot[i]}, force_q16 {force[i]}): "
+                f"{name} board {got[name][i]} vs twin {want[name][i]}"
+            )
+    return None
+
+
+def closed_loop(
+    board: PilController,
+    twin_cfg,
+    cal_qm,
+    contact_deg: np.ndarray,
+    target_n: float,
+    ticks: int,
+    seed: int,
+) -> tuple[str | None, int]:
+    """One run of the experiment in lock step with the twins; (first mismatch or None, ticks run)."""
+    from seagen.plant import Plant, PlantConfig
+
+    plant = Plant(PlantConfig(), contact_deg, seed=seed)
+    twin, cal = PyController(twin_cfg), CalTwin(cal_qm) if cal_qm is not None else None
+    s = plant.read()
+    board.reset(s.enc, s.pot)
+    twin.reset(s.enc, s.pot)
+    force = np.full(len(contact_deg), q16(target_n), dtype=np.int64)
+    for k in range(ticks):
+        s = plant.read()
+        out = board.step(s.enc, s.pot, force)
+        want = {"out": twin.step(s.enc, s.pot, force)}
+        want.update({f: twin.field(f) for f in COMPARED[1:]})
+        if cal is not None:
+            want["force_est"] = cal(s.enc, s.pot)
+        got = {f: board.field(f) for f in want}
+        if problem := _mismatch(k, s.enc, s.pot, force, got, want):
+            return problem, k + 1
+        for _ in range(PLANT_STEPS_PER_TICK):
+            plant.step(out / 1000.0)
+    return None, ticks
+
+
+def _export(folder: Path, model: str, prefix: str | None, v: Verdict, allow_pickle: bool = False):
+    """(files on disk, rebuilt export, manifest) of MODEL's export in DIR; its drift recorded in `v`."""
+    from seagen.defaults import resolve_model
+    from seagen.verify.drift import (
+        changed_files,
+        check_files,
+        check_model,
+        check_stray,
+        check_version,
+        select,
+    )
+    from seagen.verify.run import disk_files, rebuild
+
+    model = resolve_model(model)
+    man, matches = select(folder, Path(model), prefix)
+    check_version(v, man)
+    check_model(v, man, Path(model), matches)
+    check_files(v, folder, man, changed_files(folder, man), None)
+    check_stray(v, folder, man)
+    return disk_files(folder, man), rebuild(man, Path(model), None, allow_pickle), man
+
+
+def run_pil(
+    folder: str,
+    model: str,
+    core: str,
+    ticks: int = 600,
+    actuators: int = 10,
+    cal_model: str | None = None,
+    prefix: str | None = None,
+    allow_pickle: bool = False,
+) -> PilResult:
+    """The experiment (targets 5/10/15 N, `actuators` contact angles, `ticks` per run) on the board."""
+    from seagen.codegen.controller import shipped_config
+    from seagen.control.experiment import TARGETS_N
+    from seagen.control.gentwin import StepTwin
+
+    if ticks < 1 or not 1 <= actuators <= MAX_ACTUATORS:
+        raise UserError(f"--ticks must be >= 1 and --actuators 1..{MAX_ACTUATORS} (got {ticks}, {actuators})")
+    root = Path(folder)
+    v = Verdict("", str(root), command="pil")
+    files, ex, man = _export(root, model, prefix, v, allow_pickle)
+    if not man.data["options"].get("controller"):
+        raise UserError(
+            f"{man.path}: exported without --controller (re-export with seagen export --controller)"
+        )
+    v.prefix = ex.prefix
+    cal_qm, cal = None, None
+    if cal_model is not None:
+        cal_files, cal_ex, _ = _export(root, cal_model, None, v, allow_pickle)
+        cal_qm, cal = cal_ex.qmodel, cal_ex.prefix
+        files = {**files, **cal_files}
+    board = PilController(files, ex.prefix, core, cal)
+    res = PilResult(v, core, board.board.machine, actuators)
+    cfg = shipped_config(ex.qmodel)  # the configuration export --controller renders
+    angles = np.linspace(7.0, 25.0, actuators)
+    try:
+        for i, target in enumerate(TARGETS_N):
+            twin_cfg = replace(cfg, predictor=StepTwin(ex.prefix, ex.qmodel))
+            problem, done = closed_loop(board, twin_cfg, cal_qm, angles, target, ticks, seed=i)
+            what = "commands, desired, comp, pot_avg, fault" + (f" and {cal} force estimates" if cal else "")
+            v.add(
+                f"{target:g} N closed loop on {board.board.machine}: {what} == twins",
+                problem,
+                f"{done} ticks x {actuators} actuators bit-identical",
+            )
+        res.instructions = board.instructions
+    finally:
+        board.close()
+    return res

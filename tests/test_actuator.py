@@ -1,0 +1,85 @@
+"""The actuator description: the shipped default is the paper's SEA; bad files are refused by field."""
+
+from __future__ import annotations
+
+import tomllib
+from importlib import resources
+
+import pytest
+
+from seagen import geometry as g
+from seagen.actuator import ActuatorError, actuator_from_dict, default_actuator, load_actuator
+
+
+def _paper() -> dict:
+    """The shipped default description as parsed TOML (a fresh copy)."""
+    return tomllib.loads(resources.files("seagen.actuators").joinpath("paper.toml").read_text())
+
+
+def test_default_is_the_papers_actuator():
+    """The default file gives the paper's numbers (Eq. 3-6, §IV-A) exactly as the geometry uses them."""
+    a = default_actuator()
+    assert a.mm_per_count == 20.0 / (380.0 * 12.0)
+    assert round(a.mm_per_count, 8) == 0.00438596
+    assert round(a.pot_deg_per_count, 6) == 0.012969
+    assert a.adc_max == 4095 and a.stiffness_n_per_mm == 4.2 and a.motor.no_load_rpm == 32300.0
+    assert a == g.ACTUATOR and a.mm_per_count == g.MM_PER_COUNT and a.adc_max == g.ADC_MAX
+
+
+def test_digest_follows_values_not_formatting(tmp_path):
+    """Two files with the same values have one digest; a changed value changes it."""
+    src = resources.files("seagen.actuators").joinpath("paper.toml").read_text()
+    p = tmp_path / "a.toml"
+    p.write_text("# reformatted\n" + src.replace(" = ", "="))
+    assert load_actuator(p).digest() == default_actuator().digest()
+    p.write_text(src.replace("stiffness_n_per_mm = 4.2", "stiffness_n_per_mm = 8.4"))
+    assert load_actuator(p).digest() != default_actuator().digest()
+
+
+def _edit(path: str, value):
+    """The paper's description with one field set (None deletes it)."""
+    d = _paper()
+    *tables, key = path.split(".")
+    node = d
+    for t in tables:
+        node = node[t]
+    if value is None:
+        del node[key]
+    else:
+        node[key] = value
+    return d
+
+
+BAD = [
+    ("motor.gear_ratio", "380", "must be a number"),
+    ("motor.counts_per_rev", 12.5, "must be an integer"),
+    ("spring.stiffness_n_per_mm", float("nan"), "must be finite"),
+    ("spring.stiffness_n_per_mm", -4.2, "must be positive"),
+    ("transmission.lead_mm", None, "missing 'transmission.lead_mm'"),
+    ("linkage.split_deg", 30.0, "angle_min_deg < split_deg < angle_max_deg"),
+    ("linkage.home_deg", 2.0, "home_deg"),
+    ("linkage.h_fit", [], "non-empty array"),
+    ("linkage.h_fit", [0.5, "x"], "h_fit[1]"),
+    ("pot.adc_bits", 20, "8..16"),
+    ("motor.volts", 12.0, "unknown key 'motor.volts'"),
+    ("kind", "rotary", "not supported"),
+]
+
+
+@pytest.mark.parametrize("field,value,msg", BAD, ids=[f"{f}={v!r}" for f, v, _ in BAD])
+def test_bad_description_names_file_and_field(field, value, msg):
+    """Every bad field is refused with a message naming the file and the field."""
+    with pytest.raises(ActuatorError) as e:
+        actuator_from_dict(_edit(field, value), "my_sea.toml")
+    text = str(e.value)
+    assert text.startswith("my_sea.toml: ") and msg in text and "\n" not in text
+
+
+def test_unreadable_files(tmp_path):
+    """A missing file, a binary file and broken TOML are one-line errors naming the file."""
+    with pytest.raises(ActuatorError, match="no such file"):
+        load_actuator(tmp_path / "none.toml")
+    b = tmp_path / "bin.toml"
+    b.write_bytes(b"\xff\xfe\x00garbage")
+    with pytest.raises(ActuatorError, match="bin.toml: not a valid TOML"):
+        load_actuator(b)
