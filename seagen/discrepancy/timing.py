@@ -12,6 +12,8 @@ from seagen.discrepancy.replay import Runs, simulate
 STEP_S = 0.015  # the lag is read from the encoder residual's step from just before a switch to this after
 COARSE = np.linspace(0.0, 1.0, 11)  # lag grid, then a fine one around the best
 FINE_HALF, FINE_N = 0.1, 11
+POLISH_S, POLISH_N = 0.1e-3, 11  # the last step: +-0.1 ms around the best, whole-trial chi-square ...
+POLISH_MAX_PERIOD_S = 2e-3  # ... for logs at >= 500 Hz (slower ones: the switch steps pin the lag alone)
 DISAGREE_CHI2 = 25.0  # a declared convention this much worse (switch-step sum) than the fit is wrong
 NAMES = {0.0: "from_row", 1.0: "up_to_row"}
 
@@ -43,44 +45,60 @@ class Timing:
         )
 
 
-def _switch_steps(runs: Runs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(trial, row STEP_S before, row before, row STEP_S after, after/before time ratio) of every command
-    switch, the first command from rest too."""
+def _switch_windows(runs: Runs) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
+    """Per command switch (the first command from rest too): (trial, rows of the 2 STEP_S before it, their
+    weights of a least-squares line extrapolated to the mean time of the rows STEP_S..2 STEP_S after it,
+    those after rows)."""
     from seagen.discrepancy.replay import SWITCH_V
 
-    tr, pre, lo, hi, ratio = [], [], [], [], []
+    out = []
     for i in range(len(runs.angle)):
         m = int(runs.mask[i].sum())
         v, t = runs.volts[i, :m], runs.t[i, :m]
-        rows = np.flatnonzero(np.abs(np.diff(np.r_[0.0, v])) > SWITCH_V)
-        b = np.maximum(rows - 1, 0)
-        a = np.minimum(np.searchsorted(t, t[rows] + STEP_S), m - 1)
-        p = np.maximum(np.searchsorted(t, t[b] - STEP_S), 0)
-        tr += [i] * len(rows)
-        pre += list(p)
-        lo += list(b)
-        hi += list(a)
-        ratio += list((t[a] - t[b]) / np.maximum(t[b] - t[p], 1e-9) * (p < b))
-    return tuple(np.array(x) for x in (tr, pre, lo, hi, ratio))  # type: ignore[return-value]
+        for j in np.flatnonzero(np.abs(np.diff(np.r_[0.0, v])) > SWITCH_V):
+            b = int(j) - 1 if j > 0 else 0  # the last row before the switch (it may act from that instant)
+            before = np.arange(np.searchsorted(t, t[b] - 2 * STEP_S), b + 1)
+            after = np.arange(
+                np.searchsorted(t, t[b] + STEP_S), np.searchsorted(t, t[b] + 2 * STEP_S, side="right")
+            )
+            if not len(after):
+                continue
+            x = t[before] - t[before].mean()
+            at = float(t[after].mean() - t[before].mean())
+            sxx = float(x @ x)
+            w = np.full(len(before), 1.0 / len(before)) + (x * at / sxx if sxx > 0 else 0.0)
+            out.append((i, before, w, after))
+    return out
 
 
 def _profile(base, runs: Runs, sig_enc: np.ndarray, lags: np.ndarray) -> np.ndarray:
     """For each lag, the sum of squares of the base plant's encoder residual steps across the command
-    switches (noise units; the change from just before a switch to SETTLE_S after it). A mis-timed switch
-    puts a step there; slow physics (compliance, friction levels) barely moves the residual in that window,
-    so a missing effect does not pull the lag. All lags replayed in one batch."""
+    switches (noise units): the mean residual STEP_S..2 STEP_S after a switch less the line through the
+    2 STEP_S before it, extrapolated. A mis-timed switch puts a step there; slow physics (compliance,
+    friction levels) barely bends the residual in that window, so a missing effect hardly pulls the lag;
+    averaging over the windows keeps the encoder's rounding from deciding it at high rates. All lags
+    replayed in one batch."""
     n = len(runs.angle)
     big = runs.take(np.tile(np.arange(n), len(lags)))
     big.lag = np.repeat(lags, n)
     sim = simulate(base, [{}], big)["enc"][0]
     z = (big.meas["enc"] - sim) / np.tile(sig_enc, len(lags))[:, None]
-    tr, pre, lo, hi, ratio = _switch_steps(runs)
+    rows = np.arange(len(lags)) * n
     out = np.zeros(len(lags))
-    for k in range(len(lags)):
-        rows = tr + k * n
-        drift = (z[rows, lo] - z[rows, pre]) * ratio  # the residual's own trend, carried over the switch
-        out[k] = float(np.sum((z[rows, hi] - z[rows, lo] - drift) ** 2))
+    for i, before, w, after in _switch_windows(runs):
+        step = z[(rows + i)[:, None], after].mean(axis=1) - z[(rows + i)[:, None], before] @ w
+        out += step**2
     return out
+
+
+def _whole(base, runs: Runs, sig_enc: np.ndarray, lags: np.ndarray) -> np.ndarray:
+    """Whole-trial encoder chi-square of the base plant for each lag (one batch)."""
+    n = len(runs.angle)
+    big = runs.take(np.tile(np.arange(n), len(lags)))
+    big.lag = np.repeat(lags, n)
+    sim = simulate(base, [{}], big)["enc"][0]
+    z = (big.meas["enc"] - sim) / np.tile(sig_enc, len(lags))[:, None]
+    return np.nansum(z**2, axis=1).reshape(len(lags), n).sum(axis=1)
 
 
 def fit_timing(base, runs: Runs, sig_enc: np.ndarray, pinned: float | None = None) -> Timing:
@@ -94,6 +112,13 @@ def fit_timing(base, runs: Runs, sig_enc: np.ndarray, pinned: float | None = Non
     best = float(min(chi, key=chi.__getitem__))
     d = np.diff(runs.t, axis=1)[runs.mask[:, 1:]]
     period = float(np.median(d)) if d.size else 0.01
+    # last, the whole-trial encoder chi-square within +-POLISH_S of it: at high rates a sample period is
+    # short and the steps are the encoder's rounding; a band this narrow keeps missing physics from
+    # pulling the lag far
+    half = POLISH_S / max(period, 1e-6)
+    band = np.unique(np.round(np.clip(best + np.linspace(-half, half, POLISH_N), 0.0, 1.0), 4))
+    if period <= POLISH_MAX_PERIOD_S and len(band) > 1:
+        best = float(band[int(np.argmin(_whole(base, runs, sig_enc, band)))])
     out = Timing(best if pinned is None else float(pinned), best, pinned, period, chi)
     if pinned is not None:
         if float(pinned) not in chi:
