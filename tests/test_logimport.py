@@ -81,21 +81,25 @@ def _rig_log(frames: list[pd.DataFrame]) -> pd.DataFrame:
     return pd.concat(rows, ignore_index=True)
 
 
-def test_import_recovers_the_schema_data(tmp_path, original) -> None:
-    """A 200 Hz log in other units is cut into its trials and resampled to 100 Hz: the counts and the
-    command come back exactly, the forces and angles to float rounding (<1 s)."""
+def test_import_keeps_every_row_at_its_own_time(tmp_path, original) -> None:
+    """A 200 Hz log in other units is cut into its trials and kept row for row: each row's time from its
+    trial's start, counts and command exactly as logged, forces and angles to float rounding (<1 s)."""
     log = tmp_path / "rig.csv"
-    _rig_log(original).to_csv(log, index=False, float_format="%.17g")
+    rig = _rig_log(original)
+    rig.to_csv(log, index=False, float_format="%.17g")
     (tmp_path / "map.toml").write_text(MAP)
     got = import_log(log, load_map(tmp_path / "map.toml"))
     assert sorted(got["trial"].unique()) == list(range(len(original)))
+    assert len(got) == len(rig)
     for i, df in enumerate(original):
         part = got[got["trial"] == i].reset_index(drop=True)
-        assert len(part) == len(df)
+        assert len(part) == 2 * len(df) - 1
+        assert np.allclose(part["t_s"], np.arange(len(part)) * 0.005, rtol=0, atol=1e-12)
+        even = part.iloc[::2].reset_index(drop=True)
         for c in ("enc", "pot"):
-            assert np.array_equal(part[c].to_numpy(), df[c].to_numpy()), c
-        for c in ("t_s", "angle_set_deg", "motor_v", "load_cell_n", "force_n"):
-            assert np.allclose(part[c], df[c], rtol=1e-9, atol=1e-9), c
+            assert np.array_equal(even[c].to_numpy(), df[c].to_numpy()), c
+        for c in ("angle_set_deg", "motor_v", "load_cell_n", "force_n"):
+            assert np.allclose(even[c], df[c], rtol=1e-9, atol=1e-9), c
 
 
 def test_cli_writes_splits_train_and_discrepancy_accept(tmp_path, original, capsys) -> None:
@@ -109,7 +113,7 @@ def test_cli_writes_splits_train_and_discrepancy_accept(tmp_path, original, caps
     (tmp_path / "map.toml").write_text(MAP)
     out = tmp_path / "data"
     assert main(["data", "import", str(log), "--map", str(tmp_path / "map.toml"), "--out", str(out)]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["test.csv", "train.csv", "validation.csv"]
+    assert sorted(p.name for p in out.iterdir()) == ["import.json", "test.csv", "train.csv", "validation.csv"]
     assert all(list(load_csv(out / f"{s}.csv").columns) == list(RAW_COLUMNS) for s in ("train", "test"))
     assert set(load_derived(out)) == {"train", "test", "validation"}
     assert len(runs_from_frames(load_measured(str(out))).angle) == len(original)
@@ -142,3 +146,123 @@ def test_bad_log_or_map_exits_2_and_writes_nothing(tmp_path, original, capsys, e
     assert main(args) == 2
     assert needle in capsys.readouterr().err
     assert not out.exists()
+
+
+@pytest.fixture(scope="module")
+def rig_lines() -> list[str]:
+    """A rig-style log (jittered ~250 Hz loop, integer-ms clock, three trials) as its CRLF lines."""
+    from seagen.discrepancy.bench import FAST_MOVES, case_moves
+    from seagen.discrepancy.riglog import rig_csv, rig_trials
+
+    frames = rig_trials(PlantConfig(), case_moves(FAST_MOVES)[:3], seed=4)
+    return rig_csv(frames).split("\r\n")[:-1]
+
+
+def _set(lines: list[str], i: int, col: int, value: str) -> list[str]:
+    """lines with data row i's (0-based, header excluded) field col replaced."""
+    out = list(lines)
+    cells = out[i + 1].split(",")
+    cells[col] = value
+    out[i + 1] = ",".join(cells)
+    return out
+
+
+def _ms(lines: list[str], i: int) -> int:
+    """The millis of data row i."""
+    return int(lines[i + 1].split(",")[0])
+
+
+def _gap(lines: list[str], i: int, ms: int) -> list[str]:
+    """A pause of `ms` before data row i (every later time moved)."""
+    out = list(lines)
+    for j in range(i, len(lines) - 1):
+        out = _set(out, j, 0, str(_ms(lines, j) + ms))
+    return out
+
+
+BROKEN = [
+    # (what, edit of the lines, map edit, what the one line must say)
+    (
+        "two swapped timestamps",
+        lambda x: _set(_set(x, 10, 0, str(_ms(x, 11))), 11, 0, str(_ms(x, 10))),
+        None,
+        "row 13, column 'millis': time goes backwards inside a trial",
+    ),
+    (
+        "a duplicated row",
+        lambda x: x[:21] + [x[21]] + x[21:],
+        None,
+        "row 23, column 'millis': time repeats inside a trial (the whole row repeats row 22)",
+    ),
+    (
+        "a repeated timestamp with other values",
+        lambda x: _set(x, 30, 0, str(_ms(x, 29))),
+        None,
+        "row 32, column 'millis': time repeats inside a trial",
+    ),
+    (
+        "a 2 s gap mid-push",
+        lambda x: _gap(x, 40, 2000),
+        None,
+        "row 42, column 'enc': trial 1 does not start at rest",
+    ),
+    ("a 5 Hz log", lambda x: x[:1] + x[1::50], None, "at least 50 Hz is needed"),
+    ("a 20 Hz log", lambda x: x[:1] + x[1::12], None, "at least 50 Hz is needed"),
+    (
+        "pot counts beyond full scale",
+        lambda x: x,
+        lambda m: m.replace("full_scale = 3300.0", "full_scale = 500.0"),
+        "column 'pot_mV': pot",
+    ),
+    (
+        "a comment line the map does not declare",
+        lambda x: ["# rig 3, firmware 1.2"] + x,
+        None,
+        "column 'millis' (mapped to t_s) not in the log",
+    ),
+    (
+        "unit = s on a millisecond column",
+        lambda x: x,
+        lambda m: m.replace('unit = "ms"', 'unit = "s"'),
+        "column 'millis': the median time step is 4 s (0.25 Hz with unit \"s\"); at least 50 Hz is needed",
+    ),
+]
+
+
+@pytest.mark.parametrize("what, edit, map_edit, needle", BROKEN, ids=[b[0] for b in BROKEN])
+def test_broken_rig_log_is_refused(tmp_path, capsys, rig_lines, what, edit, map_edit, needle) -> None:
+    """Every broken log: exit 2, one line naming the file, row and column, nothing written (<1 s each)."""
+    from seagen.discrepancy.riglog import RIG_MAP
+
+    (tmp_path / "rig.csv").write_text("\r\n".join(edit(rig_lines)) + "\r\n")
+    (tmp_path / "map.toml").write_text(map_edit(RIG_MAP) if map_edit else RIG_MAP)
+    out = tmp_path / "data"
+    args = [
+        "data",
+        "import",
+        str(tmp_path / "rig.csv"),
+        "--map",
+        str(tmp_path / "map.toml"),
+        "--out",
+        str(out),
+    ]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "rig.csv" in err and needle in err, err
+    assert len(err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_comment_lines_are_skipped_when_the_map_says_so(tmp_path, rig_lines) -> None:
+    """`[log] comment = "#"`: comment lines are skipped and row numbers still count them."""
+    from seagen.discrepancy.riglog import RIG_MAP
+
+    lines = ["# rig 3, firmware 1.2"] + rig_lines
+    (tmp_path / "rig.csv").write_text("\r\n".join(lines) + "\r\n")
+    (tmp_path / "map.toml").write_text(RIG_MAP + '[log]\ncomment = "#"\n')
+    got = import_log(tmp_path / "rig.csv", load_map(tmp_path / "map.toml"))
+    assert len(got) == len(rig_lines) - 1 and sorted(got["trial"].unique()) == [0, 1, 2]
+    bad = _set(rig_lines, 5, 3, "x")
+    (tmp_path / "rig.csv").write_text("\r\n".join(["# rig 3"] + bad) + "\r\n")
+    with pytest.raises(Exception, match=r"row 8, column 'enc'"):
+        import_log(tmp_path / "rig.csv", load_map(tmp_path / "map.toml"))

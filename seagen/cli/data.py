@@ -22,7 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.set_defaults(func=cmd_generate)
     i = dsub.add_parser(
         "import",
-        help="a rig's log -> train/test/validation CSVs (column map TOML with units; resampled to 100 Hz)",
+        help="a rig's log -> train/test/validation CSVs (column map TOML with units; rows kept as logged)",
     )
     i.add_argument("log", help="the rig's log (CSV with a header row)")
     i.add_argument("--map", required=True, help="column map TOML: log columns and units -> seagen's schema")
@@ -55,9 +55,10 @@ def cmd_generate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_splits(out: Path, splits: dict) -> None:
-    """Write every split into a staging folder inside `out`, then rename each into place under a lock on
-    `out` (two commands writing one folder at once leave the splits of one of them)."""
+def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None) -> None:
+    """Write every split (and the `extra` {file name: text}) into a staging folder inside `out`, then
+    rename each into place under a lock on `out` (two commands writing one folder at once leave the
+    files of one of them)."""
     from seagen.atomic import locked_folder
     from seagen.data.schema import save_csv
 
@@ -66,9 +67,11 @@ def _write_splits(out: Path, splits: dict) -> None:
     try:
         for name, df in splits.items():
             save_csv(df, Path(staged) / f"{name}.csv")
+        for name, text in (extra or {}).items():
+            (Path(staged) / name).write_text(text)
         with locked_folder(out):
-            for name in splits:
-                os.replace(Path(staged) / f"{name}.csv", out / f"{name}.csv")
+            for name in [f"{k}.csv" for k in splits] + list(extra or {}):
+                os.replace(Path(staged) / name, out / name)
     finally:
         for f in Path(staged).glob("*"):
             f.unlink()
@@ -78,10 +81,12 @@ def _write_splits(out: Path, splits: dict) -> None:
 
 def cmd_import(args: argparse.Namespace) -> int:
     """Convert a rig's log with a column map; nothing is written unless every row converts."""
-    from seagen.data.logimport import import_log, load_map, split_trials
+    from seagen.data.logimport import import_log, load_map, split_trials, timing
 
-    splits = split_trials(import_log(args.log, load_map(args.map)))
-    _write_splits(Path(args.out), splits)
+    mapping = load_map(args.map)
+    df = import_log(args.log, mapping)
+    splits = split_trials(df)
+    _write_splits(Path(args.out), splits, {"import.json": json.dumps(timing(df, mapping), indent=2) + "\n"})
     return 0
 
 

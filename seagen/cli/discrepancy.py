@@ -25,7 +25,17 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="bench: the independent families (forms outside the catalogue, mis-set bases, control)",
     )
-    p.add_argument("--quick", action="store_true", help="bench --families: quick moves (about half the time)")
+    p.add_argument(
+        "--rig",
+        action="store_true",
+        help="bench: rig-style logs (200-1000 Hz jittered ms clocks, both command conventions, other units) "
+        "through data import: nothing hidden, single effects, mis-set bases",
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="bench --families: quick moves (about half the time); bench --rig: nothing-hidden cases only",
+    )
     p.add_argument("--jobs", type=int, default=2, help="bench: worker processes")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_discrepancy)
@@ -40,14 +50,15 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
     if not args.measured or not args.out:
         raise UserError("discrepancy: --measured and --out are required (or use `discrepancy bench`)")
     from seagen.atomic import locked_folder
-    from seagen.discrepancy.replay import load_measured, runs_from_frames
+    from seagen.discrepancy.replay import load_measured, load_timing, runs_from_frames
     from seagen.discrepancy.report import summary, write_report
     from seagen.discrepancy.workflow import identify
     from seagen.plant import PlantConfig, load_config
 
     base = load_config(args.base) if args.base else PlantConfig()
-    runs = runs_from_frames(load_measured(args.measured))
-    res = identify(runs, base)
+    timing = load_timing(args.measured)
+    runs = runs_from_frames(load_measured(args.measured), timing)
+    res = identify(runs, base, pinned=timing.get("lag"))
     with locked_folder(Path(args.out).resolve().parent):  # another report onto --out waits, then replaces
         write_report(res, args.out, str(args.measured))
     s = summary(res)
@@ -65,6 +76,12 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
             f"{r['effect']}.{r['param']} {r['before']:.4g} -> {r['after']:.4g}" for r in s["recalibrated"]
         )
         print(f"verdict: {s['verdict']}; added: {named}; recalibrated: {recal or 'nothing'}")
+        if res.timing is not None:
+            print(res.timing.words())
+            if res.timing.warning:
+                print(f"warning: {res.timing.warning}")
+            if res.timing.problem:
+                print(f"timing problem: {res.timing.problem}")
         print(
             f"held-out residual RMS {s['rms_before']:.3g} -> {s['rms_after']:.3g} noise sigmas "
             f"(noise floor {s['noise_floor']:.3g}); report in {args.out}/report.md"
@@ -81,6 +98,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
         raise UserError(f"--seeds must be >= 1, got {args.seeds}")
     if args.families:
         return _print_families(args)
+    if args.rig:
+        return _print_rig(args)
     out = bench(args.seeds, jobs=max(1, args.jobs))
     if args.json:
         print(json.dumps(out, indent=2))
@@ -118,6 +137,28 @@ def _print_families(args: argparse.Namespace) -> int:
         print(
             f"{r['family']:17s} seed={r['seed']:4d} expected={r['expected']:20s} first={r['first']:20s} "
             f"added={r['added']:30s} recal={r['recalibrated']:30s} gap_cut={r['gap_cut']:.2f} "
+            f"({r['seconds']:.0f} s)"
+        )
+    return 0
+
+
+def _print_rig(args: argparse.Namespace) -> int:
+    """Run the rig benchmark and print its goal numbers and cases."""
+    from seagen.discrepancy.rigbench import bench_rig
+
+    kinds = ("control",) if args.quick else ("control", "single", "misset")
+    out = bench_rig(args.seeds, jobs=max(1, args.jobs), kinds=kinds)
+    if args.json:
+        print(json.dumps(out, indent=2, default=str))
+        return 0
+    for k, v in out.items():
+        if k != "cases":
+            print(f"{k}: {v:.3f}")
+    for r in out["cases"]:
+        print(
+            f"{r['kind']:8s} {r['clock_hz']:5d} Hz {r['convention']:10s} dialect={r['dialect']} "
+            f"hidden={r['hidden']:20s} lag={r['lag']:.2f} {r['verdict']:11s} named={r['named']:25s} "
+            f"recal={r['recalibrated']:25s} rms {r['rms_before']:6.2f} -> {r['rms_after']:5.2f} "
             f"({r['seconds']:.0f} s)"
         )
     return 0

@@ -1,21 +1,23 @@
-"""A rig's log -> seagen's CSV schema: a TOML column map with units, trials, resampling to 100 Hz.
+"""A rig's log -> seagen's CSV schema: a TOML column map with units, trials, each row at its own time.
 
 The map (see README "Data from your rig"):
 
-    [columns.t_s]            column = "time_ms", unit = "ms"      # required: time, any sample rate
+    [columns.t_s]            column = "time_ms", unit = "ms"      # required: time, any rate >= MIN_RATE_HZ
     [columns.trial]          column = "run"                        # optional
     [columns.angle_set_deg]  column = "contact", unit = "rad"      # or: value = 14.0
-    [columns.motor_v]        column = "cmd_mV", unit = "mV"
+    [columns.motor_v]        column = "pwm", unit = "%"            # % of the motor supply, V or mV
     [columns.enc]            column = "enc", unit = "counts"
     [columns.pot]            column = "pot_mV", unit = "mV", full_scale = 3300.0
     [columns.load_cell_n]    column = "tip_kgf", unit = "kgf"
     [columns.force_n]        column = "shaft_lbf", unit = "lbf"
     [trials]                 gap_s = 1.0    # without a trial column: a new trial where time jumps or resets
+    [log]                    comment = "#", command = "from_row"   # both optional
 
 Every mapped value is read as `raw * scale + offset` (both optional) in the given unit, then converted.
-Resampling (documented rule): each trial is put on the pipeline's 100 Hz grid from its first sample;
-measured channels are interpolated linearly (counts rounded to the nearest integer), the motor command is
-held from the last logged value at or before each grid time (it is a command, not a signal).
+Rows are kept as logged: t_s is each row's own time from its trial's first row (no resampling); the
+replay applies each logged command at its own instant. `[log] command` pins which interval a logged
+command covers ("from_row": applied from its row on, the usual rig loop; "up_to_row": applied up to its
+row, seagen's own data); without it the discrepancy workflow finds it from the data.
 """
 
 from __future__ import annotations
@@ -29,25 +31,25 @@ import numpy as np
 import pandas as pd
 
 from seagen import geometry as g
-from seagen.data.features import SAMPLE_RATE_HZ
 from seagen.data.schema import RAW_COLUMNS, DataError
 from seagen.errors import not_a_file
 
 _LBF_N = 4.4482216152605
+SUPPLY_V = 12.0  # the default actuator's motor supply: a PWM duty in % of it
+COMMAND_TIMING = {"from_row": 0.0, "up_to_row": 1.0}  # [log] command -> the replay's command lag
 _KGF_N = 9.80665
 # Per schema column: accepted units and the factor to seagen's unit (pot 'mV'/'V' need full_scale).
 UNITS: dict[str, dict[str, float]] = {
     "t_s": {"s": 1.0, "ms": 1e-3, "us": 1e-6},
     "trial": {"": 1.0},
     "angle_set_deg": {"deg": 1.0, "rad": 180.0 / np.pi},
-    "motor_v": {"V": 1.0, "mV": 1e-3},
+    "motor_v": {"V": 1.0, "mV": 1e-3, "%": SUPPLY_V / 100.0},
     "enc": {"counts": 1.0},
     "pot": {"counts": 1.0, "mV": np.nan, "V": np.nan},
     "load_cell_n": {"N": 1.0, "kgf": _KGF_N, "gf": _KGF_N * 1e-3, "lbf": _LBF_N},
     "force_n": {"N": 1.0, "kgf": _KGF_N, "gf": _KGF_N * 1e-3, "lbf": _LBF_N},
 }
 ENTRY_KEYS = {"column", "value", "unit", "scale", "offset", "full_scale"}
-HOLD = ("motor_v",)  # zero-order hold when resampling
 DEFAULT_GAP_S = 1.0
 
 
@@ -60,9 +62,9 @@ def load_map(path: str | os.PathLike[str]) -> dict[str, Any]:
         raise DataError(f"{p}: no such file") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise DataError(f"{p}: not valid TOML: {e}") from None
-    unknown = set(data) - {"columns", "trials"}
+    unknown = set(data) - {"columns", "trials", "log"}
     if unknown:
-        raise DataError(f"{p}: unknown table '{sorted(unknown)[0]}' (known: columns, trials)")
+        raise DataError(f"{p}: unknown table '{sorted(unknown)[0]}' (known: columns, trials, log)")
     cols = data.get("columns", {})
     for name, entry in cols.items():
         _check_entry(p, name, entry)
@@ -72,7 +74,17 @@ def load_map(path: str | os.PathLike[str]) -> dict[str, Any]:
     gap = data.get("trials", {}).get("gap_s", DEFAULT_GAP_S)
     if isinstance(gap, bool) or not isinstance(gap, int | float) or gap <= 0:
         raise DataError(f"{p}: trials.gap_s must be a positive number, got {gap!r}")
-    return {"columns": cols, "gap_s": float(gap), "path": p}
+    log = data.get("log", {})
+    bad = set(log) - {"comment", "command"}
+    if bad:
+        raise DataError(f"{p}: log: unknown key '{sorted(bad)[0]}' (known: comment, command)")
+    comment = log.get("comment")
+    if comment is not None and (not isinstance(comment, str) or len(comment) != 1):
+        raise DataError(f'{p}: log.comment must be one character (e.g. "#"), got {comment!r}')
+    command = log.get("command")
+    if command is not None and command not in COMMAND_TIMING:
+        raise DataError(f"{p}: log.command must be one of {', '.join(COMMAND_TIMING)}, got {command!r}")
+    return {"columns": cols, "gap_s": float(gap), "path": p, "comment": comment, "command": command}
 
 
 def _check_entry(p: Path, name: str, entry: Any) -> None:
@@ -109,7 +121,9 @@ def _numbers(path: Path, df: pd.DataFrame, col: str, target: str) -> np.ndarray:
     bad = ~np.isfinite(num)
     if bad.any():
         i = int(np.argmax(bad))
-        raise DataError(f"{path}, row {i + 2}, column '{col}': not a finite number: {df[col].iloc[i]!r}")
+        raise DataError(
+            f"{path}, row {_row(df, i)}, column '{col}': not a finite number: {df[col].iloc[i]!r}"
+        )
     return num
 
 
@@ -127,59 +141,171 @@ def _convert(path: Path, df: pd.DataFrame, name: str, entry: dict[str, Any]) -> 
     return x * UNITS[name][unit]
 
 
+def _row(df: pd.DataFrame, i: int) -> int:
+    """The log's line number of data row i (header = line 1; comment and blank lines counted)."""
+    lines = df.attrs.get("lines")
+    return int(lines[i]) if lines is not None else i + 2
+
+
+def _line_numbers(path: Path, comment: str | None) -> np.ndarray:
+    """Line number of every data row pandas reads (skipping blank lines and whole-line comments)."""
+    keep = []
+    with path.open("rb") as f:
+        for n, raw in enumerate(f, 1):
+            line = raw.strip()
+            if not line or (comment and line.startswith(comment.encode())):
+                continue
+            keep.append(n)
+    return np.asarray(keep[1:], dtype=np.int64)
+
+
 def _trial_ids(path: Path, df: pd.DataFrame, cols: dict, t: np.ndarray, gap_s: float) -> np.ndarray:
-    """Trial number per row: the mapped column, else a new trial where time resets or jumps by > gap_s."""
+    """Trial number per row: the mapped column, else a new trial where time jumps by > gap_s or resets
+    (goes back by > gap_s); inside a trial time must increase."""
+    col = cols["t_s"]["column"]
     if "trial" in cols:
         trial = _convert(path, df, "trial", cols["trial"])
-        back = (trial[1:] == trial[:-1]) & (t[1:] < t[:-1])
-        if back.any():
-            i = int(np.argmax(back)) + 1
-            col = cols["t_s"]["column"]
-            raise DataError(f"{path}, row {i + 2}, column '{col}': time goes backwards inside a trial")
-        return trial
+        same = trial[1:] == trial[:-1]
+    else:
+        dt = np.diff(t)
+        same = (dt >= -gap_s) & (dt <= gap_s)
+        trial = np.r_[0, np.cumsum(~same)].astype(float)
     dt = np.diff(t)
-    return np.r_[0, np.cumsum((dt < 0) | (dt > gap_s))]
+    for bad, what in ((same & (dt < 0), "goes backwards"), (same & (dt == 0), "repeats")):
+        if bad.any():
+            i = int(np.argmax(bad)) + 1
+            dup = bool((df.iloc[i] == df.iloc[i - 1]).all())
+            extra = f" (the whole row repeats row {_row(df, i - 1)})" if dup else ""
+            raise DataError(f"{path}, row {_row(df, i)}, column '{col}': time {what} inside a trial{extra}")
+    return trial
 
 
-def _resample(t: np.ndarray, x: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """One trial on the 100 Hz grid from its first sample (linear; the command held)."""
-    n = int(np.floor((t[-1] - t[0]) * SAMPLE_RATE_HZ + 1e-9)) + 1
-    grid = np.arange(n) / SAMPLE_RATE_HZ
-    rel = t - t[0]
-    out = {"t_s": grid}
-    for k, v in x.items():
-        if k in HOLD:
-            out[k] = v[np.clip(np.searchsorted(rel, grid + 1e-9, side="right") - 1, 0, len(v) - 1)]
-        else:
-            out[k] = np.interp(grid, rel, v)
-        if RAW_COLUMNS[k] == "int":
-            out[k] = np.rint(out[k]).astype(np.int64)
-    return out
+MIN_RATE_HZ = 50.0  # slower logs cannot time the command switches the replay needs (documented in README)
+REST_COUNTS = 3  # a trial whose encoder moves more than this between its first two rows ...
+REST_RATIO = 0.6  # ... at more than this share of the next interval's speed starts in motion
+SENSOR_RANGE = {"pot": (0.0, float(g.ADC_MAX))}
+
+
+def _check_rate_unit(path: Path, cols: dict, t: np.ndarray, gap_s: float) -> None:
+    """The time unit and the sample rate over the whole log (a step longer than trials.gap_s would make
+    every row its own trial: almost always a wrong unit)."""
+    col, unit = cols["t_s"]["column"], cols["t_s"].get("unit", "s")
+    d = np.diff(t)
+    d = d[d > 0]
+    if not d.size:
+        return
+    step = float(np.median(d))
+    if step > gap_s or step > 1.0 / MIN_RATE_HZ:
+        hint = ""
+        for u, f in UNITS["t_s"].items():
+            rate = 1.0 / (step / UNITS["t_s"][unit] * f)
+            if u != unit and MIN_RATE_HZ <= rate <= 20_000:
+                hint = f'; with unit = "{u}" it would be {rate:.0f} Hz: is the column in {u}?'
+        raise DataError(
+            f"{path}, column '{col}': the median time step is {step:.6g} s ({1 / step:.3g} Hz with unit "
+            f'"{unit}"); at least {MIN_RATE_HZ:g} Hz is needed to time the command switches{hint}'
+        )
+
+
+def _check_trial(path: Path, df: pd.DataFrame, cols: dict, sel: np.ndarray, conv: dict, k: int) -> None:
+    """One trial: logged at >= MIN_RATE_HZ and starting at rest (the replay starts the plant at rest)."""
+    t = conv["t_s"][sel]
+    step = float(np.median(np.diff(t)))
+    where = f"{path}, row {_row(df, int(sel[0]))}"
+    if step > 1.0 / MIN_RATE_HZ:
+        raise DataError(
+            f"{where}, column '{cols['t_s']['column']}': trial {k} is logged at {1 / step:.3g} Hz (median "
+            f"step {step * 1000:.4g} ms); at least {MIN_RATE_HZ:g} Hz is needed"
+        )
+    e = conv["enc"][sel]
+    d1, d2 = abs(e[1] - e[0]) / (t[1] - t[0]), abs(e[2] - e[1]) / (t[2] - t[1])
+    if "column" in cols["enc"] and abs(e[1] - e[0]) > REST_COUNTS and d1 > REST_RATIO * d2:
+        raise DataError(
+            f"{where}, column '{cols['enc']['column']}': trial {k} does not start at rest (the encoder "
+            f"already runs at {d1:.0f} counts/s); a gap inside a trial? (see trials.gap_s)"
+        )
+
+
+def _check_range(path: Path, df: pd.DataFrame, cols: dict, conv: dict) -> None:
+    """Values outside the declared sensor range (e.g. pot counts beyond the ADC's full scale)."""
+    for name, (lo, hi) in SENSOR_RANGE.items():
+        x = conv[name]
+        bad = (x < lo - 0.5) | (x > hi + 0.5)
+        if bad.any() and "column" in cols[name]:
+            i = int(np.argmax(bad))
+            raise DataError(
+                f"{path}, row {_row(df, i)}, column '{cols[name]['column']}': {name} {x[i]:.6g} is outside "
+                f"the sensor's range {lo:g}..{hi:g} (check unit / full_scale)"
+            )
 
 
 def import_log(log: str | os.PathLike[str], mapping: dict[str, Any]) -> pd.DataFrame:
-    """The log as one schema frame (trials renumbered 0..n-1, 100 Hz)."""
+    """The log as one schema frame: trials renumbered 0..n-1, each row at its own time (from trial start)."""
     path = Path(log)
     if not path.is_file():
         raise DataError(not_a_file(path, "log file"))
     try:
-        df = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
+        df = pd.read_csv(
+            path, dtype=str, keep_default_na=False, skipinitialspace=True, comment=mapping.get("comment")
+        )
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
         raise DataError(f"{path}: not a readable CSV: {e}") from None
     if len(df) == 0:
         raise DataError(f"{path}: no data rows")
+    lines = _line_numbers(path, mapping.get("comment"))
+    if len(lines) == len(df):
+        df.attrs["lines"] = lines
     cols = mapping["columns"]
     conv = {k: _convert(path, df, k, cols[k]) for k in RAW_COLUMNS if k not in ("trial",)}
+    _check_rate_unit(path, cols, conv["t_s"], mapping["gap_s"])
+    _check_range(path, df, cols, conv)
     trial = _trial_ids(path, df, cols, conv["t_s"], mapping["gap_s"])
     parts = []
     for i, key in enumerate(pd.unique(trial)):
         sel = np.flatnonzero(trial == key)
         if len(sel) < 3:
-            raise DataError(f"{path}, row {sel[0] + 2}: trial {key:g} has {len(sel)} samples (need >= 3)")
-        signals = {k: v[sel] for k, v in conv.items() if k != "t_s"}
-        frame = pd.DataFrame(_resample(conv["t_s"][sel], signals))
+            row = _row(df, int(sel[0]))
+            raise DataError(f"{path}, row {row}: trial {key:g} has {len(sel)} samples (need >= 3)")
+        _check_trial(path, df, cols, sel, conv, i)
+        frame = pd.DataFrame({k: v[sel] for k, v in conv.items()})
+        frame["t_s"] = frame["t_s"] - frame["t_s"].iloc[0]
+        for k in ("enc", "pot"):
+            frame[k] = np.rint(frame[k]).astype(np.int64)
         parts.append(frame.assign(trial=i))
     return pd.concat(parts, ignore_index=True)[list(RAW_COLUMNS)]
+
+
+def clock_resolution(t: np.ndarray) -> float:
+    """The log clock's resolution (s): 0 when the samples are evenly spaced (the clock's own ticks, e.g.
+    seagen's 100 Hz grid), else the coarsest of 10 ms, 1 ms, 100 us, 10 us, 1 us that every time is a
+    multiple of (an integer-ms clock under a jittered loop: 1 ms)."""
+    d = np.diff(t)
+    if len(d) == 0 or np.ptp(d) <= 1e-9 * max(1.0, float(np.max(np.abs(t)))):
+        return 0.0
+    for r in (1e-2, 1e-3, 1e-4, 1e-5, 1e-6):
+        q = t / r
+        if np.all(np.abs(q - np.rint(q)) < 1e-6):
+            return r
+    return 0.0
+
+
+def timing(df: pd.DataFrame, mapping: dict[str, Any]) -> dict[str, Any]:
+    """What the import knows about the log's timing (written as import.json beside the splits)."""
+    periods, res = [], []
+    for _, part in df.groupby("trial", sort=False):
+        t = part["t_s"].to_numpy(dtype=float)
+        periods.append(np.diff(t))
+        res.append(clock_resolution(t))
+    d = np.concatenate(periods)
+    out: dict[str, Any] = {
+        "median_period_s": float(np.median(d)),
+        "period_range_s": [float(d.min()), float(d.max())],
+        "clock_resolution_s": float(max(res)),
+        "command": mapping.get("command"),
+    }
+    if mapping.get("command"):
+        out["lag"] = COMMAND_TIMING[mapping["command"]]
+    return out
 
 
 def split_trials(df: pd.DataFrame) -> dict[str, pd.DataFrame]:

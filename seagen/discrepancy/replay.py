@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from seagen import geometry as g
-from seagen.data.protocol import SAMPLE_EVERY
+from seagen.data.logimport import clock_resolution
 from seagen.plant import Plant, PlantConfig
 from seagen.plant.config import CATALOGUE, LEARNED_INPUTS
 from seagen.plant.sim import learned_correction
@@ -34,17 +34,39 @@ NEUTRAL: dict[str, dict[str, float]] = {
     "transport_delay": {"delay_s": 0.0},
 }
 ParamSet = dict[str, dict[str, float]]
+SWITCH_V = 0.5  # a command change this large is a switch (its instant's uncertainty moves the encoder)
+SETTLE_S = 0.03  # the speed after a switch is read this long after it (motor time constant ~ 10 ms)
 
 
 @dataclass
 class Runs:
-    """Measured trials padded to one length: per-trial angle, applied command and signals (n, T)."""
+    """Measured trials padded to one length: per-trial angle, the logged command and signals (n, T) at
+    their logged instants `t` (s from the trial's first row), and the command timing `lag` per trial.
+
+    The command logged on row j takes effect at t_j - lag * (t_j - t_{j-1}): lag 0 = from its row on (a
+    rig loop logs the command it computed and applies from that sample on), lag 1 = up to its row (seagen's
+    schema: the command applied since the previous row). `res` is the log clock's resolution per trial (s;
+    0 when the samples are the clock's own ticks)."""
 
     angle: np.ndarray
-    volts: np.ndarray  # command applied during the interval after each sample
+    volts: np.ndarray  # the command as logged on each row
     meas: dict[str, np.ndarray]
     mask: np.ndarray
     names: list[str]
+    t: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    lag: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    res: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    _tsig: dict[str, np.ndarray] | None = field(default=None, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        n, t = self.mask.shape
+        if self.t.shape != (n, t):  # seagen's 100 Hz grid
+            self.t = np.broadcast_to(np.arange(t) / 100.0, (n, t)).copy()
+        if self.lag.shape != (n,):
+            self.lag = np.ones(n)
+        if self.res.shape != (n,):
+            self.res = np.zeros(n)
 
     def take(self, idx: np.ndarray | list[int]) -> Runs:
         """The subset of trials `idx`, trimmed to its longest trial."""
@@ -56,30 +78,131 @@ class Runs:
             {k: v[idx, :t] for k, v in self.meas.items()},
             self.mask[idx, :t],
             [self.names[i] for i in idx],
+            self.t[idx, :t],
+            self.lag[idx],
+            self.res[idx],
         )
 
+    def timing_sigma(self) -> dict[str, np.ndarray]:
+        """Per sample and channel (n, T), what the log clock's resolution does to a comparison: the true
+        instant of a row is uncertain by res/sqrt(12), so a channel is uncertain by |dx/dt| res/sqrt(12);
+        the encoder also carries, from every command switch on, the speed change there times the
+        uncertainty of the switch's instant (summed in quadrature). Zero for a log on its clock's ticks."""
+        if self._tsig is None:
+            u = (self.res / np.sqrt(12.0))[:, None]
+            out = {c: np.abs(self.speed(c)) * u for c in CHANNELS}
+            v = self.speed("enc")
+            cmd = self.volts
+            switch = np.zeros_like(self.mask)
+            switch[:, 1:] = np.abs(np.diff(cmd, axis=1)) > SWITCH_V
+            later = np.empty_like(v)
+            for i in range(len(v)):  # the speed a settle time after each sample
+                j = np.searchsorted(self.t[i], self.t[i] + SETTLE_S)
+                later[i] = v[i, np.minimum(j, v.shape[1] - 1)]
+            before = np.concatenate([v[:, :1], v[:, :-1]], axis=1)
+            jump = np.where(switch & self.mask, (later - before) ** 2, 0.0) * u**2
+            out["enc"] = np.sqrt(out["enc"] ** 2 + np.cumsum(jump, axis=1))
+            self._tsig = out
+        return self._tsig
 
-def runs_from_frames(frames: list[tuple[str, pd.DataFrame]]) -> Runs:
-    """Split each (source name, DataFrame) by its `trial` column and pad the trials into arrays."""
+    @property
+    def applied(self) -> np.ndarray:
+        """The command in force during the interval after each sample (lag rounded to a convention)."""
+        nxt = np.concatenate([self.volts[:, 1:], self.volts[:, -1:]], axis=1)
+        return np.where(self.lag[:, None] >= 0.5, nxt, self.volts)
+
+    def speed(self, channel: str = "enc") -> np.ndarray:
+        """d(channel)/dt per sample (central differences on the logged instants; 0 at the padding)."""
+        x, t = np.nan_to_num(self.meas[channel]), self.t
+        out = np.zeros_like(x)
+        if x.shape[1] < 2:
+            return out
+        xp = np.concatenate([x[:, :1], x, x[:, -1:]], axis=1)
+        tp = np.concatenate([t[:, :1] - 1e-3, t, t[:, -1:] + 1e-3], axis=1)
+        num = xp[:, 2:] - xp[:, :-2]
+        den = tp[:, 2:] - tp[:, :-2]
+        out = num / np.where(den > 0, den, 1.0)
+        return np.where(self.mask, out, 0.0)
+
+
+def runs_from_frames(frames: list[tuple[str, pd.DataFrame]], timing: dict | None = None) -> Runs:
+    """Split each (source name, DataFrame) by its `trial` column and pad the trials into arrays.
+
+    `timing` (what `data import` found or was told about the log): "lag" pins the command timing."""
     trials = []
     for src, df in frames:
         for key, part in df.groupby("trial", sort=False):
             trials.append((f"{src}#{key}", part.sort_values("t_s", kind="stable")))
     n, t = len(trials), max(len(p) for _, p in trials)
     volts = np.zeros((n, t))
+    times = np.zeros((n, t))
     meas = {c: np.full((n, t), np.nan) for c in CHANNELS}
     mask = np.zeros((n, t), dtype=bool)
     angle = np.zeros(n)
+    res = np.zeros(n)
     for i, (_, p) in enumerate(trials):
         m = len(p)
         angle[i] = float(p["angle_set_deg"].iloc[0])
         v = p["motor_v"].to_numpy(dtype=float)
-        # the command recorded with sample j+1 is the one applied between samples j and j+1
-        volts[i, : m - 1], volts[i, m - 1 :] = v[1:], v[-1]
+        volts[i, :m], volts[i, m:] = v, v[-1]
+        ts = p["t_s"].to_numpy(dtype=float)
+        ts = ts - ts[0]
+        step = float(np.median(np.diff(ts))) if m > 1 else 0.01
+        times[i, :m] = ts
+        times[i, m:] = ts[-1] + step * np.arange(1, t - m + 1)
+        res[i] = clock_resolution(ts)
         for c in CHANNELS:
             meas[c][i, :m] = p[c].to_numpy(dtype=float)
         mask[i, :m] = True
-    return Runs(angle, volts, meas, mask, [name for name, _ in trials])
+    lag = np.full(n, float((timing or {}).get("lag", 1.0)))
+    return Runs(angle, volts, meas, mask, [name for name, _ in trials], times, lag, res)
+
+
+def drive(runs: Runs, dt: float) -> np.ndarray:
+    """The command each plant step of length dt sees, shape (n, K): the logged commands, each taking effect
+    at its instant (t_j - lag * (t_j - t_{j-1})) and held until the next; a step a switch falls inside gets
+    the time-weighted mean of the two (sub-step timing)."""
+    n = len(runs.angle)
+    m = runs.mask.sum(axis=1)
+    k_max = int(np.ceil(float(max(runs.t[i, m[i] - 1] for i in range(n))) / dt - 1e-9)) + 1
+    edges = np.arange(k_max + 1) * dt
+    out = np.empty((n, k_max))
+    for i in range(n):
+        t, v = runs.t[i, : m[i]], runs.volts[i, : m[i]]
+        s = np.empty(m[i])
+        s[0] = -1.0
+        s[1:] = t[1:] - runs.lag[i] * np.diff(t)
+        s = np.maximum.accumulate(s)
+        # integral of the piecewise-constant command at every step edge
+        seg = np.diff(np.r_[s, np.inf])
+        cum = np.r_[0.0, np.cumsum(v[:-1] * seg[:-1])]
+        j = np.clip(np.searchsorted(s, edges, side="right") - 1, 0, m[i] - 1)
+        u = cum[j] + v[j] * (edges - s[j])
+        inside = np.clip(np.searchsorted(s, edges[1:], side="left") - 1, 0, m[i] - 1) == j[:-1]
+        out[i] = np.where(inside, v[j[:-1]], np.diff(u) / dt)  # exact where no switch falls inside
+    return out
+
+
+def _sample_plan(runs: Runs, dt: float, k_max: int) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per plant step k (state after k steps): (trial, sample, weight) of every logged instant that reads
+    it; an instant between two steps is read linearly from both."""
+    tr, js = np.nonzero(runs.mask)
+    pos = runs.t[tr, js] / dt
+    a = np.floor(pos + 1e-9).astype(int)
+    w = np.clip(pos - a, 0.0, 1.0)
+    w[w < 1e-9] = 0.0
+    k = np.r_[a, a[w > 0] + 1]
+    rows = np.r_[tr, tr[w > 0]]
+    cols = np.r_[js, js[w > 0]]
+    wt = np.r_[1.0 - w, w[w > 0]]
+    k = np.minimum(k, k_max)
+    order = np.argsort(k, kind="stable")
+    k, rows, cols, wt = k[order], rows[order], cols[order], wt[order]
+    bounds = np.searchsorted(k, np.arange(k_max + 2))
+    return [
+        (rows[bounds[s] : bounds[s + 1]], cols[bounds[s] : bounds[s + 1]], wt[bounds[s] : bounds[s + 1]])
+        for s in range(k_max + 1)
+    ]
 
 
 def _value(base: PlantConfig, s: ParamSet, effect: str, param: str) -> float:
@@ -117,49 +240,83 @@ def simulate(
 ) -> dict[str, np.ndarray]:
     """Noise-free twins of every channel, shape (len(sets), n_trials, T), driven by the measured command.
 
-    The base's learned residual (if on) is added to its channel; `inputs`, if given, is filled with the
-    plant signals a learned residual reads (LEARNED_INPUTS), same shape."""
+    The plant steps at its own dt; each logged command takes effect at its own instant (see `drive`) and
+    every channel is read at its row's logged instant. The base's learned residual (if on) is added to its
+    channel; `inputs`, if given, is filled with the plant signals a learned residual reads (LEARNED_INPUTS),
+    same shape."""
     n, t = runs.volts.shape
-    e_n = n * len(sets)
+    n_sets = len(sets)
+    e_n = n * n_sets
     cfg, post = union_config(base, sets, n)
-    plant = Plant(cfg, np.tile(runs.angle, len(sets)))
-    volts = np.tile(runs.volts, (len(sets), 1))
+    dt = cfg.dt_s
+    plant = Plant(cfg, np.tile(runs.angle, n_sets))
+    u = drive(runs, dt)
+    k_max = u.shape[1]
+    plan = _sample_plan(runs, dt, k_max)
     zero = np.zeros(e_n)
     pvd = post.get("pot_voltage_drop")
     kappa = pvd["counts_per_unit_current"] if pvd else zero
-    alpha = np.minimum(cfg.dt_s / np.asarray(pvd["time_constant_s"]), 1.0) if pvd else zero
-    delay = zero + (post["transport_delay"]["delay_s"] / cfg.dt_s if "transport_delay" in post else 0.0)
-    offset = post["load_cell_offset"]["offset_n"] if "load_cell_offset" in post else zero
+    alpha = np.minimum(dt / np.asarray(pvd["time_constant_s"]), 1.0) if pvd else zero
+    delay = zero + (post["transport_delay"]["delay_s"] / dt if "transport_delay" in post else 0.0)
+    offset = zero + (post["load_cell_offset"]["offset_n"] if "load_cell_offset" in post else 0.0)
     size = int(np.ceil(delay.max())) + 2
-    ring, ptr, drop, rows = np.zeros((size, e_n)), 0, np.zeros(e_n), np.arange(e_n)
+    ring, ptr, drop = np.zeros((size, e_n)), 0, np.zeros(e_n)
     i0 = np.floor(delay).astype(int)
     frac = delay - i0
-    out = {c: np.empty((e_n, t)) for c in CHANNELS}
+    shape = (n_sets, n, t)
+    out = {c: np.zeros(shape) for c in ("enc", "pot", "load_cell_n")}
     lr = base.effects.learned_residual
-    rec = {k: np.empty((e_n, t)) for k in LEARNED_INPUTS} if inputs is not None or lr.enabled else {}
-    for j in range(t):
-        f = (1 - frac) * ring[(ptr - i0) % size, rows] + frac * ring[(ptr - i0 - 1) % size, rows]
-        angle = g.angle_from_shaft(np.minimum(plant.shaft_mm, plant.y_contact))
-        out["enc"][:, j] = plant.motor_mm / g.MM_PER_COUNT - 0.5  # expected value of the floored count
-        out["pot"][:, j] = np.clip(g.pot_from_angle(angle) + drop, 0, g.ADC_MAX)
-        out["load_cell_n"][:, j] = f * plant.ratio + offset
-        for k, v in plant.learned_inputs().items() if rec else ():
-            rec[k][:, j] = v
-        out["force_n"][:, j] = out["load_cell_n"][:, j] / plant.ratio
-        if j == t - 1:
+    rec = {k: np.zeros(shape) for k in LEARNED_INPUTS} if inputs is not None or lr.enabled else {}
+    for k in range(k_max + 1):
+        tr, js, w = plan[k]
+        if len(tr):
+            rows = (tr[None, :] + n * np.arange(n_sets)[:, None]).ravel()
+            wr = np.tile(w, n_sets)
+            sl = (np.repeat(np.arange(n_sets), len(tr)), np.tile(tr, n_sets), np.tile(js, n_sets))
+            f = (1 - frac[rows]) * ring[(ptr - i0[rows]) % size, rows] + frac[rows] * ring[
+                (ptr - i0[rows] - 1) % size, rows
+            ]
+            angle = g.angle_from_shaft(np.minimum(plant.shaft_mm[rows], plant.y_contact[rows]))
+            out["enc"][sl] += wr * (plant.motor_mm[rows] / g.MM_PER_COUNT - 0.5)  # E[floored count]
+            out["pot"][sl] += wr * np.clip(g.pot_from_angle(angle) + drop[rows], 0, g.ADC_MAX)
+            out["load_cell_n"][sl] += wr * (f * plant.ratio[rows] + offset[rows])
+            for key, v in plant.learned_inputs().items() if rec else ():
+                rec[key][sl] += wr * np.broadcast_to(v, (e_n,))[rows]
+        if k == k_max:
             break
-        for _ in range(SAMPLE_EVERY):
-            plant.step(volts[:, j])
-            if pvd:
-                drop += (kappa * np.abs(plant.current) - drop) * alpha
-            ptr = (ptr + 1) % size
-            ring[ptr] = plant.shaft_force
+        plant.step(np.tile(u[:, k], n_sets))
+        if pvd:
+            drop += (kappa * np.abs(plant.current) - drop) * alpha
+        ptr = (ptr + 1) % size
+        ring[ptr] = plant.shaft_force
+    ratio = g.linkage_ratio(runs.angle)[None, :, None]
     if lr.enabled:
-        out[lr.channel] += learned_correction(lr, rec)
-        out["force_n"] = out["load_cell_n"] / plant.ratio[:, None]
+        flat = {k: v.reshape(e_n, t) for k, v in rec.items()}
+        out[lr.channel] += learned_correction(lr, flat).reshape(shape)
+    out["force_n"] = out["load_cell_n"] / ratio
     if inputs is not None:
-        inputs.update({k: v.reshape(len(sets), n, t) for k, v in rec.items()})
-    return {c: v.reshape(len(sets), n, t) for c, v in out.items()}
+        inputs.update(rec)
+    return out
+
+
+def load_timing(path: str) -> dict:
+    """What `data import` wrote about the log's timing (import.json beside the CSVs), else {}."""
+    import json
+
+    from seagen.data.schema import DataError
+
+    p = Path(path)
+    f = (p if p.is_dir() else p.parent) / "import.json"
+    if not f.is_file():
+        return {}
+    try:
+        out = json.loads(f.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise DataError(f"{f}: not valid JSON: {e}") from None
+    lag = out.get("lag")
+    if lag is not None and (isinstance(lag, bool) or not isinstance(lag, int | float) or not 0 <= lag <= 1):
+        raise DataError(f"{f}: lag must be a number in [0, 1], got {lag!r}")
+    return out if isinstance(out, dict) else {}
 
 
 def load_measured(path: str) -> list:

@@ -12,7 +12,7 @@ import pandas as pd
 
 from seagen.discrepancy.recalibrate import change_lines, plausible
 from seagen.discrepancy.residuals import SCORE_CHANNELS, region_labels, region_table, rms
-from seagen.discrepancy.workflow import DRIVE, Result
+from seagen.discrepancy.workflow import DRIVE, Result, channel_rms, worse_channels
 from seagen.plant import save_config
 
 NOISE_TEXT = (
@@ -59,13 +59,17 @@ def residual_maps(res: Result, path: Path) -> None:
     ae = np.unique(held.angle)
     ae = np.concatenate([[ae[0] - 1], (ae[1:] + ae[:-1]) / 2, [ae[-1] + 1]])
     fig, axes = plt.subplots(2, len(SCORE_CHANNELS), figsize=(12, 6), constrained_layout=True)
-    for row, (title, z) in enumerate((("before", res.z_before), ("after", res.z_after))):
-        for col, c in enumerate(SCORE_CHANNELS):
+    n, _, _ = np.histogram2d(force, angle, [fe, ae])
+    means = {}
+    for title, z in (("before", res.z_before), ("after", res.z_after)):
+        for c in SCORE_CHANNELS:
             s, _, _ = np.histogram2d(force, angle, [fe, ae], weights=z[c][m])
-            n, _, _ = np.histogram2d(force, angle, [fe, ae])
-            mean = np.where(n > 0, s / np.maximum(n, 1), np.nan)
-            lim = max(3.0, float(np.nanmax(np.abs(mean)))) if row == 0 else 3.0
-            cells = np.ma.masked_invalid(mean.T)  # no data: grey, not the white of a zero residual
+            means[title, c] = np.where(n > 0, s / np.maximum(n, 1), np.nan)
+    for row, title in enumerate(("before", "after")):
+        for col, c in enumerate(SCORE_CHANNELS):
+            # one colour scale for a channel's before and after maps (the larger of the two)
+            lim = max(3.0, *(float(np.nanmax(np.abs(means[k, c]), initial=0.0)) for k in ("before", "after")))
+            cells = np.ma.masked_invalid(means[title, c].T)  # no data: grey, not the white of a zero residual
             im = axes[row, col].pcolormesh(fe, ae, cells, cmap=masked_cmap("RdBu_r"), vmin=-lim, vmax=lim)
             axes[row, col].set_title(f"{c} residual, {title}")
             axes[row, col].set_xlabel("measured force at the shaft (N)")
@@ -99,6 +103,9 @@ def markdown(res: Result, source: str, before: pd.DataFrame, after: pd.DataFrame
         f"Recalibrated: {', '.join(n.name for n in res.recalibrated) or 'nothing'}.",
         f"Held-out residual RMS {res.rms_before:.3g} -> {res.rms_after:.3g} noise sigmas "
         f"(noise floor {res.noise_floor:.3g}; {res.rms_after / res.noise_floor:.2f} x floor).",
+        _timing(res),
+        "## Per channel (held-out RMS, noise sigmas)\n" + _md_table(channel_table(res)),
+        "\n".join(f"- **{note}.**" for note in res.notes),
         "## What the residual depends on (held-out, before fitting)\n"
         + ("\n".join(f"- {w}" for w in res.signature) or "- nothing beyond the noise")
         + "\n\nCatalogue effects by likeness of their own signature (cosine, 1 = same dependences): "
@@ -128,8 +135,38 @@ def markdown(res: Result, source: str, before: pd.DataFrame, after: pd.DataFrame
     return "\n\n".join(p for p in parts if p) + "\n"
 
 
+def channel_table(res: Result) -> pd.DataFrame:
+    """Held-out residual RMS per channel before and after, and whether the change made it worse."""
+    before, after = channel_rms(res.z_before), channel_rms(res.z_after)
+    worse = set(worse_channels(before, after))
+    return pd.DataFrame(
+        [
+            (
+                c,
+                before[c],
+                after[c],
+                after[c] / before[c] if before[c] else np.nan,
+                "WORSE" if c in worse else "",
+            )
+            for c in before
+        ],
+        columns=["channel", "rms_before", "rms_after", "after/before", "note"],
+    )
+
+
+def _timing(res: Result) -> str:
+    """The command timing the replay used, and a warning when a declared convention disagrees."""
+    if res.timing is None:
+        return ""
+    warn = f"\n\n**Warning: {res.timing.warning}.**" if res.timing.warning else ""
+    warn += f"\n\n**Timing problem: {res.timing.problem}.**" if res.timing.problem else ""
+    return f"## Command timing\n{res.timing.words()}.{warn}"
+
+
 def _claim(n) -> str:
-    """'named' for a claimed change, else what it is: a compensation (the data's form differs)."""
+    """'named' for a claimed change, else why not: at the edge of its search box, or a compensation."""
+    if n.edge:
+        return f"not claimed: {', '.join(n.edge)} at the edge of its search box (the fit is not a value)"
     return "named" if n.claimed else "compensation only (the data's form differs; not a claim)"
 
 
@@ -201,6 +238,7 @@ def summary(res: Result) -> dict:
                 "sigma": n.sigma,
                 "confidence": n.confidence,
                 "claimed": n.claimed,
+                "edge": n.edge,
             }
             for n in res.effects
         ],
@@ -220,6 +258,19 @@ def summary(res: Result) -> dict:
             for p, v in n.params.items()
         ],
         "verdict": res.verdict,
+        "notes": res.notes,
+        "channels": channel_table(res).to_dict(orient="records"),
+        "timing": None
+        if res.timing is None
+        else {
+            "lag": res.timing.lag,
+            "fitted_lag": res.timing.fitted,
+            "pinned_lag": res.timing.pinned,
+            "offset_ms": res.timing.offset_ms,
+            "median_period_s": res.timing.period_s,
+            "warning": res.timing.warning,
+            "problem": res.timing.problem,
+        },
         "signature": res.signature,
         "signature_ranking": [[e, c] for e, c in res.ranking],
         "remainder": res.remainder,

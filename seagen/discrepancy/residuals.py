@@ -31,8 +31,12 @@ def noise_sigma(runs: Runs) -> dict[str, np.ndarray]:
 
 
 def zscores(runs: Runs, sim: dict[str, np.ndarray], sigma: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """Measured minus simulated, in noise sigmas; sim arrays may carry a leading set axis."""
-    return {c: (runs.meas[c] - sim[c]) / sigma[c][:, None] for c in CHANNELS}
+    """Measured minus simulated, in noise sigmas (the channel's noise and what the log clock's resolution
+    does to it, Runs.timing_sigma); sim arrays may carry a leading set axis."""
+    if not runs.res.any():
+        return {c: (runs.meas[c] - sim[c]) / sigma[c][:, None] for c in CHANNELS}
+    ts = runs.timing_sigma()
+    return {c: (runs.meas[c] - sim[c]) / np.sqrt(sigma[c][:, None] ** 2 + ts[c] ** 2) for c in CHANNELS}
 
 
 def chi2_per_trial(z: dict[str, np.ndarray]) -> np.ndarray:
@@ -73,10 +77,10 @@ def _bins(x: np.ndarray, edges: list[float], names: list[str]) -> np.ndarray:
 def region_labels(runs: Runs) -> dict[str, np.ndarray]:
     """Region of every sample by contact angle, force level, direction, speed and estimated current."""
     enc = runs.meas["enc"]
-    v = np.gradient(enc, axis=1) * g.MM_PER_COUNT * 100.0  # nut speed, mm/s
+    v = runs.speed("enc") * g.MM_PER_COUNT  # nut speed, mm/s
     m = runs.mask
     vmax = 32300.0 / 60.0 * 12 * g.MM_PER_COUNT
-    cur = np.abs(np.nan_to_num(runs.volts) / 12.0 - np.nan_to_num(v) / vmax)
+    cur = np.abs(np.nan_to_num(runs.applied) / 12.0 - v / vmax)
     speed = np.abs(v)
     moving = m & (speed > 0.2)
     q = [float(np.percentile(speed[moving], 50)) if moving.any() else 1.0]

@@ -27,39 +27,41 @@ MIN_R2 = 0.15  # a dependence is named when it alone explains this share of a ch
 DEPENDS = 2.0  # a channel's residual is described when its RMS exceeds this many noise sigmas
 
 
-def _since(event: np.ndarray, dt: float) -> np.ndarray:
+def _since(event: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Seconds since `event` was last true along each row (large before the first event)."""
     idx = np.arange(event.shape[1])[None, :]
-    last = np.maximum.accumulate(np.where(event, idx, -(10**6)), axis=1)
-    return (idx - last) * dt
+    last = np.maximum.accumulate(np.where(event, idx, -1), axis=1)
+    then = np.take_along_axis(t, np.maximum(last, 0), axis=1)
+    return np.where(last >= 0, t - then, 1e4)
 
 
 def features(runs: Runs) -> dict[str, np.ndarray]:
     """Per sample basis columns of each dependence group, shape (n, T, k); padding masked by runs.mask."""
-    dt = 1.0 / 100.0
-    v = np.nan_to_num(np.gradient(runs.meas["enc"], axis=1)) * g.MM_PER_COUNT / dt
+    v = runs.speed("enc") * g.MM_PER_COUNT
     moving = np.abs(v) > MOVING_MM_S
-    cmd = np.sign(runs.volts)
+    cmd = np.sign(runs.applied)
     flip = np.zeros_like(moving)
     flip[:, 1:] = (cmd[:, 1:] != cmd[:, :-1]) & (cmd[:, 1:] != 0)
     vmax = 32300.0 / 60.0 * 12 * g.MM_PER_COUNT
-    cur = np.abs(runs.volts / 12.0 - v / vmax)
+    cur = np.abs(runs.applied / 12.0 - v / vmax)
     lag = np.zeros_like(cur)
+    step = np.clip(np.diff(runs.t, axis=1) / 0.1, 0.0, 1.0)
     for j in range(1, cur.shape[1]):  # 0.1 s first-order lag of |i|
-        lag[:, j] = lag[:, j - 1] + (cur[:, j] - lag[:, j - 1]) * 0.1
+        lag[:, j] = lag[:, j - 1] + (cur[:, j] - lag[:, j - 1]) * step[:, j - 1]
     force = np.nan_to_num(runs.meas["force_n"])
-    t = np.cumsum(runs.mask, axis=1) * dt
+    t = np.where(runs.mask, runs.t, np.nan)
+    t = np.fmax.accumulate(np.nan_to_num(t, nan=-1.0), axis=1)
     session = t + np.r_[0.0, np.cumsum(t[:, -1])[:-1]][:, None]  # trials in recorded order, back to back
     angles = np.unique(runs.angle)
     return {
         "direction": np.stack([v > MOVING_MM_S, v < -MOVING_MM_S], -1).astype(float),
         "speed": np.stack([~moving, moving & (np.abs(v) < 2.0), np.abs(v) >= 2.0], -1).astype(float),
-        "reversal": (_since(flip, dt) < REVERSAL_S)[..., None].astype(float),
+        "reversal": (_since(flip, t) < REVERSAL_S)[..., None].astype(float),
         "force": np.stack([force, force**2, force > 0.5], -1).astype(float),
         "angle": np.stack([runs.angle[:, None] == a for a in angles], -1).astype(float)
         * np.ones_like(t)[..., None],
         "current": np.stack([cur, lag], -1),
-        "since_motion": np.exp(-_since(moving, dt) / 0.3)[..., None],
+        "since_motion": np.exp(-_since(moving, t) / 0.3)[..., None],
         "drift": session[..., None],
     }
 

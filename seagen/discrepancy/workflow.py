@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
@@ -10,6 +11,7 @@ import pandas as pd
 
 from seagen.discrepancy.candidates import (
     POLISH_NFEV,
+    SPACE,
     Candidate,
     from_params,
     joint_recalibration,
@@ -22,9 +24,10 @@ from seagen.discrepancy.candidates import (
     start,
 )
 from seagen.discrepancy.learned import Learned, fit_learned, with_learned
-from seagen.discrepancy.recalibrate import uncertainty
+from seagen.discrepancy.recalibrate import PLAUSIBLE, plausible, uncertainty
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
 from seagen.discrepancy.residuals import (
+    SCORE_CHANNELS,
     n_scored,
     noise_floor,
     noise_sigma,
@@ -34,18 +37,27 @@ from seagen.discrepancy.residuals import (
     zscores,
 )
 from seagen.discrepancy.signature import describe, features, profile, rank
+from seagen.discrepancy.timing import Timing, fit_timing, timing_problem
 from seagen.errors import UserError
 from seagen.plant import PlantConfig
 
 DRIVE = (
-    "measured motor command (each 100 Hz sample held for 10 plant steps): the plant's motor model is not "
-    "in the catalogue, so the command reproduces the recorded push/retract switch exactly, and the encoder "
-    "stays an observed signal that shows every effect that changes the load on the motor"
+    "measured motor command, each logged value taking effect at its own instant on the plant's 1 ms steps "
+    "(t_j - lag * (t_j - t_{j-1}); a step a switch falls inside gets the time-weighted mean) and held to "
+    "the next; every channel compared at its row's logged instant. The lag (which part of its interval a "
+    "logged command covers, 0 = from its row on, 1 = up to its row) is fitted on the fitting trials with "
+    "the base plant (the encoder residual's steps across switches), or pinned by the map; the plant's "
+    "motor model is not in the catalogue, so the command reproduces the recorded push/retract switch, and "
+    "the encoder stays an observed signal that shows every effect that changes the load on the motor"
 )
 DBIC_MIN = 10.0  # 'very strong' evidence (Kass & Raftery) before an effect is named
 PER_SPLIT = 6  # trials per split (fit, held-out), spread over the contact angles
 BOOTSTRAP = 400
 PAIR_RMS = 1.2  # polish the best pair when the best single leaves more than this x the noise floor
+AT_FLOOR = 1.1  # a held-out residual RMS within this x the noise floor: the model is consistent with the data
+WORSE = 1.1  # a change set is kept only if no channel's held-out RMS exceeds this x its value before ...
+WORSE_MIN = 1.2  # ... and this many noise sigmas (a channel at its noise may move within the noise)
+EDGE = 0.01  # a fitted parameter within this share of its search box from an end is at the edge
 
 
 @dataclass
@@ -57,7 +69,8 @@ class Named:
     confidence: float
     before: dict[str, float] | None = None  # the base's values when this is a recalibration
     sigma: dict[str, float] = field(default_factory=dict)  # 1-sigma uncertainty of each parameter
-    claimed: bool = True  # False: a compensation in a case left unexplained (see _claims)
+    claimed: bool = True  # False: a compensation in a case left unexplained, or a fit at its box's edge
+    edge: list[str] = field(default_factory=list)  # parameters fitted at the edge of their search box
 
 
 @dataclass
@@ -80,6 +93,8 @@ class Result:
     remainder: list[str] = field(default_factory=list)  # what the final residual still depends on
     learned: Learned | None = None  # the learned remainder (in config), when the catalogue ran out
     order: list[str] = field(default_factory=list)  # effects changed (added or recalibrated), first first
+    timing: Timing | None = None  # the command timing the replay used (fitted or declared)
+    notes: list[str] = field(default_factory=list)  # changes refused or flagged, in words (see _honest)
 
     @property
     def first(self) -> str | None:
@@ -295,12 +310,73 @@ def _claims(named: list[Named], verdict: str) -> None:
         n.claimed = n is first
 
 
-def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) -> Result:
-    """Name, add, re-check until the held-out residual is at the noise floor or nothing helps."""
+def channel_rms(z: dict[str, np.ndarray]) -> dict[str, float]:
+    """Held-out residual RMS per scored channel (noise sigmas)."""
+    return {c: float(np.sqrt(np.nanmean(z[c] ** 2))) for c in SCORE_CHANNELS}
+
+
+def worse_channels(before: dict[str, float], after: dict[str, float]) -> list[str]:
+    """Channels the change made worse: above WORSE x before and above WORSE_MIN sigmas."""
+    return [c for c in before if after[c] > max(WORSE * before[c], WORSE_MIN)]
+
+
+def _honest(base: PlantConfig, named: list[Named], held: Runs, sig_h, z0) -> tuple[list[Named], list[str]]:
+    """The stated rules before anything is written: (1) a recalibrated value outside the plausible range is
+    not written (the base's value stays; said in words); (2) a change set that makes any channel's
+    held-out fit worse (WORSE, WORSE_MIN) is not kept (said in words, channel by channel)."""
+    notes: list[str] = []
+    kept: list[Named] = []
+    for n in named:
+        bad = [p for p, v in n.params.items() if n.before is not None and not plausible(n.name, p, v)]
+        for p in bad:
+            lo, hi = PLAUSIBLE[n.name][p]
+            notes.append(
+                f"{n.name}.{p} fitted {n.params[p]:.4g}, outside the plausible range {lo:g}..{hi:g}: "
+                f"not written to plant.toml (the base's {n.before[p]:.4g} kept)"  # type: ignore[index]
+            )
+        params = {p: v for p, v in n.params.items() if p not in bad}
+        if params:
+            kept.append(dataclasses.replace(n, params=params))
+    named = kept
+    if not named:
+        return named, notes
+    before = channel_rms(z0)
+    after = channel_rms(_residual(_apply(base, {n.name: n.params for n in named}), held, sig_h))
+    worse = worse_channels(before, after)
+    if worse:
+        what = ", ".join(f"{c} {before[c]:.3g} -> {after[c]:.3g}" for c in worse)
+        notes.append(
+            f"the best change ({', '.join(n.name for n in named)}) makes held-out {what} noise sigmas worse: "
+            f"not kept (rule: no channel may end above {WORSE:g} x its RMS before and above {WORSE_MIN:g} "
+            "sigmas)"
+        )
+        return [], notes
+    return named, notes
+
+
+def _at_edge(n: Named) -> list[str]:
+    """The parameters of a named change fitted within EDGE of an end of their search box."""
+    out = []
+    for p, v in n.params.items():
+        lo, hi, log = SPACE[n.name][p]
+        u = np.log(v / lo) / np.log(hi / lo) if log and v > 0 else (v - lo) / (hi - lo)
+        if u <= EDGE or u >= 1 - EDGE:
+            out.append(p)
+    return out
+
+
+def identify(
+    runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0, pinned: float | None = None
+) -> Result:
+    """Name, add, re-check until the held-out residual is at the noise floor or nothing helps.
+
+    The command timing (lag) is fitted first on the fitting trials with the base plant, unless `pinned`."""
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
     fit_i, held_i = split_trials(runs)
     sig = noise_sigma(runs)
+    tim = fit_timing(base, runs.take(fit_i), sig["enc"][fit_i], pinned)
+    runs = dataclasses.replace(runs, lag=np.full(len(runs.angle), tim.lag))
     fit, held = runs.take(fit_i), runs.take(held_i)
     sig_f, sig_h = ({c: s[i] for c, s in sig.items()} for i in (fit_i, held_i))
     labels = region_labels(held)
@@ -311,6 +387,8 @@ def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) 
     feats = features(held)
     words = describe(profile(z0, held, feats))
     ranking = rank(base, held, sig_h, z0, feats) if _structured(held, z0, labels) else []
+    if ranking and held.res.any() and timing_problem(base, held, sig_h, floor, tim):
+        max_rounds, verdict = 0, "timing"  # the log's timing, not physics: nothing is fitted
     for _ in range(max_rounds):
         if named and _structured(held, z1, labels):  # first try to fit the named effects better
             named = _refit(base, named, fit, sig_f, nfev=3 * POLISH_NFEV)
@@ -332,16 +410,28 @@ def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) 
         cfg = _apply(base, {n.name: n.params for n in named})
         z1 = _residual(cfg, held, sig_h)
     else:
-        verdict = "unexplained"
+        verdict = "unexplained" if max_rounds else verdict
     if named:
         named = _prune(base, named, fit, held, sig_f, sig_h)
         cfg = _apply(base, {n.name: n.params for n in named})
         z1 = _residual(cfg, held, sig_h)
         verdict = "none" if not named and verdict == "explained" else verdict
+    notes: list[str] = []
+    if named:
+        named, notes = _honest(base, named, held, sig_h, z0)
+        cfg = _apply(base, {n.name: n.params for n in named})
+        z1 = _residual(cfg, held, sig_h)
+        if not named:
+            verdict = "unexplained"
+    if verdict == "unexplained" and rms(z1) <= AT_FLOOR * floor:  # at the noise: consistent with the data
+        verdict = "explained" if named else "none"
     sig_p = uncertainty(base, {n.name: n.params for n in named}, fit, sig_f) if named else {}
     for n in named:
         n.sigma = sig_p[n.name]
     _claims(named, verdict)
+    for n in named:
+        n.edge = _at_edge(n)
+        n.claimed = n.claimed and not n.edge
     added = [n for n in named if n.before is None]
     res = Result(added, verdict, cfg, held, z0, z1, floor, rounds, labels=labels)
     res.recalibrated = [n for n in named if n.before is not None]
@@ -350,5 +440,6 @@ def identify(runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0) 
     if verdict == "unexplained" and not base.on("learned_residual"):
         res.learned = fit_learned(cfg, fit, held, sig_f, sig_h)
         res.config = with_learned(cfg, res.learned) if res.learned else cfg
+    res.timing, res.notes = tim, notes
     res.seconds = time.perf_counter() - t0
     return res
