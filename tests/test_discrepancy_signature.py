@@ -24,14 +24,30 @@ def test_signature_ranks_the_hidden_effect_first(effect: str) -> None:
     """Before any fitting, the catalogue effect whose own signature is most like the residual's is the
     hidden one (one replay of every effect at catalogue values; ~1 s each)."""
     case, held, sig, z = _held_residual(effect)
-    ranking = rank(case.base, held, sig, z, features(held))
+    ranking = rank(case.base, held, sig, z, features(held, case.base.motor))
     assert ranking[0][0] == effect, ranking[:3]
 
 
 def test_signature_words_name_the_dependence() -> None:
     """A load-cell offset is described as a constant part of the load-cell residual; the encoder and pot,
     which it does not touch, are not described (~1 s)."""
-    _, held, _, z = _held_residual("load_cell_offset")
-    words = describe(profile(z, held, features(held)))
+    case, held, _, z = _held_residual("load_cell_offset")
+    words = describe(profile(z, held, features(held, case.base.motor)))
     assert len(words) == 1 and words[0].startswith("the load_cell_n residual")
     assert "a constant part (an offset)" in words[0]
+
+
+def test_current_estimate_follows_the_base_motor() -> None:
+    """The motor-current dependence is the plant's own estimate (Motor.current) from the base config: a
+    base with another supply voltage gives other current features and region labels (~1 s)."""
+    import dataclasses
+
+    import numpy as np
+
+    from seagen.discrepancy.residuals import region_labels
+
+    case, held, _, _ = _held_residual("load_cell_offset")
+    other = dataclasses.replace(case.base.motor, supply_v=2 * case.base.motor.supply_v)
+    assert not np.allclose(features(held, case.base.motor)["current"], features(held, other)["current"])
+    a, b = region_labels(held, case.base.motor)["current"], region_labels(held, other)["current"]
+    assert (a != b).any()

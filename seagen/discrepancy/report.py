@@ -29,7 +29,7 @@ TEST_TEXT = (
 
 def _labels(res: Result) -> dict[str, np.ndarray]:
     """The held-out region labels (computed by identify; recomputed for a Result built without them)."""
-    return res.labels or region_labels(res.held)
+    return res.labels or region_labels(res.held, res.config.motor)
 
 
 def region_gap(res: Result) -> pd.DataFrame:

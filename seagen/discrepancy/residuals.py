@@ -8,6 +8,7 @@ from scipy import stats
 
 from seagen import geometry as g
 from seagen.discrepancy.replay import CHANNELS, Runs
+from seagen.plant.config import Motor
 
 # force_n is load_cell_n / R_l(angle): in noise units the two residuals are identical, so the combined
 # metric counts the load cell once.
@@ -74,13 +75,12 @@ def _bins(x: np.ndarray, edges: list[float], names: list[str]) -> np.ndarray:
     return np.asarray(names, dtype=object)[np.digitize(x, edges)]
 
 
-def region_labels(runs: Runs) -> dict[str, np.ndarray]:
+def region_labels(runs: Runs, motor: Motor) -> dict[str, np.ndarray]:
     """Region of every sample by contact angle, force level, direction, speed and estimated current."""
     enc = runs.meas["enc"]
     v = runs.speed("enc") * g.MM_PER_COUNT  # nut speed, mm/s
     m = runs.mask
-    vmax = 32300.0 / 60.0 * 12 * g.MM_PER_COUNT
-    cur = np.abs(np.nan_to_num(runs.applied) / 12.0 - v / vmax)
+    cur = np.abs(motor.current(np.nan_to_num(runs.applied), v))  # the plant's own estimate (base config)
     speed = np.abs(v)
     moving = m & (speed > 0.2)
     q = [float(np.percentile(speed[moving], 50)) if moving.any() else 1.0]

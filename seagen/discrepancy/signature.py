@@ -8,7 +8,7 @@ from seagen import geometry as g
 from seagen.discrepancy.replay import Runs, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS
 from seagen.plant import PlantConfig
-from seagen.plant.config import CATALOGUE
+from seagen.plant.config import CATALOGUE, Motor
 
 MOVING_MM_S = 0.2  # below this nut speed the actuator counts as still
 REVERSAL_S = 0.15  # 'at a reversal': within this time after the command changes sign
@@ -35,15 +35,14 @@ def _since(event: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.where(last >= 0, t - then, 1e4)
 
 
-def features(runs: Runs) -> dict[str, np.ndarray]:
+def features(runs: Runs, motor: Motor) -> dict[str, np.ndarray]:
     """Per sample basis columns of each dependence group, shape (n, T, k); padding masked by runs.mask."""
     v = runs.speed("enc") * g.MM_PER_COUNT
     moving = np.abs(v) > MOVING_MM_S
     cmd = np.sign(runs.applied)
     flip = np.zeros_like(moving)
     flip[:, 1:] = (cmd[:, 1:] != cmd[:, :-1]) & (cmd[:, 1:] != 0)
-    vmax = 32300.0 / 60.0 * 12 * g.MM_PER_COUNT
-    cur = np.abs(runs.applied / 12.0 - v / vmax)
+    cur = np.abs(motor.current(runs.applied, v))  # the plant's own estimate, from the base config
     lag = np.zeros_like(cur)
     step = np.clip(np.diff(runs.t, axis=1) / 0.1, 0.0, 1.0)
     for j in range(1, cur.shape[1]):  # 0.1 s first-order lag of |i|

@@ -86,7 +86,7 @@ class Result:
     noise_floor: float
     rounds: list[pd.DataFrame] = field(default_factory=list)
     seconds: float = 0.0
-    labels: dict[str, np.ndarray] = field(default_factory=dict)  # region_labels(held)
+    labels: dict[str, np.ndarray] = field(default_factory=dict)  # region_labels(held, motor)
     recalibrated: list[Named] = field(default_factory=list)  # effects of the base with re-fitted parameters
     signature: list[str] = field(default_factory=list)  # the base's residual in words, before fitting
     ranking: list[tuple[str, float]] = field(default_factory=list)  # catalogue effects by signature likeness
@@ -379,12 +379,12 @@ def identify(
     runs = dataclasses.replace(runs, lag=np.full(len(runs.angle), tim.lag))
     fit, held = runs.take(fit_i), runs.take(held_i)
     sig_f, sig_h = ({c: s[i] for c, s in sig.items()} for i in (fit_i, held_i))
-    labels = region_labels(held)
+    labels = region_labels(held, base.motor)
     named: list[Named] = []
     cfg, rounds, verdict = base, [], "none"
     z0 = z1 = _residual(base, held, sig_h)
     floor = noise_floor(held, sig_h)
-    feats = features(held)
+    feats = features(held, base.motor)
     words = describe(profile(z0, held, feats))
     ranking = rank(base, held, sig_h, z0, feats) if _structured(held, z0, labels) else []
     if ranking and held.res.any() and timing_problem(base, held, sig_h, floor, tim):
