@@ -324,7 +324,7 @@ def main(argv: list[str] | None = None) -> int:
         + "\n\nThe glove's load: `examples/firmware` built from exports with the core's `--target`, mean of "
         + f"ticks {G.TRACED.start}-{G.TRACED.stop - 1} of its sensor sequence (`seagen/bench/glove.py`):\n\n"
         + G.table(glove)
-        + "\n\nGoals of issue 12 (cycles from the model in `seagen/toolchain/mcu_trace.py`):\n\n"
+        + "\n\nGoals (cycles from the model in `seagen/toolchain/mcu_trace.py`):\n\n"
         + goals(rows, fw, glove)
     )
     if args.readme:

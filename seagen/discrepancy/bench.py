@@ -136,7 +136,7 @@ def plan(seeds: int) -> list[tuple[str, tuple[str, ...], int]]:
 
 
 def summarize(rows: pd.DataFrame) -> dict:
-    """The goal numbers of issue 6 item 3 from the per-case table."""
+    """The goal numbers of the discrepancy benchmark from the per-case table."""
     single = rows[(rows.kind == "single") & (rows.effect_to_noise >= 3)]
     fixed = rows[rows.kind != "control"]
     return {
