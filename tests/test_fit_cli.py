@@ -103,3 +103,23 @@ def test_bad_evaluate_input_exits_2(case: str, fit_data: Path, tmp_path: Path, c
     if case == "torchscript":
         assert "reads the model.pt of `seagen train`" in err
     assert not plots.exists()
+
+
+def test_evaluate_names_a_checkpoint_for_what_it_is(tmp_path, capsys):
+    """`seagen evaluate` on a training checkpoint or a bare state_dict: exit 2, one line saying what the
+    file is and what to pass instead (not "not a seagen model file")."""
+    import torch
+
+    from seagen.cli import main
+
+    net = torch.nn.Sequential(torch.nn.Linear(2, 3), torch.nn.ReLU(), torch.nn.Linear(3, 1))
+    opt = torch.optim.Adam(net.parameters())
+    ckpt, sd = tmp_path / "ckpt.pt", tmp_path / "sd.pt"
+    torch.save(
+        {"model_state_dict": net.state_dict(), "optimizer_state_dict": opt.state_dict(), "epoch": 1}, ckpt
+    )
+    torch.save(net.state_dict(), sd)
+    for path, what in ((ckpt, "a training checkpoint"), (sd, "a bare state_dict")):
+        assert main(["evaluate", str(path), "--data", str(tmp_path)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert what in err and str(path) in err and "pass the network itself" in err and "\n" not in err

@@ -222,7 +222,7 @@ def load_with_original(
     if isinstance(obj, dict) and obj.get("format") == FORMAT:
         return from_model_dict({**obj, **extra}, str(p), ranges)
     if isinstance(obj, dict):
-        from seagen.frontends.checkpoint import describe_dict
+        from seagen.modelfile import describe_dict
 
         raise UserError(describe_dict(obj, p, FORMAT))
     if not extra:
