@@ -363,3 +363,82 @@ def test_shape_expressions(expr, ok):
     from seagen.frontends.archives import plain_sym_expr
 
     assert plain_sym_expr(expr) is ok
+
+
+def pt2_from_file(good, d: Path, marker: Path) -> Path:
+    """A valid .pt2 whose program holds a dead aten.from_file node (shared=True creates the file when the
+    node runs: constant folding or the oracle's forward would run it)."""
+
+    def change(name: str, data: bytes) -> bytes:
+        if not name.endswith("models/model.json"):
+            return data
+        doc = json.loads(data)
+        graph = doc["graph_module"]["graph"]
+        args = [
+            ("filename", {"as_string": str(marker)}),
+            ("shared", {"as_bool": True}),
+            ("size", {"as_int": 8}),
+        ]
+        graph["nodes"].insert(
+            0,
+            {
+                "target": "torch.ops.aten.from_file.default",
+                "inputs": [{"name": k, "arg": v, "kind": 1} for k, v in args],
+                "outputs": [{"as_tensor": {"name": "pwn"}}],
+                "metadata": {},
+                "is_hop_single_tensor_return": None,
+                "name": "pwn",
+            },
+        )
+        graph["tensor_values"]["pwn"] = {
+            "dtype": 7,
+            "sizes": [{"as_int": 8}],
+            "requires_grad": False,
+            "device": {"type": "cpu", "index": None},
+            "strides": [{"as_int": 1}],
+            "storage_offset": {"as_int": 0},
+            "layout": 7,
+        }
+        return json.dumps(doc).encode()
+
+    return rewrite(good["pt2"], d / "from_file.pt2", change)
+
+
+def script_from_file(good, d: Path, marker: Path) -> Path:
+    """TorchScript whose forward reads a file with aten::from_file (shared: it creates the file), its result
+    multiplied by zero so the output does not change."""
+    src = d / "ff_module.py"
+    src.write_text(
+        "import torch\n\n\n"
+        "class M(torch.nn.Module):\n"
+        "    def __init__(self):\n"
+        "        super().__init__()\n"
+        f"        self.fc = torch.nn.Linear({T.N_IN}, 1)\n\n"
+        "    def forward(self, x):\n"
+        f"        y = torch.from_file({str(marker)!r}, True, 8)\n"
+        "        return self.fc(x) + y.sum() * 0.0\n"
+    )
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("ff_module", src)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    p = d / "from_file_script.pt"
+    T._quiet(torch.jit.script(mod.M().eval()).save, str(p))
+    return p
+
+
+@pytest.mark.parametrize("build", [pt2_from_file, script_from_file], ids=["pt2", "torchscript"])
+def test_graph_with_file_io_refused_before_it_runs(build, good, tmp_path, capsys):
+    """A graph op that is neither read nor known to be pure (aten.from_file, even in a dead node or times
+    zero) is refused by name before any node runs: exit 2, one line, nothing written, no file created."""
+    marker = tmp_path / "created_by_the_model"
+    p = build(good, tmp_path, marker)
+    assert not marker.exists()
+    out = tmp_path / "out"
+    rc = main(["export", str(p), "--features", str(good["spec"]), "--out", str(out)])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1 and "from_file" in err and str(p) in err, err
+    assert not marker.exists(), "the model's file I/O ran"
+    assert not out.exists()

@@ -291,3 +291,49 @@ def _values(doc: Any, key: str):
             stack.extend(d.values())
         elif isinstance(d, list):
             stack.extend(d)
+
+
+# The TorchScript ops a model's graph may hold (every node, dead ones included, checked after torch.jit.load
+# and before anything runs: the ONNX conversion folds constants and the oracle runs forward): the layers
+# seagen reads, pure tensor arithmetic, and the interpreter's own control flow and int/bool arithmetic.
+# File I/O (aten::from_file, aten::save), printing, random ops and calls into Python are refused by name.
+SCRIPT_ATEN = {
+    "linear", "addmm", "mm", "matmul", "t", "permute", "transpose", "relu", "relu_", "leaky_relu",
+    "leaky_relu_", "hardtanh", "hardtanh_", "clamp", "clamp_", "clamp_min", "clamp_max", "relu6", "tanh",
+    "tanh_", "sigmoid", "sigmoid_", "batch_norm", "dropout", "dropout_", "feature_dropout", "alpha_dropout",
+    "flatten", "view", "reshape", "contiguous", "to", "type_as", "add", "add_", "sub", "sub_", "mul", "mul_",
+    "div", "div_", "rsub", "neg", "pow", "sqrt", "rsqrt", "reciprocal", "unsqueeze", "squeeze", "expand",
+    "ones", "zeros", "full", "ones_like", "zeros_like", "full_like", "detach", "clone", "size", "dim", "len",
+    "Int", "Float", "Bool", "ScalarImplicit", "item", "eq", "ne", "lt", "gt", "le", "ge", "__is__",
+    "__isnot__", "__not__", "__and__", "__or__", "floordiv", "remainder", "format", "list", "slice",
+    "select", "__getitem__", "append", "cat", "stack", "identity", "numel", "is_floating_point", "floor",
+}  # fmt: skip
+SCRIPT_PRIM = {
+    "Constant", "GetAttr", "ListConstruct", "ListUnpack", "TupleConstruct", "TupleUnpack", "TupleIndex",
+    "NumToTensor", "device", "dtype", "If", "Loop", "RaiseException", "Uninitialized", "unchecked_cast",
+    "isinstance", "min", "max", "shape", "layout", "requires_grad", "is_cuda", "data", "AutogradZero",
+}  # fmt: skip
+
+
+def _script_nodes(block: Any) -> Any:
+    """Every node of a TorchScript graph or block, nested blocks included."""
+    for n in block.nodes():
+        yield n
+        for b in n.blocks():
+            yield from _script_nodes(b)
+
+
+def check_script_ops(module: Any, p: Path) -> None:
+    """Refuse a TorchScript module whose inlined graph holds an op outside SCRIPT_ATEN / SCRIPT_PRIM, naming
+    it, before anything of the module runs."""
+    try:
+        graph = module.inlined_graph
+    except Exception:  # a module without forward
+        raise UserError(f"{p}: a TorchScript module without a forward method") from None
+    for n in _script_nodes(graph):
+        ns, _, op = n.kind().partition("::")
+        if not ((ns == "aten" and op in SCRIPT_ATEN) or (ns == "prim" and op in SCRIPT_PRIM)):
+            raise UserError(
+                f"{p}: TorchScript op {n.kind()} is not one seagen reads or knows to be pure; nothing of the "
+                "model was run (supported: dense layers, the activations, constant arithmetic)"
+            )

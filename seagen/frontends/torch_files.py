@@ -21,7 +21,7 @@ def load_torch(p: Path, allow_pickle: bool = False) -> Any:
         return safe_load(p, allow_pickle)
     import torch
 
-    from seagen.frontends.archives import check_torchscript
+    from seagen.frontends.archives import check_script_ops, check_torchscript
     from seagen.frontends.pt2_reader import read_pt2
 
     try:
@@ -34,7 +34,9 @@ def load_torch(p: Path, allow_pickle: bool = False) -> Any:
             if kind == EXPORT:
                 return read_pt2(p)
             check_torchscript(p)
-            return torch.jit.load(str(p), map_location="cpu")
+            module = torch.jit.load(str(p), map_location="cpu")  # runs nothing once check_torchscript passed
+            check_script_ops(module, p)  # before anything of it runs (ONNX conversion folds, the oracle runs)
+            return module
     except UserError:
         raise
     except Exception as e:  # torch raises many types for unreadable archives

@@ -20,6 +20,79 @@ _NOOPS = (
     "<built-in function getitem>",
 )
 _FLOATS = ("torch.float32", "torch.float64")
+# Every ATen op a graph may hold, dead nodes included, before anything of it is evaluated (constant folding
+# runs ops): what the reader turns into the chain, and pure tensor arithmetic that prepares constants (a
+# transposed or reshaped weight, ones, a folded scale). Anything else (file I/O such as aten.from_file,
+# printing, random ops) is refused by name. Python arithmetic on symbolic sizes is pure too.
+_READ_OPS = {
+    *_ACTS,
+    *_NOOPS,
+    "aten.linear.default",
+    "aten.addmm.default",
+    "aten.mm.default",
+    "aten.matmul.default",
+    "aten.leaky_relu.default",
+    "aten.hardtanh.default",
+    "aten.clamp.default",
+    "aten.clamp.Tensor",
+    "aten.clamp_min.default",
+    "aten.clamp_max.default",
+    "aten.relu6.default",
+    "aten.batch_norm.default",
+    "aten._native_batch_norm_legit_no_training.default",
+    "aten.dropout.default",
+    "aten.to.dtype",
+    "aten._to_copy.default",
+    "aten.to.dtype_layout",
+    "aten.view.default",
+    "aten.reshape.default",
+    "aten._unsafe_view.default",
+}
+_PURE_PREFIXES = ("aten.add.", "aten.sub.", "aten.mul.", "aten.div.", "aten.rsub.", "aten.neg.", "aten.pow.")
+_PURE_OPS = {
+    "aten.t.default",
+    "aten.permute.default",
+    "aten.transpose.int",
+    "aten.expand.default",
+    "aten.unsqueeze.default",
+    "aten.squeeze.dim",
+    "aten.squeeze.dims",
+    "aten.squeeze.default",
+    "aten.ones.default",
+    "aten.zeros.default",
+    "aten.full.default",
+    "aten.ones_like.default",
+    "aten.zeros_like.default",
+    "aten.full_like.default",
+    "aten.scalar_tensor.default",
+    "aten.sqrt.default",
+    "aten.rsqrt.default",
+    "aten.reciprocal.default",
+    "aten.lift_fresh_copy.default",
+    "aten.slice.Tensor",
+    "aten.select.int",
+    "aten.cat.default",
+    "aten.stack.default",
+    "aten.sym_size.int",
+}
+
+
+def known_op(target: Any) -> bool:
+    """Whether a call_function target is one seagen reads or a pure constant computation."""
+    t = str(target)
+    if t in _READ_OPS or t in _PURE_OPS or t.startswith(_PURE_PREFIXES):
+        return True
+    return t.startswith(("<built-in function ", "<function sym_")) and t != "<built-in function getattr>"
+
+
+def check_ops(ep: Any, where: str) -> None:
+    """Refuse, before any node is evaluated, a graph with an op seagen neither reads nor knows to be pure
+    (a node that does not reach the output counts too: the oracle would run it)."""
+    for n in ep.graph.nodes:
+        if n.op == "call_function" and not known_op(n.target):
+            raise refuse(
+                where, Item(str(n.target), _path(n)), "unsupported op (checked before anything runs)"
+            )
 
 
 def _name(a: Any) -> str | None:
@@ -65,6 +138,7 @@ def _fold(ep: Any, consts: dict[str, Any], where: str) -> None:
 
 def exported_items(ep: Any, where: str) -> tuple[list[Item], int]:
     """The op chain of an ExportedProgram and its input width."""
+    check_ops(ep, where)
     consts = _consts(ep)
     _fold(ep, consts, where)
     users = [s.arg.name for s in ep.graph_signature.input_specs if s.kind.name == "USER_INPUT"]
