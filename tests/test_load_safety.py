@@ -442,3 +442,69 @@ def test_graph_with_file_io_refused_before_it_runs(build, good, tmp_path, capsys
     assert rc == 2 and len(err.splitlines()) == 1 and "from_file" in err and str(p) in err, err
     assert not marker.exists(), "the model's file I/O ran"
     assert not out.exists()
+
+
+def _script_member(good, suffix: str) -> str:
+    """The full name of the TorchScript archive's member ending with suffix."""
+    with zipfile.ZipFile(good["script"]) as z:
+        return next(n for n in z.namelist() if n.endswith(suffix))
+
+
+def ts_carriage_return(good, d: Path) -> Path:
+    """A lone carriage return in a TorchScript source comment (Python ends the line there, TorchScript's
+    lexer does not: the two read different code)."""
+    code = _script_member(good, "code/__torch__/torch/nn/modules/container.py")
+
+    def change(name: str, data: bytes) -> bytes:
+        return data.replace(b"\n", b"  # x\r  \n", 1) if name == code else data
+
+    return rewrite(good["script"], d / "cr.pt", change)
+
+
+def ts_setstate_text(good, d: Path) -> Path:
+    """The name __setstate__ anywhere in TorchScript source (here in a comment)."""
+    code = _script_member(good, "code/__torch__/torch/nn/modules/container.py")
+    return rewrite(
+        good["script"], d / "setstate_text.pt", lambda n, b: b + b"# __setstate__\n" if n == code else b
+    )
+
+
+def ts_prepended(good, d: Path) -> Path:
+    """Bytes before the first member: Python's zipfile reads past them, other readers take offsets as
+    written (the room a second central directory needs)."""
+    p = d / "prepended.pt"
+    p.write_bytes(b"PK\x03\x04" + b"\0" * 60 + good["script"].read_bytes())
+    return p
+
+
+def ts_torchbind(good, d: Path) -> Path:
+    """data.pkl naming a torchbind class (its C++ __setstate__ runs when torch loads it)."""
+    name = _script_member(good, "data.pkl")
+    payload = b"\x80\x02c__torch__.torch.classes.quantized\nLinearPackedParamsBase\nq\x00."
+    return rewrite(good["script"], d / "torchbind.pt", lambda n, b: payload if n == name else b)
+
+
+@pytest.mark.parametrize(
+    "build,words",
+    [
+        (ts_carriage_return, "read differently"),
+        (ts_setstate_text, "__setstate__"),
+        (ts_prepended, "not a zip archive seagen reads"),
+        (ts_torchbind, "torch.classes"),
+    ],
+    ids=["carriage return", "__setstate__ in text", "prepended bytes", "torchbind class"],
+)
+def test_torchscript_ambiguities_refused(build, words, good, tmp_path, capsys, no_torch_readers):
+    """What Python and torch could read differently (a lone CR, a second directory) and code torch runs on
+    load in any form is refused in one line before torch.jit.load is reached."""
+    p = build(good, tmp_path)
+    rc = main(["export", str(p), "--features", str(good["spec"]), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1 and words in err and str(p) in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_torch_reads_the_checked_bytes(good, tmp_path, capsys):
+    """A valid TorchScript file still exports: torch.jit.load gets the checked members, repacked."""
+    rc = main(["export", str(good["script"]), "--features", str(good["spec"]), "--out", str(tmp_path / "o")])
+    assert rc == 0, capsys.readouterr().err

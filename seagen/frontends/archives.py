@@ -7,6 +7,7 @@ import ast
 import io
 import json
 import re
+import struct
 import zipfile
 from collections import Counter
 from collections.abc import Callable
@@ -56,10 +57,34 @@ def refuse(p: Path, member: str, why: str) -> UserError:
     return UserError(f"{p}: member {member}: {why}; {OPT_IN}")
 
 
+def layout_problem(data: bytes) -> str | None:
+    """Why a zip's directory is ambiguous, or None: the central directory must end exactly where the
+    (zip64) end record starts, with nothing before the first member. Otherwise readers may disagree on which
+    directory is the archive's (Python's zipfile assumes prepended data; torch's reader takes the offset as
+    written), and torch would open members seagen never checked."""
+    end = data.rfind(b"PK\x05\x06")
+    if end < 0 or len(data) - end < 22:
+        return "no end-of-directory record"
+    size_cd, off_cd = struct.unpack("<II", data[end + 12 : end + 20])
+    stop = end
+    loc = end - 20
+    if loc >= 0 and data[loc : loc + 4] == b"PK\x06\x07":  # zip64: the locator names the zip64 end record
+        (rec,) = struct.unpack("<Q", data[loc + 8 : loc + 16])
+        if data[rec : rec + 4] != b"PK\x06\x06":
+            return "a zip64 locator that points at no zip64 end record"
+        size_cd, off_cd = struct.unpack("<QQ", data[rec + 40 : rec + 56])
+        stop = rec
+    if off_cd + size_cd != stop or data[:4] != b"PK\x03\x04":
+        return "its central directory is not where its end record says (data before it or a second directory)"
+    return None
+
+
 def _members(p: Path) -> tuple[zipfile.ZipFile, str, dict[str, str]]:
-    """The open zip, its root folder and {name below the root: full name}; a member outside the root or
-    named twice is refused."""
+    """The open zip, its root folder and {name below the root: full name}; an ambiguous directory, a member
+    outside the root or named twice is refused."""
     try:
+        if why := layout_problem(p.read_bytes()):
+            raise UserError(f"{p}: not a zip archive seagen reads: {why}")
         z = zipfile.ZipFile(p)
     except (zipfile.BadZipFile, OSError) as e:
         raise UserError(f"{p}: not a readable zip archive: {e}") from None
@@ -96,23 +121,29 @@ def _check_meta(p: Path, z: zipfile.ZipFile, rel: str, full: str) -> None:
 # ---------------------------------------------------------------- TorchScript
 
 
-def check_torchscript(p: Path) -> None:
+def check_torchscript(p: Path) -> bytes:
     """A TorchScript archive: pickles that name only TorchScript classes (`__torch__.*`), torch storages and
     torch's own list/tensor rebuilders, raw storages, TorchScript source that defines no `__setstate__` (the
-    one method torch.jit.load runs), bookkeeping and extra files; anything else is refused."""
+    one method torch.jit.load runs), bookkeeping and extra files; anything else is refused. Returns the
+    checked members repacked into a fresh zip: torch reads exactly what was checked (a zip can hold two
+    central directories, and torch's reader and Python's may pick different ones)."""
     z, _root, members = _members(p)
-    with z:
+    buf = io.BytesIO()
+    with z, zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as out:
         for rel, full in members.items():
+            data = _read(z, p, full)
             if rel in TS_PICKLES or (rel.startswith("code/") and rel.endswith(".py.debug_pkl")):
-                _check_ts_pickle(p, full, _read(z, p, full))
+                _check_ts_pickle(p, full, data)
             elif rel.startswith("code/") and rel.endswith(".py"):
-                _check_ts_code(p, full, _read(z, p, full))
+                _check_ts_code(p, full, data)
             elif rel in META:
                 _check_meta(p, z, rel, full)
             elif not (rel.startswith("extra/") or any(is_storage(rel, d) for d in TS_STORAGES)):
                 raise refuse(p, full, "is not part of a TorchScript archive seagen reads")
+            out.writestr(full, data)
         if "data.pkl" not in members:
             raise UserError(f"{p}: not a TorchScript archive seagen reads: it has no data.pkl")
+    return buf.getvalue()
 
 
 def _check_ts_pickle(p: Path, full: str, data: bytes) -> None:
@@ -122,12 +153,23 @@ def _check_ts_pickle(p: Path, full: str, data: bytes) -> None:
     except ValueError as e:
         raise refuse(p, full, f"a pickle seagen cannot check ({e})") from None
     for g in names:
+        if g.startswith("__torch__.torch.classes."):  # torchbind classes: their C++ __setstate__ runs on load
+            raise refuse(
+                p, full, f"a pickle that names {g}, a C++ class whose state-setting code runs on load"
+            )
         if not (g.startswith("__torch__.") or STORAGE.fullmatch(g) or g in TS_PICKLE_HELPERS):
             raise refuse(p, full, f"a pickle that names {g}, not a TorchScript class or torch storage")
 
 
 def _check_ts_code(p: Path, full: str, data: bytes) -> None:
-    """TorchScript source: UTF-8 Python syntax without a `__setstate__` (run by torch.jit.load)."""
+    """TorchScript source: UTF-8 Python syntax without a `__setstate__` (run by torch.jit.load). Characters
+    Python and TorchScript's lexer read differently (a lone carriage return ends a line for Python, not for
+    TorchScript, so it can hide code from the syntax tree) are refused, and the name may not appear at all."""
+    odd = next((c for c in (b"\r", b"\x0b", b"\x0c", b"\x00") if c in data), None)
+    if odd is not None:
+        raise refuse(p, full, f"holds the character {odd!r}, which Python and TorchScript read differently")
+    if b"__setstate__" in data:
+        raise refuse(p, full, "names __setstate__, code torch.jit.load would run on opening the file")
     try:
         tree = ast.parse(data.decode("utf-8"))
     except (UnicodeDecodeError, SyntaxError, ValueError):

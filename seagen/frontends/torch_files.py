@@ -3,6 +3,7 @@ member against an allow-list before torch sees them, pickles read weights-only."
 
 from __future__ import annotations
 
+import io
 import warnings
 from pathlib import Path
 from typing import Any
@@ -33,8 +34,8 @@ def load_torch(p: Path, allow_pickle: bool = False) -> Any:
                 return torch.jit.load(str(p), map_location="cpu")
             if kind == EXPORT:
                 return read_pt2(p)
-            check_torchscript(p)
-            module = torch.jit.load(str(p), map_location="cpu")  # runs nothing once check_torchscript passed
+            checked = check_torchscript(p)  # the checked members, repacked: torch reads only those
+            module = torch.jit.load(io.BytesIO(checked), map_location="cpu")
             check_script_ops(module, p)  # before anything of it runs (ONNX conversion folds, the oracle runs)
             return module
     except UserError:
