@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from seagen.cli.args import seconds, seed
 from seagen.defaults import model_arg
 from seagen.errors import UserError
 
@@ -46,7 +47,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object keyed by configuration")
     p.add_argument("--plots", metavar="DIR", help="write a step-response plot per configuration (first seed)")
     p.add_argument("--config", action="append", choices=sorted(CONFIGS), help="configurations (default all)")
-    p.add_argument("--latency", type=float, default=0.1, help="cloud round-trip latency, s (default 0.1)")
+    p.add_argument("--latency", type=seconds, default=0.1, help="cloud round-trip latency, s (default 0.1)")
     p.add_argument(
         "--impl",
         choices=("c", "py", "pil"),
@@ -59,7 +60,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         default="cortex-m4",
         help="with --impl pil: the board's core (mps2-an386 or microbit; default cortex-m4)",
     )
-    p.add_argument("--seed", type=int, default=0, help="plant noise seed (default 0)")
+    p.add_argument("--seed", type=seed, default=0, help="plant noise seed (default 0)")
     p.add_argument(
         "--seeds",
         type=int,

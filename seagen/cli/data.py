@@ -8,6 +8,10 @@ import os
 import tempfile
 from pathlib import Path
 
+from seagen.atomic import writable_place
+from seagen.cli.args import seed
+from seagen.errors import UserError
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the `data` command group."""
@@ -17,7 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "generate", help="collect train/test/validation CSVs on the simulated SEA (paper protocol)"
     )
     g.add_argument("--out", required=True, help="output directory (created)")
-    g.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    g.add_argument("--seed", type=seed, default=0, help="random seed (default 0)")
     g.add_argument("--config", help="plant config TOML (default: the paper's actuator)")
     g.set_defaults(func=cmd_generate)
     i = dsub.add_parser(
@@ -43,6 +47,10 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
     cfg = load_config(args.config) if args.config else PlantConfig()
     out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{out}: is a file; --out names a folder")
+    if why := writable_place(out):
+        raise UserError(f"{out}: {why}")
     with tqdm(total=3, desc="simulating", unit="split") as bar:
 
         def step(split: str) -> None:

@@ -295,11 +295,13 @@ def load_config(path: str | os.PathLike[str]) -> PlantConfig:
     """Read a plant config from TOML; errors name the file and key."""
     p = Path(path)
     try:
-        data = tomllib.loads(p.read_text())
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ConfigError(f"{p}: no such file") from None
-    except tomllib.TOMLDecodeError as e:
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise ConfigError(f"{p}: not valid TOML: {e}") from None
+    except OSError as e:  # a folder, no permission
+        raise ConfigError(f"{p}: cannot read the plant config: {e.strerror}") from None
     return config_from_dict(data, str(p))
 
 

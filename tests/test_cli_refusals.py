@@ -1,0 +1,41 @@
+"""Misused command lines end with exit 2 and a message naming the argument or path, before any work and
+never with a traceback (a table: one row per misuse a user tried)."""
+
+from __future__ import annotations
+
+import pytest
+
+from seagen.cli import main
+
+TRAIN = ["train", "--data", "{tmp}/none", "--model", "mlp", "--loss", "mse", "--task", "calibration"]
+CASES = {  # name: (argv with {tmp}, words in stderr)
+    "negative seed": (["data", "generate", "--out", "{tmp}/d", "--seed", "-1"], "--seed"),
+    "negative seed, train": ([*TRAIN, "--out", "{tmp}/m.pt", "--seed", "-2"], "--seed"),
+    "latency nan": (["simulate", "--config", "mlp_cloud", "--latency", "nan"], "--latency"),
+    "latency inf": (["simulate", "--config", "mlp_cloud", "--latency", "inf"], "--latency"),
+    "negative hidden size": ([*TRAIN, "--out", "{tmp}/m.pt", "--hidden", "-3"], "--hidden"),
+    "data --out under /proc": (["data", "generate", "--out", "/proc/seagen_no"], "/proc/seagen_no"),
+    "data --out is a file": (["data", "generate", "--out", "{tmp}/afile"], "afile: is a file"),
+    "train --out is a folder": ([*TRAIN, "--out", "{tmp}"], "is a folder"),
+    "train --out under /proc": ([*TRAIN, "--out", "/proc/seagen_no.pt"], "/proc/seagen_no.pt"),
+    "binary plant config": (
+        ["data", "generate", "--out", "{tmp}/d", "--config", "{tmp}/bin.toml"],
+        "bin.toml",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_misuse_exits_2_naming_what(case, tmp_path, capsys):
+    """Exit 2, the argument or path named, no traceback, nothing written."""
+    (tmp_path / "afile").write_text("keep")
+    (tmp_path / "bin.toml").write_bytes(b"\xff\xfe\x00\x01")
+    argv, words = CASES[case]
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    try:
+        rc = main(argv)
+    except SystemExit as e:  # argparse's usage error
+        rc = e.code
+    err = capsys.readouterr().err
+    assert rc == 2 and words in err and "Traceback" not in err, err
+    assert not (tmp_path / "d").exists() and not (tmp_path / "m.pt").exists()
