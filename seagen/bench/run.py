@@ -86,7 +86,8 @@ def _box(c_text: str, prefix: str) -> tuple[np.ndarray, np.ndarray]:
 
 def _machine(elf: Path, cpu: str) -> cm.Machine:
     """An emulator loaded with the ELF's flat .text."""
-    image = cm.Image(cm.flat_section(elf), cm._symbols(elf), {}, cm.no_startup_sections(elf))
+    sections = cm.no_startup_sections(elf)
+    image = cm.Image(cm.flat_section(elf), cm._symbols(elf), {}, sections, cm.data_section(elf, sections))
     return cm.Machine(image, cpu)
 
 
