@@ -188,7 +188,8 @@ def build_image(
             shutil.rmtree(work, ignore_errors=True)
     desc = json.loads((out / "image.json").read_text())
     data = (out / "data.bin").read_bytes() if (out / "data.bin").exists() else b""  # cached before .data
-    return Image((out / "fw.bin").read_bytes(), desc["symbols"], desc["objects"], desc["image_sections"], data)
+    sections = desc["image_sections"]
+    return Image((out / "fw.bin").read_bytes(), desc["symbols"], desc["objects"], sections, data)
 
 
 def _page(n: int) -> int:
