@@ -4,9 +4,10 @@
 SF: seagen's portable kernel and the kernel of each core's target, emlearn 0.23's float MLP (its "loadable"
 C generated from the same float network, i.e. trained on the same data) and a plain float C loop (M4F:
 hardware single precision; M0+: libgcc soft float). Per implementation and core: instructions and cycles
-of one inference (mean over inputs drawn across the calibrated box), per MAC, flash (.text + .rodata of an
-image linked from the entry point, helpers included), RAM (.data + .bss), stack (measured), float helpers
-linked, and the max |error| against the float model (torch's float64 twin, seagen.reference.float_ref).
+of one inference (mean over inputs drawn across the calibrated box), per MAC, flash (.text + .rodata + the
+initial values of .data of an image linked from the entry point, helpers included), RAM (.data + .bss),
+stack (measured), float helpers linked, and the max |error| against the float model (torch's float64 twin,
+seagen.reference.float_ref).
 The glove's load comes from the firmware example itself (seagen/bench/glove.py): examples/firmware built from
 exports with each core's target kernels, its average 100 Hz tick of seven actuators on the emulated core.
 """
@@ -113,7 +114,7 @@ def _measure(
             "cpu": cpu,
             "instr": float(np.mean([t.instructions for t in traces])),
             "cycles": float(np.mean([t.cycles for t in traces])),
-            "flash": sections.get(".text", 0),
+            "flash": sections.get(".text", 0) + sections.get(".data", 0),  # .data's initial values
             "ram": sections.get(".data", 0) + sections.get(".bss", 0),
             "stack": max(t.stack for t in traces),
             "float_helpers": [h for h in helpers if B.FLOAT_HELPER.match(h)],

@@ -4,9 +4,10 @@ For every model NAME in DIR (a header declaring NAME_infer) and each core: execu
 NAME_infer (inputs drawn across the calibrated box), NAME_step (a synthetic raw enc/pot run after NAME_reset)
 and, for a control predictor (NAME_predict_q16), one controller tick (sea_control_step with the predictor
 and the tuned PID, templates/bench_tick.c.j2); a cycle estimate (seagen/toolchain/mcu_trace.py);
-flash (.text + .rodata of an image linked from that entry point alone, library helpers included) and RAM
-(.data + .bss); the stack: static worst case from -fstack-usage over the call graph, and the deepest stack
-measured; every library helper linked (none may be float) and an ISA check of each executed instruction.
+flash (.text + .rodata + the initial values of .data of an image linked from that entry point alone, library
+helpers included) and RAM (.data + .bss); the stack: static worst case from -fstack-usage over the call
+graph, and the deepest stack measured; every library helper linked (none may be float) and an ISA check of
+each executed instruction.
 """
 
 from __future__ import annotations
@@ -86,7 +87,8 @@ def _box(c_text: str, prefix: str) -> tuple[np.ndarray, np.ndarray]:
 
 def _machine(elf: Path, cpu: str) -> cm.Machine:
     """An emulator loaded with the ELF's flat .text."""
-    image = cm.Image(cm.flat_section(elf), cm._symbols(elf), {}, cm.no_startup_sections(elf))
+    sections = cm.no_startup_sections(elf)
+    image = cm.Image(cm.flat_section(elf), cm._symbols(elf), {}, sections, cm.data_section(elf, sections))
     return cm.Machine(image, cpu)
 
 
@@ -221,7 +223,7 @@ def bench_model(d: Path, prefix: str, cpu: str, flash_wait: int = 0) -> list[Ent
                     int(n.min()),
                     int(n.max()),
                     float(np.mean([t.cycles for t in traces])),
-                    sections.get(".text", 0),
+                    sections.get(".text", 0) + sections.get(".data", 0),  # .data's initial values
                     sections.get(".data", 0) + sections.get(".bss", 0),
                     static_stack(alone, usage, measured),
                     max(t.stack for t in traces),

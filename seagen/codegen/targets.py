@@ -4,7 +4,8 @@ The integer semantics are the portable kernel's (QLayer: acc = b + W x, y = act(
 only the evaluation order of the exact integer sum and the representation of the tables change:
 - cortex-m4: per neuron one int32 word b + 2^(s-1) then the weights as int16 pairs (low half first), read
   by one pointer; inputs and hidden outputs are int16 pairs; SMLAD (or SMLALD for a 64-bit layer).
-- cortex-m0plus: weights stored as uint16 w + 32768 for single `ldrh` loads, two neurons per pass, each
+- cortex-m0plus: weights stored as uint16 w + 32768 for single `ldrh` loads (tables in RAM: .data, never
+  written, so flash wait states do not price the reads), two neurons per pass, each
   accumulator starting from b + 2^(s-1) - 32768 * sum(x) in uint32 (modular) arithmetic; a single-output
   last layer is folded into the loop of the layer before it.
 Every width decision below is proven here over the calibrated box (exact integers).

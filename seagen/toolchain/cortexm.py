@@ -1,8 +1,9 @@
 """Cross-compile generated C for a Cortex-M core (arm-none-eabi-gcc) and run it, bit for bit, in unicorn.
 
 The firmware image is the model's own files plus the batch driver every target uses (templates/driver.c.j2);
-it is linked at flash 0x0 with no start-up code (the generated C has only const tables and stack data) and
-called directly: arguments in r0-r3 and on the stack, inputs and outputs in RAM at 0x20000000, the return
+it is linked at flash 0x0 and called directly, with no start-up code: the loader does its one job, copying
+.data (the M0+ kernel's weight tables) to RAM at 0x20000000; no .bss (the generated C has no other static
+data). Arguments in r0-r3 and on the stack, inputs and outputs in RAM after .data, the return
 address a halt loop after the image. Instructions are counted per executed instruction (UC_HOOK_CODE) of one
 NAME_infer call, its return included.
 """
@@ -72,6 +73,7 @@ class Image:
     symbols: dict[str, int]
     objects: dict[str, dict[str, int]]  # source file -> {section: bytes}
     image_sections: dict[str, int]
+    data: bytes = b""  # .data, copied to RAM (its address) as start-up code would
 
     def flash_bytes(self, files: list[str] | None = None) -> int:
         """.text + .rodata + .data of the objects of `files` (all by default), per arm-none-eabi-size."""
@@ -145,17 +147,23 @@ def flat_section(elf: Path, section: str = ".text") -> bytes:
 
 
 def no_startup_sections(elf: Path) -> dict[str, int]:
-    """The image's section sizes; an image needing start-up code (.data/.bss) is refused."""
+    """The image's section sizes; an image with .bss is refused (.data is copied to RAM by the loader)."""
     sections = _sections(elf)
-    if sections.get(".data", 0) or sections.get(".bss", 0):
-        raise UserError(f"{elf.name} has .data/.bss ({sections}): the emulator runs no start-up code")
+    if sections.get(".bss", 0):
+        raise UserError(f"{elf.name} has .bss ({sections}): the emulator runs no start-up code")
     return sections
+
+
+def data_section(elf: Path, sections: dict[str, int]) -> bytes:
+    """The initial contents of .data (empty without one), which the loader copies to RAM at 0x20000000."""
+    return flat_section(elf, ".data") if sections.get(".data", 0) else b""
 
 
 def _describe(work: Path, elf: Path, sources: dict[str, str]) -> dict:
     """The cached description of a linked image (symbols and sizes); refuses images needing start-up code."""
     image_sections = no_startup_sections(elf)
     (work / "fw.bin").write_bytes(flat_section(elf))
+    (work / "data.bin").write_bytes(data_section(elf, image_sections))
     objects = {f: _sections(work / (Path(f).stem + ".o")) for f in sorted(sources) if f.endswith(".c")}
     return {"symbols": _symbols(elf), "objects": objects, "image_sections": image_sections}
 
@@ -179,7 +187,9 @@ def build_image(
         except OSError:  # built concurrently by another process: keep theirs
             shutil.rmtree(work, ignore_errors=True)
     desc = json.loads((out / "image.json").read_text())
-    return Image((out / "fw.bin").read_bytes(), desc["symbols"], desc["objects"], desc["image_sections"])
+    data = (out / "data.bin").read_bytes() if (out / "data.bin").exists() else b""  # cached before .data
+    sections = desc["image_sections"]
+    return Image((out / "fw.bin").read_bytes(), desc["symbols"], desc["objects"], sections, data)
 
 
 def _page(n: int) -> int:
@@ -225,12 +235,14 @@ class Machine:
             self.uc.mem_unmap(RAM, self.ram)
         self.ram = _page(need)
         self.uc.mem_map(RAM, self.ram, self._prot_all)
+        self.uc.mem_write(RAM, self.image.data)
 
     def _layout(self, args: tuple[int | np.ndarray, ...]) -> tuple[list[int], list[tuple[int, np.ndarray]]]:
         """Copy array arguments into RAM; return the argument words and (address, array) of each buffer."""
         sizes = [a.nbytes if isinstance(a, np.ndarray) else 0 for a in args]
-        self._grow(sum((s + 7) & ~7 for s in sizes) + STACK_BYTES)
-        words, bufs, at = [], [], RAM
+        first = (len(self.image.data) + 7) & ~7  # the arguments follow .data
+        self._grow(first + sum((s + 7) & ~7 for s in sizes) + STACK_BYTES)
+        words, bufs, at = [], [], RAM + first
         for a in args:
             if isinstance(a, np.ndarray):
                 a = np.ascontiguousarray(a)
