@@ -55,7 +55,10 @@ def cmd_generate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None) -> None:
+LOGGED = "logged"  # `data import`: the rows as logged, beside the 100 Hz copy
+
+
+def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None, what: str = "") -> None:
     """Write every split (and the `extra` {file name: text}) into a staging folder inside `out`, then
     rename each into place under a lock on `out` (two commands writing one folder at once leave the
     files of one of them)."""
@@ -76,17 +79,26 @@ def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None) 
         for f in Path(staged).glob("*"):
             f.unlink()
         os.rmdir(staged)
-    print(f"wrote {out}/: " + ", ".join(f"{k}.csv ({len(v)} rows)" for k, v in splits.items()))
+    print(
+        f"wrote {out}/: "
+        + ", ".join(f"{k}.csv ({len(v)} rows)" for k, v in splits.items())
+        + f" {what}".rstrip()
+    )
 
 
 def cmd_import(args: argparse.Namespace) -> int:
     """Convert a rig's log with a column map; nothing is written unless every row converts."""
-    from seagen.data.logimport import import_log, load_map, split_trials, timing
+    from seagen.data.features import SAMPLE_RATE_HZ
+    from seagen.data.logimport import import_log, load_map, resample, split_trials, timing
 
     mapping = load_map(args.map)
     df = import_log(args.log, mapping)
-    splits = split_trials(df)
-    _write_splits(Path(args.out), splits, {"import.json": json.dumps(timing(df, mapping), indent=2) + "\n"})
+    logged = split_trials(df)
+    grid = {k: resample(v, SAMPLE_RATE_HZ) for k, v in logged.items()}
+    out = Path(args.out)
+    info = {"import.json": json.dumps(timing(df, mapping), indent=2) + "\n"}
+    _write_splits(out / LOGGED, logged, info, what="as logged (discrepancy)")
+    _write_splits(out, grid, info, what=f"at {SAMPLE_RATE_HZ:g} Hz (train, evaluate, export)")
     return 0
 
 
