@@ -22,11 +22,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.set_defaults(func=cmd_generate)
     i = dsub.add_parser(
         "import",
-        help="a rig's log -> train/test/validation CSVs (column map TOML with units; rows kept as logged)",
+        help="a rig's log -> train/test/validation CSVs at the control loop's 100 Hz (train, evaluate, "
+        "export) and as logged in OUT/logged (discrepancy); a column map TOML with units",
     )
     i.add_argument("log", help="the rig's log (CSV with a header row)")
     i.add_argument("--map", required=True, help="column map TOML: log columns and units -> seagen's schema")
-    i.add_argument("--out", required=True, help="output directory (created; the three files written whole)")
+    i.add_argument(
+        "--out",
+        required=True,
+        help="output directory (created; every file written whole, logged rows in logged/)",
+    )
     i.set_defaults(func=cmd_import)
     s = dsub.add_parser("summary", help="rows per split, naive kinematics error, friction by angle")
     s.add_argument("dir", help="data directory holding train.csv, test.csv, validation.csv")
