@@ -8,7 +8,7 @@ import pytest
 
 from seagen.cli import main
 from seagen.data.logimport import import_log, load_map
-from seagen.data.schema import RAW_COLUMNS, load_csv
+from seagen.data.schema import RAW_COLUMNS, DataError, load_csv
 from seagen.discrepancy.bench import case_frames
 from seagen.plant import PlantConfig
 
@@ -113,10 +113,79 @@ def test_cli_writes_splits_train_and_discrepancy_accept(tmp_path, original, caps
     (tmp_path / "map.toml").write_text(MAP)
     out = tmp_path / "data"
     assert main(["data", "import", str(log), "--map", str(tmp_path / "map.toml"), "--out", str(out)]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["import.json", "test.csv", "train.csv", "validation.csv"]
+    files = ["import.json", "test.csv", "train.csv", "validation.csv"]
+    assert sorted(p.name for p in out.iterdir()) == sorted([*files, "logged"])
+    assert sorted(p.name for p in (out / "logged").iterdir()) == files
     assert all(list(load_csv(out / f"{s}.csv").columns) == list(RAW_COLUMNS) for s in ("train", "test"))
     assert set(load_derived(out)) == {"train", "test", "validation"}
-    assert len(runs_from_frames(load_measured(str(out))).angle) == len(original)
+    measured = load_measured(str(out))
+    assert [n for n, _ in measured] == ["test.csv", "train.csv", "validation.csv"]
+    assert sum(len(f) for _, f in measured) == len(_rig_log(original)), "the discrepancy reads logged/"
+    assert len(runs_from_frames(measured).angle) == len(original)
+
+
+def test_import_writes_the_control_loops_100_hz_for_training(tmp_path, original) -> None:
+    """The 200 Hz log's 100 Hz copy is the original trials again (10 ms grid from each trial's start:
+    counts exact, the rest to the CSV's 6 digits), so derive() gives the features the firmware computes at
+    its 10 ms loop; the logged rows give a 5 ms step, which derive() refuses naming the file (<1 s)."""
+    from seagen.data.features import derive
+    from seagen.data.logimport import split_trials
+
+    log = tmp_path / "rig.csv"
+    _rig_log(original).to_csv(log, index=False, float_format="%.17g")
+    (tmp_path / "map.toml").write_text(MAP)
+    out = tmp_path / "data"
+    assert main(["data", "import", str(log), "--map", str(tmp_path / "map.toml"), "--out", str(out)]) == 0
+    truth = split_trials(pd.concat([f.assign(trial=i) for i, f in enumerate(original)], ignore_index=True))
+    for s in ("train", "test", "validation"):
+        got, want = derive(load_csv(out / f"{s}.csv")), derive(truth[s])
+        assert len(got) == len(want), s
+        for c in ("trial", "enc", "pot", "d_enc", "dd_enc", "d_pot", "dd_pot"):
+            assert np.array_equal(got[c].to_numpy(), want[c].to_numpy()), (s, c)
+        for c in ("t_s", "motor_v", "angle_set_deg", "load_cell_n", "d_compression_mm"):
+            assert np.allclose(got[c], want[c], rtol=1e-5, atol=1e-6), (s, c)  # the CSV's %.6g
+    with pytest.raises(DataError, match=r"logged/train\.csv: rows are 5 ms apart \(200 Hz\).*10 ms grid"):
+        derive(load_csv(out / "logged" / "train.csv"))
+
+
+def test_250_hz_rig_log_trains_on_the_100_hz_copy_or_exits_2(tmp_path, capsys) -> None:
+    """A jittered ~250 Hz rig log (integer-ms clock) through `data import` and `train`: on the --out folder
+    the model trains with every trial on the 10 ms grid; on logged/ `train` exits 2 with one line naming
+    the file and the 100 Hz copy, and writes no model (~3 s)."""
+    from seagen.discrepancy.bench import FAST_MOVES, case_moves
+    from seagen.discrepancy.riglog import RIG_MAP, rig_csv, rig_trials
+
+    frames = rig_trials(PlantConfig(), case_moves(FAST_MOVES)[:4], seed=3, convention="from_row")
+    (tmp_path / "rig.csv").write_text(rig_csv(frames))
+    (tmp_path / "map.toml").write_text(RIG_MAP)
+    data = tmp_path / "data"
+    assert (
+        main(
+            [
+                "data",
+                "import",
+                str(tmp_path / "rig.csv"),
+                "--map",
+                str(tmp_path / "map.toml"),
+                "--out",
+                str(data),
+            ]
+        )
+        == 0
+    )
+    grid = load_csv(data / "train.csv")
+    for _, part in grid.groupby("trial"):
+        assert np.allclose(np.diff(part["t_s"]), 0.01, rtol=0, atol=1e-12)
+    capsys.readouterr()
+    bad = tmp_path / "bad.pt"
+    args = ["train", "--model", "sf", "--loss", "mse", "--task", "calibration"]
+    assert main([*args, "--data", str(data / "logged"), "--out", str(bad)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{data / 'logged' / 'train.csv'}: rows are " in err[0], err
+    assert "Hz), but the feature pipeline" in err[0] and "copy `seagen data import` writes" in err[0]
+    assert not bad.exists()
+    assert main([*args, "--data", str(data), "--out", str(tmp_path / "sf.pt")]) == 0
+    assert (tmp_path / "sf.pt").is_file()
 
 
 @pytest.mark.parametrize(

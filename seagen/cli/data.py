@@ -26,11 +26,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.set_defaults(func=cmd_generate)
     i = dsub.add_parser(
         "import",
-        help="a rig's log -> train/test/validation CSVs (column map TOML with units; rows kept as logged)",
+        help="a rig's log -> train/test/validation CSVs at the control loop's 100 Hz (train, evaluate, "
+        "export) and as logged in OUT/logged (discrepancy); a column map TOML with units",
     )
     i.add_argument("log", help="the rig's log (CSV with a header row)")
     i.add_argument("--map", required=True, help="column map TOML: log columns and units -> seagen's schema")
-    i.add_argument("--out", required=True, help="output directory (created; the three files written whole)")
+    i.add_argument(
+        "--out",
+        required=True,
+        help="output directory (created; every file written whole, logged rows in logged/)",
+    )
     i.set_defaults(func=cmd_import)
     s = dsub.add_parser("summary", help="rows per split, naive kinematics error, friction by angle")
     s.add_argument("dir", help="data directory holding train.csv, test.csv, validation.csv")
@@ -63,7 +68,10 @@ def cmd_generate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None) -> None:
+LOGGED = "logged"  # `data import`: the rows as logged, beside the 100 Hz copy
+
+
+def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None, what: str = "") -> None:
     """Write every split (and the `extra` {file name: text}) into a staging folder inside `out`, then
     rename each into place under a lock on `out` (two commands writing one folder at once leave the
     files of one of them)."""
@@ -84,17 +92,26 @@ def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None) 
         for f in Path(staged).glob("*"):
             f.unlink()
         os.rmdir(staged)
-    print(f"wrote {out}/: " + ", ".join(f"{k}.csv ({len(v)} rows)" for k, v in splits.items()))
+    print(
+        f"wrote {out}/: "
+        + ", ".join(f"{k}.csv ({len(v)} rows)" for k, v in splits.items())
+        + f" {what}".rstrip()
+    )
 
 
 def cmd_import(args: argparse.Namespace) -> int:
     """Convert a rig's log with a column map; nothing is written unless every row converts."""
-    from seagen.data.logimport import import_log, load_map, split_trials, timing
+    from seagen.data.features import SAMPLE_RATE_HZ
+    from seagen.data.logimport import import_log, load_map, resample, split_trials, timing
 
     mapping = load_map(args.map)
     df = import_log(args.log, mapping)
-    splits = split_trials(df)
-    _write_splits(Path(args.out), splits, {"import.json": json.dumps(timing(df, mapping), indent=2) + "\n"})
+    logged = split_trials(df)
+    grid = {k: resample(v, SAMPLE_RATE_HZ) for k, v in logged.items()}
+    out = Path(args.out)
+    info = {"import.json": json.dumps(timing(df, mapping), indent=2) + "\n"}
+    _write_splits(out / LOGGED, logged, info, what="as logged (discrepancy)")
+    _write_splits(out, grid, info, what=f"at {SAMPLE_RATE_HZ:g} Hz (train, evaluate, export)")
     return 0
 
 

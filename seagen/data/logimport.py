@@ -14,8 +14,10 @@ The map (see README "Data from your rig"):
     [log]                    comment = "#", command = "from_row"   # both optional
 
 Every mapped value is read as `raw * scale + offset` (both optional) in the given unit, then converted.
-Rows are kept as logged: t_s is each row's own time from its trial's first row (no resampling); the
-replay applies each logged command at its own instant. `[log] command` pins which interval a logged
+The --out folder gets the trials resampled to the control loop's 100 Hz (what train, evaluate and export
+read: the features difference samples 10 ms apart) and, in logged/, the rows as logged: t_s is each row's
+own time from its trial's first row; the discrepancy replay reads those and applies each logged command at
+its own instant. `[log] command` pins which interval a logged
 command covers ("from_row": applied from its row on, the usual rig loop; "up_to_row": applied up to its
 row, seagen's own data); without it the discrepancy workflow finds it from the data.
 """
@@ -306,6 +308,26 @@ def timing(df: pd.DataFrame, mapping: dict[str, Any]) -> dict[str, Any]:
     if mapping.get("command"):
         out["lag"] = COMMAND_TIMING[mapping["command"]]
     return out
+
+
+def resample(df: pd.DataFrame, hz: float) -> pd.DataFrame:
+    """Every trial on a 1/hz grid from its first row (the control loop's samples, which the feature pipeline
+    differences): sensors interpolated linearly between the logged instants (counts rounded), the command
+    and the contact angle held from the last row at or before each instant."""
+    parts = []
+    for k, part in df.groupby("trial", sort=False):
+        t = part["t_s"].to_numpy(dtype=float)
+        grid = np.arange(int(np.floor(t[-1] * hz + 1e-9)) + 1) / hz
+        held = np.clip(np.searchsorted(t, grid + 1e-12, side="right") - 1, 0, len(t) - 1)
+        out = {"trial": np.full(len(grid), k), "t_s": grid}
+        for c in ("angle_set_deg", "motor_v"):
+            out[c] = part[c].to_numpy(dtype=float)[held]
+        for c in ("enc", "pot", "load_cell_n", "force_n"):
+            out[c] = np.interp(grid, t, part[c].to_numpy(dtype=float))
+        for c in ("enc", "pot"):
+            out[c] = np.rint(out[c]).astype(np.int64)
+        parts.append(pd.DataFrame(out))
+    return pd.concat(parts, ignore_index=True)[list(RAW_COLUMNS)]
 
 
 def split_trials(df: pd.DataFrame) -> dict[str, pd.DataFrame]:

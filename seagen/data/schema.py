@@ -74,6 +74,7 @@ def load_csv(path: str | os.PathLike[str]) -> pd.DataFrame:
             out[col] = vals
     clean = pd.DataFrame(out)
     _check_time(p, clean)
+    clean.attrs["source"] = str(p)
     return clean
 
 

@@ -320,10 +320,13 @@ def load_timing(path: str) -> dict:
 
 
 def load_measured(path: str) -> list:
-    """(name, DataFrame) for a CSV or every CSV in a directory, validated by the data schema."""
+    """(name, DataFrame) for a CSV or every CSV in a directory, validated by the data schema; a folder
+    `data import` wrote is read from its logged/ rows (each at its own instant), not its 100 Hz copy."""
     from seagen.data.schema import DataError, load_csv
 
     p = Path(path)
+    if p.is_dir() and any((p / "logged").glob("*.csv")):
+        p = p / "logged"
     if p.is_dir():
         files = sorted(p.glob("*.csv"))
         if not files:
