@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import json
 
-from seagen.cli.args import seconds, seed
 from seagen.defaults import model_arg
 from seagen.errors import UserError
 
@@ -47,7 +46,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object keyed by configuration")
     p.add_argument("--plots", metavar="DIR", help="write a step-response plot per configuration (first seed)")
     p.add_argument("--config", action="append", choices=sorted(CONFIGS), help="configurations (default all)")
-    p.add_argument("--latency", type=seconds, default=0.1, help="cloud round-trip latency, s (default 0.1)")
+    p.add_argument("--latency", type=float, default=0.1, help="cloud round-trip latency, s (default 0.1)")
     p.add_argument(
         "--impl",
         choices=("c", "py", "pil"),
@@ -60,7 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         default="cortex-m4",
         help="with --impl pil: the board's core (mps2-an386 or microbit; default cortex-m4)",
     )
-    p.add_argument("--seed", type=seed, default=0, help="plant noise seed (default 0)")
+    p.add_argument("--seed", type=int, default=0, help="plant noise seed (default 0)")
     p.add_argument(
         "--seeds",
         type=int,
@@ -75,8 +74,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     """Run each configuration at 5, 10, 15 N over the contact angles; print Table II or JSON."""
     from seagen.control.experiment import TABLE2_CONFIGS, format_table2, simulate, sweep
 
-    if args.latency < 0:
-        raise UserError(f"--latency must be >= 0 s, got {args.latency}")
+    if not 0.0 <= args.latency <= 3600.0:  # NaN fails too
+        raise UserError(f"--latency must be a time from 0 to 3600 s, got {args.latency}")
+    if args.seed < 0:
+        raise UserError(f"--seed must be >= 0, got {args.seed}")
     if args.seeds < 1:
         raise UserError(f"--seeds must be >= 1, got {args.seeds}")
     from seagen.control.experiment import CONFIGS

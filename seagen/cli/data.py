@@ -9,7 +9,6 @@ import tempfile
 from pathlib import Path
 
 from seagen.atomic import writable_place
-from seagen.cli.args import seed
 from seagen.errors import UserError
 
 
@@ -21,7 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "generate", help="collect train/test/validation CSVs on the simulated SEA (paper protocol)"
     )
     g.add_argument("--out", required=True, help="output directory (created)")
-    g.add_argument("--seed", type=seed, default=0, help="random seed (default 0)")
+    g.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     g.add_argument("--config", help="plant config TOML (default: the paper's actuator)")
     g.set_defaults(func=cmd_generate)
     i = dsub.add_parser(
@@ -52,6 +51,8 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
     cfg = load_config(args.config) if args.config else PlantConfig()
     out = Path(args.out)
+    if args.seed < 0:
+        raise UserError(f"--seed must be >= 0, got {args.seed}")
     if out.exists() and not out.is_dir():
         raise UserError(f"{out}: is a file; --out names a folder")
     if why := writable_place(out):

@@ -8,7 +8,6 @@ import re
 from pathlib import Path
 
 from seagen.atomic import writable_place
-from seagen.cli.args import seed
 from seagen.defaults import model_arg
 from seagen.errors import UserError
 
@@ -26,7 +25,7 @@ def parse_hidden(text: str | None) -> tuple[int, ...] | None:
     if text is None:
         return None
     try:
-        sizes = tuple(int(t) for t in re.split(r"[,x]|(?<=\d)-", text) if t.strip())
+        sizes = tuple(int(t) for t in re.split(r",|(?<=\d)-", text) if t.strip())
     except ValueError:
         raise UserError(f"--hidden {text!r}: expected layer sizes like 16,32") from None
     if not sizes or any(s < 1 for s in sizes):
@@ -58,7 +57,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     t.add_argument("--hidden", help="MLP hidden sizes, e.g. 16,32 (default 16,32 calibration, 8,16 control)")
     t.add_argument("--trials", type=int, default=0, help="Optuna trials over structure/loss/lr (MLP only)")
-    t.add_argument("--seed", type=seed, default=0, help="random seed (default 0)")
+    t.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     t.add_argument("--storage", help="Optuna storage URL shared by several machines, e.g. sqlite:///x.db")
     t.add_argument("--study-name", help="Optuna study name (default seagen-TASK-mlp-seedN)")
     t.add_argument("--activation", choices=("relu", "leaky_relu", "tanh"), help="MLP activation (relu)")
@@ -94,6 +93,8 @@ def cmd_train(args: argparse.Namespace) -> int:
 
     if args.trials and args.model != "mlp":
         raise UserError("--trials: the search is for --model mlp (an SF has no hyper-parameters)")
+    if args.seed < 0:
+        raise UserError(f"--seed must be >= 0, got {args.seed}")
     if Path(args.out).is_dir():
         raise UserError(f"{args.out}: is a folder; --out names the model file to write")
     if why := writable_place(args.out):

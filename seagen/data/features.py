@@ -26,7 +26,10 @@ PERIOD_TOL = 0.02  # a median row step within 2 % of 10 ms is the control loop's
 
 
 def sample_period(df: pd.DataFrame) -> float | None:
-    """The median step between consecutive rows of a trial (s); None with fewer than two rows per trial."""
+    """The median step between consecutive rows of a trial (s); None without a time column or with fewer
+    than two rows per trial."""
+    if "t_s" not in df.columns:  # rows built in memory (the cloud predictor's last samples)
+        return None
     t = df["t_s"].to_numpy(dtype=float)
     same = df["trial"].to_numpy()[1:] == df["trial"].to_numpy()[:-1]
     d = np.diff(t)[same]

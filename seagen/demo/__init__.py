@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from seagen.export import Export
 
-from seagen.cli.args import seed
 from seagen.defaults import DEFAULT_PREFIX
+from seagen.errors import UserError
 
 
 def export_defaults(models: dict[str, Path], out: Path, calib: str | None = None) -> dict[str, Export]:
@@ -57,7 +57,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "outputs in --out. --regenerate/--rebuild maintain generated/.",
     )
     p.add_argument("--out", default="demo_out", help="working directory (default demo_out)")
-    p.add_argument("--seed", type=seed, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--regenerate", metavar="DIR", help="only re-export DIR (generated/) from DIR/models/*.pt")
     p.add_argument(
         "--rebuild", metavar="DIR", help="only rebuild DIR (generated/) from scratch: data, training"
@@ -67,6 +67,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def cmd_demo(args: argparse.Namespace) -> int:
     """Run the steps in order, printing each result."""
+    if args.seed < 0:
+        raise UserError(f"--seed must be >= 0, got {args.seed}")
     if args.regenerate:
         regenerate(Path(args.regenerate))
         return 0
