@@ -32,10 +32,10 @@ import os
 import tomllib
 from dataclasses import asdict, dataclass
 from importlib import resources
-from pathlib import Path
 from typing import Any
 
 from seagen.errors import UserError
+from seagen.fields import read_toml
 
 
 class ActuatorError(UserError):
@@ -223,16 +223,7 @@ def actuator_from_dict(data: dict[str, Any], where: str = "<dict>") -> Actuator:
 
 def load_actuator(path: str | os.PathLike[str]) -> Actuator:
     """Read and validate an actuator description (TOML)."""
-    p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ActuatorError(f"{p}: no such file") from None
-    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
-        raise ActuatorError(f"{p}: not a valid TOML file: {e}") from None
-    except OSError as e:
-        raise ActuatorError(f"{p}: cannot read: {e.strerror}") from None
-    return actuator_from_dict(data, str(p))
+    return actuator_from_dict(read_toml(path, ActuatorError), str(path))
 
 
 def default_actuator() -> Actuator:

@@ -5,10 +5,27 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
+import tomllib
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from seagen.errors import UserError
+
+
+def read_toml(path: str | os.PathLike[str], error: type[UserError] = UserError) -> dict[str, Any]:
+    """A TOML file's tables (a plant config, an actuator description, a column map); a missing, unreadable,
+    binary or malformed file is one `error` naming it."""
+    p = Path(path)
+    try:
+        return tomllib.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise error(f"{p}: no such file") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise error(f"{p}: not valid TOML: {e}") from None
+    except OSError as e:  # a folder, no permission
+        raise error(f"{p}: cannot read: {e.strerror}") from None
 
 
 def _what(v: Any) -> str:

@@ -81,5 +81,5 @@ def test_unreadable_files(tmp_path):
         load_actuator(tmp_path / "none.toml")
     b = tmp_path / "bin.toml"
     b.write_bytes(b"\xff\xfe\x00garbage")
-    with pytest.raises(ActuatorError, match="bin.toml: not a valid TOML"):
+    with pytest.raises(ActuatorError, match="bin.toml: not valid TOML"):
         load_actuator(b)

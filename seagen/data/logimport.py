@@ -25,7 +25,6 @@ row, seagen's own data); without it the discrepancy workflow finds it from the d
 from __future__ import annotations
 
 import os
-import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +34,7 @@ import pandas as pd
 from seagen import geometry as g
 from seagen.data.schema import RAW_COLUMNS, DataError
 from seagen.errors import not_a_file
+from seagen.fields import read_toml
 
 _LBF_N = 4.4482216152605
 SUPPLY_V = 12.0  # the default actuator's motor supply: a PWM duty in % of it
@@ -58,12 +58,7 @@ DEFAULT_GAP_S = 1.0
 def load_map(path: str | os.PathLike[str]) -> dict[str, Any]:
     """Read and check a column map; errors name the map file and the key."""
     p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text())
-    except FileNotFoundError:
-        raise DataError(f"{p}: no such file") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise DataError(f"{p}: not valid TOML: {e}") from None
+    data = read_toml(p, DataError)
     unknown = set(data) - {"columns", "trials", "log"}
     if unknown:
         raise DataError(f"{p}: unknown table '{sorted(unknown)[0]}' (known: columns, trials, log)")

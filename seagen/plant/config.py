@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import tomllib
 from dataclasses import dataclass, field, fields
-from pathlib import Path
 from typing import Any
 
 import tomli_w
@@ -15,6 +13,7 @@ from seagen import geometry as g
 from seagen.actuator import default_actuator
 from seagen.atomic import write_text
 from seagen.errors import UserError
+from seagen.fields import read_toml
 
 
 class ConfigError(UserError):
@@ -293,16 +292,7 @@ def config_from_dict(data: dict[str, Any], where: str = "<dict>") -> PlantConfig
 
 def load_config(path: str | os.PathLike[str]) -> PlantConfig:
     """Read a plant config from TOML; errors name the file and key."""
-    p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"{p}: no such file") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise ConfigError(f"{p}: not valid TOML: {e}") from None
-    except OSError as e:  # a folder, no permission
-        raise ConfigError(f"{p}: cannot read the plant config: {e.strerror}") from None
-    return config_from_dict(data, str(p))
+    return config_from_dict(read_toml(path, ConfigError), str(path))
 
 
 def save_config(cfg: PlantConfig, path: str | os.PathLike[str]) -> None:
