@@ -16,6 +16,7 @@ from seagen.discrepancy.riglog import RIG_MAP, rig_csv, rig_trials
 from seagen.discrepancy.timing import fit_timing, timing_problem
 from seagen.discrepancy.workflow import identify
 from seagen.plant import PlantConfig
+from tests.test_logimport import import_argv
 
 
 def _import(tmp_path, convention: str, seed: int = 3, command: str | None = None):
@@ -25,15 +26,7 @@ def _import(tmp_path, convention: str, seed: int = 3, command: str | None = None
     text = RIG_MAP + (f'[log]\ncommand = "{command}"\n' if command else "")
     (tmp_path / "map.toml").write_text(text)
     out = tmp_path / "data"
-    args = [
-        "data",
-        "import",
-        str(tmp_path / "rig.csv"),
-        "--map",
-        str(tmp_path / "map.toml"),
-        "--out",
-        str(out),
-    ]
+    args = import_argv(tmp_path, out)
     assert main(args) == 0
     return out
 

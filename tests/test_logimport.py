@@ -46,6 +46,11 @@ def original() -> list[pd.DataFrame]:
     return case_frames(PlantConfig(), seed=7, fast=True)[:4]
 
 
+def import_argv(d, out) -> list[str]:
+    """`seagen data import d/rig.csv --map d/map.toml --out out` as an argument list."""
+    return ["data", "import", str(d / "rig.csv"), "--map", str(d / "map.toml"), "--out", str(out)]
+
+
 def _rig_log(frames: list[pd.DataFrame]) -> pd.DataFrame:
     """The trials as a rig would log them: 200 Hz, ms clock from power-on, mV, rad, kgf, lbf, no trial column;
     the in-between samples hold the command and the counts and interpolate the forces."""
@@ -203,15 +208,7 @@ def test_bad_log_or_map_exits_2_and_writes_nothing(tmp_path, original, capsys, e
     (tmp_path / "rig.csv").write_text(edit(text, mapping))
     (tmp_path / "map.toml").write_text(mapping)
     out = tmp_path / "data"
-    args = [
-        "data",
-        "import",
-        str(tmp_path / "rig.csv"),
-        "--map",
-        str(tmp_path / "map.toml"),
-        "--out",
-        str(out),
-    ]
+    args = import_argv(tmp_path, out)
     assert main(args) == 2
     assert needle in capsys.readouterr().err
     assert not out.exists()
@@ -306,15 +303,7 @@ def test_broken_rig_log_is_refused(tmp_path, capsys, rig_lines, what, edit, map_
     (tmp_path / "rig.csv").write_text("\r\n".join(edit(rig_lines)) + "\r\n")
     (tmp_path / "map.toml").write_text(map_edit(RIG_MAP) if map_edit else RIG_MAP)
     out = tmp_path / "data"
-    args = [
-        "data",
-        "import",
-        str(tmp_path / "rig.csv"),
-        "--map",
-        str(tmp_path / "map.toml"),
-        "--out",
-        str(out),
-    ]
+    args = import_argv(tmp_path, out)
     assert main(args) == 2
     err = capsys.readouterr().err
     assert "rig.csv" in err and needle in err, err
