@@ -20,8 +20,10 @@ Contract (keys of the saved dict; `seagen.fit` writes it, `seagen export` and `s
 
 from __future__ import annotations
 
+import contextlib
 import os
 import zipfile
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -142,17 +144,24 @@ NN_LAYERS = "torch.nn.modules."
 
 
 def safe_load(p: Path, allow_pickle: bool = False) -> Any:
-    """torch.load with weights_only=True and the torch.nn allowlist; only the user's explicit
-    --allow-pickle (allow_pickle=True, never a default) unpickles, which RUNS the code the file carries
-    (export, evaluate, verify)."""
+    """torch.load with weights_only=True and the torch.nn allowlist. Only the user's explicit --allow-pickle
+    (allow_pickle=True: every caller passes the command's store_true flag, never a default) unpickles, which
+    RUNS the code the file carries (export, evaluate, verify, simulate, pil)."""
     import torch
 
-    try:
-        if allow_pickle:
+    if allow_pickle:  # --allow-pickle was given: full unpickling, the one place seagen runs a file's code
+        with _readable(p):
             return torch.load(p, map_location="cpu", weights_only=False)
-        with torch.serialization.safe_globals(nn_allowlist()):
-            return torch.load(p, map_location="cpu", weights_only=True)
-    except Exception as e:  # torch raises many types for corrupt or refused files
+    with _readable(p), torch.serialization.safe_globals(nn_allowlist()):
+        return torch.load(p, map_location="cpu", weights_only=True)
+
+
+@contextlib.contextmanager
+def _readable(p: Path) -> Iterator[None]:
+    """torch's many exception types for a corrupt or refused file as one UserError naming the file."""
+    try:
+        yield
+    except Exception as e:
         text = str(e)
         if "weights_only" in text or "Unsupported global" in text or "Unpickler" in text:
             raise UserError(f"{p}: {refusal(p)}") from None

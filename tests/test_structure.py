@@ -246,3 +246,17 @@ def test_torch_archive_readers_only_behind_the_opt_in_or_the_check():
                     found.append((f"{path.name}:{fn.name}", name, ok))
     assert {n for _w, n, _ok in found} == {"torch.export.load", "torch.jit.load"}, found
     assert all(ok for _w, _n, ok in found), found
+
+
+def test_allow_pickle_flags_are_opt_in():
+    """Every `--allow-pickle` the commands define is a store_true flag (False unless the user types it), so
+    the one unpickling branch (`if allow_pickle:` in modelfile.safe_load) is reached only on that opt-in."""
+    flags = []
+    for path in sorted(ROOT.rglob("*.py")):
+        for call in (n for n in ast.walk(ast.parse(path.read_text())) if isinstance(n, ast.Call)):
+            if any(isinstance(a, ast.Constant) and a.value == "--allow-pickle" for a in call.args):
+                action = next((k.value for k in call.keywords if k.arg == "action"), None)
+                default = next((k.value for k in call.keywords if k.arg == "default"), None)
+                ok = isinstance(action, ast.Constant) and action.value == "store_true" and default is None
+                flags.append((path.name, ok))
+    assert len(flags) >= 5 and all(ok for _, ok in flags), flags
