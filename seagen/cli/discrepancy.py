@@ -101,18 +101,29 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.rig:
         return _print_rig(args)
     out = bench(args.seeds, jobs=max(1, args.jobs))
-    if args.json:
-        print(json.dumps(out, indent=2))
-        return 0
-    for k, v in out.items():
-        if k != "cases":
-            print(f"{k}: {v:.3f}")
-    for row in out["cases"]:
-        print(
+    return _print_bench(
+        out,
+        args.json,
+        lambda row: (
             f"{row['kind']:8s} hidden={row['hidden']:40s} named={row['named']:40s} {row['verdict']:11s} "
             f"e/n={row['effect_to_noise']:7.2f} rms {row['rms_before']:7.2f} -> {row['rms_after']:5.2f} "
             f"({row['seconds']:.0f} s)"
-        )
+        ),
+    )
+
+
+def _print_bench(out: dict, as_json: bool, case_line, table=None) -> int:
+    """A benchmark's result: one JSON object, or its goal numbers, an optional table, one line per case."""
+    if as_json:
+        print(json.dumps(out, indent=2, default=str))
+        return 0
+    for k, v in out.items():
+        if k not in ("cases", "per_family"):
+            print(f"{k}: {v:.3f}" if isinstance(v, float) else f"{k}: {v}")
+    if table is not None:
+        table()
+    for row in out["cases"]:
+        print(case_line(row))
     return 0
 
 
@@ -121,25 +132,25 @@ def _print_families(args: argparse.Namespace) -> int:
     from seagen.discrepancy.famibench import bench_families
 
     out = bench_families(args.seeds, jobs=max(1, args.jobs), fast=args.quick)
-    if args.json:
-        print(json.dumps(out, indent=2, default=str))
-        return 0
-    for k, v in out.items():
-        if k not in ("cases", "per_family"):
-            print(f"{k}: {v:.3f}" if isinstance(v, float) else f"{k}: {v}")
-    print("family            cases first_ok spurious recovered gap_cut (physics) s/dataset")
-    for r in out["per_family"]:
-        print(
-            f"{r['family']:17s} {r['cases']:5d} {r['first_ok']:8.2f} {r['spurious']:8.2f} "
-            f"{r['recovered']:9.2f} {r['gap_cut']:7.2f} ({r['gap_cut_physics']:.2f}) {r['seconds']:9.0f}"
-        )
-    for r in out["cases"]:
-        print(
+
+    def per_family() -> None:
+        print("family            cases first_ok spurious recovered gap_cut (physics) s/dataset")
+        for r in out["per_family"]:
+            print(
+                f"{r['family']:17s} {r['cases']:5d} {r['first_ok']:8.2f} {r['spurious']:8.2f} "
+                f"{r['recovered']:9.2f} {r['gap_cut']:7.2f} ({r['gap_cut_physics']:.2f}) {r['seconds']:9.0f}"
+            )
+
+    return _print_bench(
+        out,
+        args.json,
+        lambda r: (
             f"{r['family']:17s} seed={r['seed']:4d} expected={r['expected']:20s} first={r['first']:20s} "
             f"added={r['added']:30s} recal={r['recalibrated']:30s} gap_cut={r['gap_cut']:.2f} "
             f"({r['seconds']:.0f} s)"
-        )
-    return 0
+        ),
+        per_family,
+    )
 
 
 def _print_rig(args: argparse.Namespace) -> int:
@@ -148,17 +159,13 @@ def _print_rig(args: argparse.Namespace) -> int:
 
     kinds = ("control",) if args.quick else ("control", "single", "misset")
     out = bench_rig(args.seeds, jobs=max(1, args.jobs), kinds=kinds)
-    if args.json:
-        print(json.dumps(out, indent=2, default=str))
-        return 0
-    for k, v in out.items():
-        if k != "cases":
-            print(f"{k}: {v:.3f}")
-    for r in out["cases"]:
-        print(
+    return _print_bench(
+        out,
+        args.json,
+        lambda r: (
             f"{r['kind']:8s} {r['clock_hz']:5d} Hz {r['convention']:10s} dialect={r['dialect']} "
             f"hidden={r['hidden']:20s} lag={r['lag']:.2f} {r['verdict']:11s} named={r['named']:25s} "
             f"recal={r['recalibrated']:25s} rms {r['rms_before']:6.2f} -> {r['rms_after']:5.2f} "
             f"({r['seconds']:.0f} s)"
-        )
-    return 0
+        ),
+    )
