@@ -20,6 +20,11 @@ _NOOPS = (
     "<built-in function getitem>",
 )
 _FLOATS = ("torch.float32", "torch.float64")
+_DENSE = ("aten.linear.default", "aten.addmm.default", "aten.mm.default", "aten.matmul.default")
+_CLAMPS = ("aten.hardtanh.default", "aten.clamp.default", "aten.clamp_min.default", "aten.clamp_max.default")
+_BATCHNORM = ("aten.batch_norm.default", "aten._native_batch_norm_legit_no_training.default")
+_CASTS = ("aten.to.dtype", "aten._to_copy.default", "aten.to.dtype_layout")
+_VIEWS = ("aten.view.default", "aten.reshape.default", "aten._unsafe_view.default")
 # Every ATen op a graph may hold, dead nodes included, before anything of it is evaluated (constant folding
 # runs ops): what the reader turns into the chain, and pure tensor arithmetic that prepares constants (a
 # transposed or reshaped weight, ones, a folded scale). Anything else (file I/O such as aten.from_file,
@@ -27,26 +32,15 @@ _FLOATS = ("torch.float32", "torch.float64")
 _READ_OPS = {
     *_ACTS,
     *_NOOPS,
-    "aten.linear.default",
-    "aten.addmm.default",
-    "aten.mm.default",
-    "aten.matmul.default",
+    *_DENSE,
+    *_CLAMPS,
+    *_BATCHNORM,
+    *_CASTS,
+    *_VIEWS,
     "aten.leaky_relu.default",
-    "aten.hardtanh.default",
-    "aten.clamp.default",
-    "aten.clamp.Tensor",
-    "aten.clamp_min.default",
-    "aten.clamp_max.default",
+    "aten.clamp.Tensor",  # reached only to be refused by name (a computed bound)
     "aten.relu6.default",
-    "aten.batch_norm.default",
-    "aten._native_batch_norm_legit_no_training.default",
     "aten.dropout.default",
-    "aten.to.dtype",
-    "aten._to_copy.default",
-    "aten.to.dtype_layout",
-    "aten.view.default",
-    "aten.reshape.default",
-    "aten._unsafe_view.default",
 }
 _PURE_PREFIXES = ("aten.add.", "aten.sub.", "aten.mul.", "aten.div.", "aten.rsub.", "aten.neg.", "aten.pow.")
 _PURE_OPS = {
@@ -175,7 +169,7 @@ def _arg(n: Any, k: int, key: str, default: Any, consts: dict) -> Any:
 def _item(n: Any, consts: dict, fx: dict, where: str) -> list[Item]:
     """One ATen call -> zero or more chain items; anything unsupported is refused."""
     t, p = str(n.target), _path(n)
-    if t in ("aten.linear.default", "aten.addmm.default", "aten.mm.default", "aten.matmul.default"):
+    if t in _DENSE:
         return [_dense(n, t, p, consts, where)]
     if t.startswith(("aten.add.", "aten.sub.", "aten.mul.", "aten.div.", "aten.rsub.")):
         return [_arith(n, t, p, consts, where)]
@@ -183,16 +177,11 @@ def _item(n: Any, consts: dict, fx: dict, where: str) -> list[Item]:
         return [Act(t, p, _ACTS[t])]
     if t == "aten.leaky_relu.default":
         return [Act(t, p, "leaky_relu", alpha=float(_arg(n, 1, "negative_slope", 0.01, consts)))]
-    if t in (
-        "aten.hardtanh.default",
-        "aten.clamp.default",
-        "aten.clamp_min.default",
-        "aten.clamp_max.default",
-    ):
+    if t in _CLAMPS:
         return [_clamp(n, t, p, consts, where)]
     if t == "aten.relu6.default":
         return [clip_act(t, p, 0.0, 6.0)]
-    if t in ("aten.batch_norm.default", "aten._native_batch_norm_legit_no_training.default"):
+    if t in _BATCHNORM:
         return [_batchnorm(n, t, p, consts, where)]
     if t in _NOOPS and (t != "<built-in function getitem>" or n.args[1] == 0):
         return []
@@ -202,11 +191,11 @@ def _item(n: Any, consts: dict, fx: dict, where: str) -> list[Item]:
                 where, Item(t, p), "Dropout in training mode (random at inference; export in eval mode)"
             )
         return []
-    if t in ("aten.to.dtype", "aten._to_copy.default", "aten.to.dtype_layout"):
+    if t in _CASTS:
         dtype = n.kwargs.get("dtype", n.args[1] if len(n.args) > 1 else None)
         if str(dtype) in _FLOATS:
             return []
-    if t in ("aten.view.default", "aten.reshape.default", "aten._unsafe_view.default"):
+    if t in _VIEWS:
         shape = list(n.args[1])
         if len(shape) == 2 and all(isinstance(s, int) for s in shape):
             return [Reshape(t, p, int(shape[1]))]
