@@ -104,12 +104,25 @@ class Actuator:
         return 2**self.pot.adc_bits - 1
 
     def to_dict(self) -> dict[str, Any]:
-        """The parsed values as plain data (what a model file records)."""
-        return asdict(self)
+        """The parsed values in the file's layout (what a model file records; actuator_from_dict reads it)."""
+        return {
+            "kind": self.kind,
+            "name": self.name,
+            "motor": asdict(self.motor),
+            "transmission": {"lead_mm": self.lead_mm},
+            "spring": {"stiffness_n_per_mm": self.stiffness_n_per_mm},
+            "linkage": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self.linkage).items()},
+            "pot": asdict(self.pot),
+            "control": {"loop_hz": self.loop_hz},
+        }
 
     def digest(self) -> str:
         """sha256 of the parsed values (formatting and comments of the file do not count)."""
         return hashlib.sha256(json.dumps(self.to_dict(), sort_keys=True).encode()).hexdigest()
+
+    def record(self) -> dict[str, Any]:
+        """What a model file stores: the parsed values and their hash (`actuator_from_record` reads it)."""
+        return {"values": self.to_dict(), "sha256": self.digest()}
 
 
 _TABLES: dict[str, dict[str, type]] = {
@@ -230,3 +243,15 @@ def default_actuator() -> Actuator:
     """The paper's actuator, shipped as package data (`seagen/actuators/paper.toml`)."""
     text = resources.files("seagen.actuators").joinpath("paper.toml").read_text(encoding="utf-8")
     return actuator_from_dict(tomllib.loads(text), "seagen/actuators/paper.toml")
+
+
+def actuator_from_record(record: Any, where: str) -> Actuator:
+    """The description a model file recorded, validated and its hash checked (`where` names the file)."""
+    if not isinstance(record, dict) or set(record) != {"values", "sha256"}:
+        raise ActuatorError(f"{where}: 'actuator' must hold exactly 'values' and 'sha256'")
+    if not isinstance(record["values"], dict):
+        raise ActuatorError(f"{where}: 'actuator.values' must be a table")
+    act = actuator_from_dict(record["values"], f"{where}: actuator")
+    if act.digest() != record["sha256"]:
+        raise ActuatorError(f"{where}: 'actuator.sha256' does not match the recorded values")
+    return act
