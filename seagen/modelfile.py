@@ -16,6 +16,8 @@ Contract (keys of the saved dict; `seagen.fit` writes it, `seagen export` and `s
     input_range     [[lo, hi], ...] observed on the training data (raw units), one per input
     output_range    [lo, hi] observed on the training data (output units)
     loss            "mse" | "mae";  seed: int;  hidden: list[int] (mlp);  metrics: dict
+    actuator        Actuator.record(): the description the training data came from (parsed values + sha256);
+                    absent in files written before it existed, which mean the paper's actuator
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from seagen.actuator import Actuator, ActuatorError, actuator_from_record, default_actuator
 from seagen.errors import UserError, not_a_file
 from seagen.filekind import EXPORT, ONNX, TORCHSCRIPT, file_kind, pickle_globals
 
@@ -265,3 +268,16 @@ def describe_dict(obj: dict[Any, Any], p: Path, fmt: str) -> str:
             f"read; {INSTEAD}"
         )
     return f"{p}: a dict but not a seagen model file (no format '{fmt}'); {INSTEAD}"
+
+
+def model_actuator(model: dict[str, Any], where: str, given: Actuator | None = None) -> Actuator:
+    """The actuator a model was trained for (the paper's when the file predates the record); a `given`
+    description that disagrees with the recorded one is refused, naming both."""
+    rec = model.get("actuator")
+    act = default_actuator() if rec is None else actuator_from_record(rec, where)
+    if given is not None and given.digest() != act.digest():
+        raise ActuatorError(
+            f"{where}: the model was trained for actuator '{act.name}' (sha256 {act.digest()[:12]}), "
+            f"not the given '{given.name}' (sha256 {given.digest()[:12]})"
+        )
+    return act
