@@ -11,9 +11,7 @@ static void sea_control_safe(const sea_control_config *c, sea_control_state *s, 
 void sea_control_reset(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot)
 {
     int i;
-    for (i = 0; i < SEA_CTRL_POT_AVG_TICKS; i++) {
-        s->pot_buf[i] = pot;
-    }
+    s->pot_sum = 0;
     s->pot_idx = 0;
     s->pot_avg = pot;
     s->pred_count = 0;
@@ -21,7 +19,7 @@ void sea_control_reset(const sea_control_config *c, sea_control_state *s, int32_
     s->enc_prev = enc;
     s->stuck_lo = 0;
     s->stuck_hi = 0;
-    s->comp = sea_compression_q16(c->link_table, enc, pot);
+    s->comp = sea_compression_q16(c->act, enc, pot);
     s->desired = s->comp;
     for (i = 0; i < SEA_CTRL_PRED_AVG_MAX; i++) {
         s->pred_buf[i] = s->comp;
@@ -43,7 +41,7 @@ static int32_t sea_control_check(const sea_control_config *c, sea_control_state 
         bits |= SEA_FAULT_ENC_JUMP;
     }
     s->stuck_lo = (pot <= 0) ? ((s->stuck_lo < need) ? (s->stuck_lo + 1) : need) : 0;
-    s->stuck_hi = (pot >= SEA_POT_MAX) ? ((s->stuck_hi < need) ? (s->stuck_hi + 1) : need) : 0;
+    s->stuck_hi = (pot >= c->act->pot_max) ? ((s->stuck_hi < need) ? (s->stuck_hi + 1) : need) : 0;
     if (s->stuck_lo >= need) {
         bits |= SEA_FAULT_POT_STUCK_LOW;
     }
@@ -56,21 +54,19 @@ static int32_t sea_control_check(const sea_control_config *c, sea_control_state 
     return bits;
 }
 
-/* Push one pot reading; every SEA_CTRL_POT_AVG_TICKS ticks refresh the average (10 Hz). */
-static void sea_control_pot(sea_control_state *s, int32_t pot)
+/* Push one pot reading; every act->pot_avg_ticks ticks refresh the average of the block (10 Hz). The sum of
+ * at most 2^31 int32 readings fits int64 (pot_avg_ticks < 2^31). */
+static void sea_control_pot(const sea_control_config *c, sea_control_state *s, int32_t pot)
 {
-    int64_t sum = 0;
-    int i;
-    s->pot_buf[s->pot_idx] = pot;
+    const int32_t n = (c->act->pot_avg_ticks < 1) ? 1 : c->act->pot_avg_ticks;
+    s->pot_sum += pot;
     s->pot_idx += 1;
-    if (s->pot_idx < SEA_CTRL_POT_AVG_TICKS) {
+    if (s->pot_idx < n) {
         return;
     }
+    s->pot_avg = sea_div_rne_s32(sea_sat32(s->pot_sum), n);
     s->pot_idx = 0;
-    for (i = 0; i < SEA_CTRL_POT_AVG_TICKS; i++) {
-        sum += s->pot_buf[i];
-    }
-    s->pot_avg = sea_div_rne_s32(sea_sat32(sum), SEA_CTRL_POT_AVG_TICKS);
+    s->pot_sum = 0;
 }
 
 /* Push one prediction; the desired compression is the mean of the last n (rounded half to even). */
@@ -101,8 +97,8 @@ int16_t sea_control_step(const sea_control_config *c, sea_control_state *s, int3
         sea_control_safe(c, s, bits);
         return 0;
     }
-    sea_control_pot(s, pot);
-    s->comp = sea_compression_q16(c->link_table, enc, s->pot_avg);
+    sea_control_pot(c, s, pot);
+    s->comp = sea_compression_q16(c->act, enc, s->pot_avg);
     if ((c->predictor != NULL) && (s->pred_count == 0)) {
         sea_control_predict(c, s, c->predictor(c->predictor_ctx, enc, pot, force_q16));
     }

@@ -1,6 +1,6 @@
 /* sea_pid.h -- fixed-point PID for spring-compression control (hand-written C; contract: c_runtime/README.md).
  *
- * Parallel form, one call per control tick (10 ms):
+ * Parallel form, one call per control tick:
  *   e     = setpoint - meas                          (Q16 mm, saturated to int32)
  *   e     = 0 if |e| <= margin                       (control margin: no P action, integrator held)
  *   d     = d + alpha (meas - meas_prev - d)         (first-order filter of the measurement's rate)
@@ -19,16 +19,15 @@
 #define SEA_PID_GAIN_FRAC 12   /* kp, ki, kd: signed Q19.12 in int32 (gains >= 1 up to ~524,287) */
 #define SEA_PID_ALPHA_FRAC 16  /* derivative filter coefficient: Q16 in [0, 65536]; 65536 = no filter */
 #define SEA_PID_OUT_FRAC 16    /* integrator and term sums: Q16 millivolts */
-#define SEA_MOTOR_MAX_MV 12000 /* the motor's supply: command range +-12 V */
 
 typedef struct {
     int32_t kp;      /* mV per mm of compression error, Q12 */
-    int32_t ki;      /* mV per mm per tick, Q12 (integral gain times the 10 ms tick) */
+    int32_t ki;      /* mV per mm per tick, Q12 (integral gain times the tick) */
     int32_t kd;      /* mV per (mm per tick), Q12 (derivative gain over the tick), on -d(meas)/dt */
     int32_t d_alpha; /* derivative filter: d += alpha (x - d), Q16, clamped to [0, 65536] */
     int32_t margin;  /* control margin, Q16 mm (0.1 mm = 6554); negative means none */
-    int16_t out_min; /* command range, mV (out_min <= out_max; typically -12000) */
-    int16_t out_max; /* mV (typically +12000) */
+    int16_t out_min; /* command range, mV (out_min <= out_max; within +-act->motor_max_mv, sea_fixed.h) */
+    int16_t out_max; /* mV */
 } sea_pid_params;
 
 typedef struct {

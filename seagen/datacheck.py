@@ -72,7 +72,7 @@ def check_data_dir(ex, data_dir: str, target=None, onnx_model=None) -> DataRepor
             max_err = float(np.max(np.abs(fixed - predict(ex.float_model, df[names].to_numpy()))))
         if not step:
             continue
-        bad = step_problem(qm, c, *recorded(qm, df))
+        bad = step_problem(qm, c, *recorded(qm, df), act=ex.act)
         checks.append(
             Check(
                 f"{ex.prefix}_step on {split} trials",

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from seagen.actuator import Actuator, default_actuator
 from seagen.atomic import locked_folder, writable_place
 from seagen.cnames import assert_valid_prefix, identifier_from
 from seagen.codegen.manifest import SUFFIX, manifest_text
@@ -23,6 +24,7 @@ from seagen.frontends.load import Loaded, load_with_original, read_features_file
 from seagen.ir import FloatModel, QModel
 from seagen.quant.model import quantize
 from seagen.reference.oracle import OracleReport, box_points, compare_original
+from seagen.runtime.actq import ActQ, act_q
 
 
 @dataclass
@@ -36,6 +38,7 @@ class Export:
     oracle: OracleReport
     onnx_bytes: bytes | None = None
     lines: list[str] = field(default_factory=list)
+    act: ActQ | None = None  # the actuator's proven constants (its sea_act_<id> file)
 
     @property
     def float_model(self) -> FloatModel:
@@ -55,6 +58,22 @@ def calib_ranges(data_dir: str, names: list[str]) -> list[list[float]]:
     return [[float(df[n].min()), float(df[n].max())] for n in names]
 
 
+def export_actuator(model_path: str, given: Actuator | None = None, allow_pickle: bool = False) -> Actuator:
+    """The actuator an export is for: the one a seagen model file recorded (the paper's for a file from
+    before the record), else the given one (a bare network or ONNX graph), else the paper's. A given
+    description that disagrees with the model file's is refused (exit 2)."""
+    from seagen.filekind import PICKLE, TORCH_SAVE, file_kind
+    from seagen.frontends.torch_files import load_torch
+    from seagen.modelfile import FORMAT, model_actuator
+
+    p = Path(model_path)
+    if file_kind(p) in (TORCH_SAVE, PICKLE):
+        obj = load_torch(p, allow_pickle)
+        if isinstance(obj, dict) and obj.get("format") == FORMAT:
+            return model_actuator(obj, model_path, given)
+    return given or default_actuator()
+
+
 def default_prefix(model_path: str) -> str:
     """A C identifier from the model file name (e.g. mlp_calibration.pt -> mlp_calibration)."""
     return identifier_from(Path(model_path).stem)
@@ -71,6 +90,7 @@ def prepare(
     controller: bool = False,
     ranges: list[list[float]] | None = None,
     target: str = "portable",
+    actuator: Actuator | None = None,
 ) -> Export:
     """Everything of an export, in memory (nothing is written); refuses (CheckFailed) when the integer
     reference and the original model disagree beyond the proven bound on the calibrated box.
@@ -78,7 +98,8 @@ def prepare(
     `controller` adds NAME_controller.{h,c} and the controller runtime (control models); `ranges` gives the
     input ranges outright (seagen verify rebuilds an export from its manifest that way); `target` picks the
     kernel of NAME_infer (seagen/codegen/targets.py) and the runtime header it includes; `features` is a
-    --features file or the spec already read from one (a manifest's)."""
+    --features file or the spec already read from one (a manifest's); `actuator`: a description given with
+    --actuator (the model file's own is used; a disagreeing one is refused)."""
     prefix = assert_valid_prefix(default_prefix(model_path) if prefix is None else prefix)
     bits = {"int16": 16, "int8": 8}.get(weights)
     if bits is None:
@@ -95,8 +116,10 @@ def prepare(
     )
     if not rep.ok:
         raise CheckFailed(f"{model_path}: {rep.line()}")
+    act = export_actuator(model_path, actuator, allow_pickle)
+    aq = act_q(act)  # the geometry's formats proven, or refused with the reason
     try:
-        rendered = render(qm, prefix, target)
+        rendered = render(qm, prefix, target, aq)
     except UserError as e:  # a name or text the C cannot hold (the loaders refuse these first)
         raise UserError(f"{model_path}: {e}") from None
     shipped = [n for n in RUNTIME if n not in OMIT[check_target(target)]]
@@ -104,7 +127,7 @@ def prepare(
     if controller:
         from seagen.codegen.controller import controller_files
 
-        files.update(controller_files(prefix, qm))
+        files.update(controller_files(prefix, qm, act=aq))
     onnx_bytes = None
     if with_onnx:
         from seagen.reference.onnx_ref import build_onnx
@@ -116,9 +139,10 @@ def prepare(
         options["allow_pickle"] = True
     original = {"runtime": loaded.runtime, "dtype": loaded.dtype, "margin": float(f"{loaded.margin:.6g}")}
     files[f"{prefix}{SUFFIX}"] = export_manifest(
-        qm, prefix, model_path, options, spec, files, onnx_bytes, original
+        qm, prefix, model_path, options, spec, files, onnx_bytes, original, aq
     )
-    return Export(loaded, qm, prefix, files, rep, onnx_bytes, [*loaded.notes, *summary_lines(qm)])
+    lines = [*loaded.notes, *summary_lines(qm), f"actuator '{act.name}' (sha256 {aq.digest[:12]}): {aq.cid}"]
+    return Export(loaded, qm, prefix, files, rep, onnx_bytes, lines, aq)
 
 
 def export_manifest(
@@ -130,6 +154,7 @@ def export_manifest(
     files: dict[str, str],
     onnx_bytes: bytes | None,
     original: dict[str, Any] | None = None,
+    act: ActQ | None = None,
 ) -> str:
     """NAME.seagen.json for the files of this export (the runtime files and NAME.onnx included); `spec`:
     the --features file as read ({} without one); `original`: the oracle's runtime, the original's float
@@ -146,6 +171,8 @@ def export_manifest(
     }
     if original is not None:
         resolved["original"] = original
+    if act is not None:  # the description the geometry file was emitted from (seagen verify checks it)
+        resolved["actuator"] = {"name": act.name, "sha256": act.digest, "file": f"{act.cid}.c"}
     return manifest_text(prefix, model_path, options, resolved, emitted)
 
 

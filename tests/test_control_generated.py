@@ -12,9 +12,9 @@ from seagen.defaults import GENERATED
 from seagen.reference import numpy_ref
 from seagen.runtime import control as ct
 from seagen.runtime import nn as K
+from seagen.runtime.actq import act_q_of
 from seagen.runtime.control import ControlConfig
 from seagen.runtime.features import step_features
-from seagen.runtime.fixed import linkage_table_q16
 from seagen.toolchain.controller import build_control, generated_cdef, generated_ctx, generated_sources
 
 PREFIXES = ["ctl_sf", "ctl_mlp"]
@@ -42,7 +42,7 @@ def test_step_twin_equals_c_and_sequence_reference(prefix):
     py = np.array([int(tw(enc[k : k + 1], pot[k : k + 1], force[k : k + 1])[0]) for k in range(len(enc))])
     qm = export(prefix).qmodel
     ext = K.to_s16(force, 16, qm.inputs[0].frac)[:, None]
-    x = step_features(qm, linkage_table_q16(), enc, pot, np.zeros(len(enc), int), ext)
+    x = step_features(qm, act_q_of(), enc, pot, np.zeros(len(enc), int), ext)
     ref = numpy_ref.infer(qm, x) * (1 << (16 - qm.out_frac))
     assert np.array_equal(c, py), int(np.argmax(c != py))
     assert np.array_equal(c, ref), int(np.argmax(c != ref))

@@ -11,8 +11,8 @@ from seagen.data.features import derive
 from seagen.data.schema import load_split
 from seagen.export import prepare
 from seagen.reference import float_ref, numpy_ref
+from seagen.runtime.actq import act_q_of
 from seagen.runtime.features import external_inputs, step_features
-from seagen.runtime.fixed import linkage_table_q16
 from seagen.toolchain.equivalence import compare, edge_inputs, first_mismatch, random_inputs
 from seagen.toolchain.model import CModel, sanitized_infer
 from tests.conftest import MODEL_CASES
@@ -65,7 +65,7 @@ def test_data_sets_and_step_pipeline_bit_exact(built, key, data_dir):
         chk = compare(f"{key} {split}", qm, c, xq)
         assert chk.ok, chk.line()
         e = xq[:, [names.index(n) for n in ext]] if ext else None
-        want = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), df.enc, df.pot, df.trial, e))
+        want = numpy_ref.infer(qm, step_features(qm, act_q_of(), df.enc, df.pot, df.trial, e))
         got = c.step(df.enc.to_numpy(), df.pot.to_numpy(), df.trial.to_numpy(), e)
         bad = first_mismatch(got, want, df[["trial", "enc", "pot"]].to_numpy())
         assert bad is None, f"{key} {split} NAME_step: {bad}"
@@ -84,7 +84,7 @@ def test_step_features_within_quantization_of_float_features(built, key, data_di
         if ext
         else None
     )
-    feats = step_features(qm, linkage_table_q16(), df.enc, df.pot, df.trial, e)
+    feats = step_features(qm, act_q_of(), df.enc, df.pot, df.trial, e)
     for k, qi in enumerate(qm.inputs):
         x = df[qi.signal.name].to_numpy()
         inside = (x * 2.0**qi.frac > qi.lo_q) & (x * 2.0**qi.frac < qi.hi_q)

@@ -14,7 +14,7 @@ from seagen.defaults import GENERATED
 from seagen.export import prepare
 from seagen.reference import numpy_ref
 from seagen.runtime import features as F
-from seagen.runtime import fixed as P
+from seagen.runtime.actq import act_q_of
 from seagen.runtime.control import ControlConfig, control_reset, control_step
 from seagen.toolchain.cortexm import CPUS, Machine, build_image, toolchain_missing
 
@@ -34,11 +34,11 @@ def _twins(cal_qm, enc, pot, force, ctl: str = "ctl_mlp") -> tuple[np.ndarray, n
     (the feature pipeline's twin + numpy_ref) per tick, for the batch of actuators."""
     cfg = shipped_config(default_ir(ctl).qmodel)
     c = ControlConfig(**{**cfg.__dict__, "predictor": StepTwin(ctl)})
-    s, pipe = control_reset(c, enc[0], pot[0]), F.Pipeline(P.linkage_table_q16())
+    s, pipe = control_reset(c, enc[0], pot[0]), F.Pipeline(act_q_of())
     motor, est = [], []
     for k in range(TICKS):
         b, d, dd = pipe.step(enc[k], pot[k])
-        est.append(numpy_ref.infer(cal_qm, F.inputs(cal_qm.inputs, b, d, dd, None)))
+        est.append(numpy_ref.infer(cal_qm, F.inputs(act_q_of(), cal_qm.inputs, b, d, dd, None)))
         s = control_step(c, s, enc[k], pot[k], force[k])
         motor.append(s.out)
     return np.array(motor), np.array(est)

@@ -75,7 +75,7 @@ def test_golden_c_builds_and_equals_reference(name):
     from seagen.codegen.runtime import runtime_sources
 
     qm = CASES[name]()
-    files = {f.name: f.read_text() for f in GOLDEN.glob(f"{name}.*")}
+    files = {f.name: f.read_text() for f in [*GOLDEN.glob(f"{name}.*"), *GOLDEN.glob("sea_act_*")]}
     c = CModel({**files, **runtime_sources(*RUNTIME)}, name, qm)
     x = np.vstack([random_inputs(qm, 2000, 4), edge_inputs(len(qm.inputs))])
     assert np.array_equal(c.infer(x), numpy_ref.infer(qm, x))

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from seagen.codegen.runtime import FIXED, cdef_of, runtime_sources
 from seagen.runtime import fixed as P
+from seagen.runtime.actq import act_q_of
+from seagen.toolchain.actc import CAct
 from seagen.toolchain.host import build
 
 CDEF = cdef_of(runtime_sources("sea_fixed.h")["sea_fixed.h"])
@@ -64,15 +68,16 @@ def test_saturation(c):
 
 def test_compression_pipeline(c):
     """sea_compression_q16 == compression_q16 over every pot and a sweep of encoder counts."""
-    table = P.linkage_table_q16()
-    ct = c.ffi.new("int32_t[]", [int(x) for x in table])
+    a = act_q_of()
+    ct = CAct(c.ffi, a)
     pot = np.concatenate([np.arange(-10, 4110), RNG.integers(-(2**31), 2**31, 200)])
     enc = RNG.integers(-(2**31), 2**31, pot.size)
     enc[:4120] = RNG.integers(-3000, 6000, 4120)
     got = np.array(
-        [c.lib.sea_compression_q16(ct, int(e), int(p)) for e, p in zip(enc, pot, strict=True)], dtype=np.int64
+        [c.lib.sea_compression_q16(ct.ptr, int(e), int(p)) for e, p in zip(enc, pot, strict=True)],
+        dtype=np.int64,
     )
-    want = P.compression_q16(table, enc, pot)
+    want = P.compression_q16(a, enc, pot)
     assert np.array_equal(got, want), _first_mismatch(got, want, np.stack([enc, pot], 1))
 
 
@@ -82,13 +87,16 @@ def test_compression_int32_paths_at_their_limits(c):
     for lim in (2**26, 2**30 - 1):
         table = RNG.integers(-lim, lim + 1, 257)
         table[:4] = [-(2**26), 2**26 - 1, 2**26, -(2**26) - 1] if lim == 2**26 else [-lim, lim, -lim, lim]
-        ct = c.ffi.new("int32_t[]", [int(x) for x in table])
+        a = replace(act_q_of(), link=tuple(int(x) for x in table))
+        ct = CAct(c.ffi, a)
         edges = [-(2**31), -(2**14) - 1, -(2**14), -(2**14) + 1, -1, 0, 2**14 - 1, 2**14, 29183, 2**31 - 1]
         enc = np.concatenate([np.repeat(edges, 8), RNG.integers(-(2**15), 2**15, 400)])
         pot = RNG.integers(-5, 4101, enc.size)
         pot[:80] = np.tile(np.arange(0, 80, 8), 8)
-        got = np.array([c.lib.sea_compression_q16(ct, int(e), int(q)) for e, q in zip(enc, pot, strict=True)])
-        want = P.compression_q16(table, enc, pot)
+        got = np.array(
+            [c.lib.sea_compression_q16(ct.ptr, int(e), int(q)) for e, q in zip(enc, pot, strict=True)]
+        )
+        want = P.compression_q16(a, enc, pot)
         assert np.array_equal(got, want), _first_mismatch(got, want, np.stack([enc, pot], 1))
 
 
@@ -102,6 +110,6 @@ def test_compression_matches_float_geometry():
 
     pot = np.arange(380, 2400)
     enc = np.linspace(-200, 3000, pot.size).astype(np.int64)
-    fixed = P.compression_q16(P.linkage_table_q16(), enc, pot) / 2.0**16
+    fixed = P.compression_q16(act_q_of(), enc, pot) / 2.0**16
     exact = g.compression_mm(g.angle_from_pot(pot), enc)
     assert np.max(np.abs(fixed - exact)) < 1.5e-4

@@ -9,7 +9,8 @@ from seagen.codegen.runtime import cdef_of, runtime_sources
 from seagen.data.features import derive
 from seagen.data.schema import load_split
 from seagen.runtime import features as F
-from seagen.runtime import fixed as P
+from seagen.runtime.actq import act_q_of
+from seagen.toolchain.actc import CAct
 from seagen.toolchain.host import build
 
 HEADERS = ("sea_fixed.h", "sea_nn.h", "sea_features.h")
@@ -23,10 +24,10 @@ def c():
     return build(cdef_of(*runtime_sources(*HEADERS).values()), runtime_sources(*SOURCES), name="features")
 
 
-def _run_c(c, table, enc, pot, reset) -> dict[str, np.ndarray]:
+def _run_c(c, a, enc, pot, reset) -> dict[str, np.ndarray]:
     """sea_features_step per sample (sea_features_reset where reset), every output field recorded."""
     ffi, lib = c.ffi, c.lib
-    ct = ffi.new("int32_t[]", [int(v) for v in table])
+    ct = CAct(ffi, a)
     s, f = ffi.new("sea_features_state *"), ffi.new("sea_features_out *")
     out = {k: np.zeros((F.N_BASE, len(enc)), np.int64) for k in ("b", "d", "dd")}
     out["angle"] = np.zeros(len(enc), np.int64)
@@ -34,7 +35,7 @@ def _run_c(c, table, enc, pot, reset) -> dict[str, np.ndarray]:
     for k, (e, p, r) in enumerate(zip(enc, pot, reset, strict=True)):
         if r:
             lib.sea_features_reset(s)
-        lib.sea_features_step(s, ct, int(e), int(p), f)
+        lib.sea_features_step(s, ct.ptr, int(e), int(p), f)
         out["b"][:, k] = list(f.b)
         out["d"][:, k] = [lib.sea_features_value(f, F.D, i) for i in range(F.N_BASE)]
         out["dd"][:, k] = [lib.sea_features_value(f, F.DD, i) for i in range(F.N_BASE)]
@@ -42,14 +43,14 @@ def _run_c(c, table, enc, pot, reset) -> dict[str, np.ndarray]:
     return out
 
 
-def _check(c, enc, pot, trial) -> None:
-    """C per sample == Python over whole trials (over_trials) == Python per tick (Pipeline) when one trial."""
-    table = P.linkage_table_q16()
+def _check(c, enc, pot, trial, a=None) -> None:
+    """C per sample == Python over whole trials (over_trials), for actuator `a` (the paper's when None)."""
+    a = a or act_q_of()
     trial = np.asarray(trial)
-    got = _run_c(c, table, enc, pot, np.r_[True, trial[1:] != trial[:-1]])
-    b = F.bases_q(table, enc, pot)
+    got = _run_c(c, a, enc, pot, np.r_[True, trial[1:] != trial[:-1]])
+    b = F.bases_q(a, enc, pot)
     d, dd = F.over_trials(b, trial)
-    want = {"b": b, "d": d, "dd": dd, "angle": F.angle_q24(pot)}
+    want = {"b": b, "d": d, "dd": dd, "angle": F.angle_q24(a, pot)}
     for k, w in want.items():
         bad = np.flatnonzero((got[k] != w).reshape(-1, len(enc)).any(axis=0))
         assert bad.size == 0, f"{k} differs first at sample {bad[0]}: enc {enc[bad[0]]}, pot {pot[bad[0]]}"
@@ -80,10 +81,10 @@ def test_per_tick_twin_equals_whole_trial_twin(data_dir):
     """Pipeline (one call per tick, the controller's twin) == over_trials on one recorded trial."""
     df = load_split(data_dir, "test")
     df = df[df.trial == df.trial.iloc[0]]
-    table = P.linkage_table_q16()
-    pipe = F.Pipeline(table)
+    a = act_q_of()
+    pipe = F.Pipeline(a)
     per_tick = [pipe.step(np.array([e]), np.array([p])) for e, p in zip(df.enc, df.pot, strict=True)]
-    b = F.bases_q(table, df.enc, df.pot)
+    b = F.bases_q(a, df.enc, df.pot)
     d, dd = F.over_trials(b, df.trial.to_numpy())
     for k, want in enumerate((b, d, dd)):
         assert np.array_equal(np.concatenate([t[k] for t in per_tick], axis=1), want)
@@ -106,6 +107,8 @@ def test_derive_uses_the_same_warm_up(data_dir):
 def test_value_of_every_kind(c):
     """sea_features_value == value for every kind and base signal, over int32 samples and histories."""
     ffi, lib = c.ffi, c.lib
+    a = act_q_of()
+    ca = CAct(ffi, a)
     rng = np.random.default_rng(5)
     cases = [(k, i) for k in (F.BASE, F.D, F.DD) for i in range(F.N_BASE)] + [(F.ANGLE, 0)]
     for _ in range(300):
@@ -115,19 +118,23 @@ def test_value_of_every_kind(c):
         )
         diff = F.Differences()
         diff.p1, diff.p2 = p1, p2
+        f.act = ca.ptr
         d, dd = diff(b)
         for kind, i in cases:
-            got, want = lib.sea_features_value(f, kind, i), int(F.value(kind, i, b, d, dd))
+            got, want = lib.sea_features_value(f, kind, i), int(F.value(a, kind, i, b, d, dd))
             assert got == want, (kind, i, b.tolist(), p1.tolist(), p2.tolist())
 
 
 SANITIZED_MAIN = r"""
 #include <stdio.h>
 #include "sea_features.h"
-/* stdin: the table, then (enc, pot, reset) rows; stdout: b, d, dd per base signal and the angle. */
+/* stdin: the table, the scalar sea_act fields, then (enc, pot, reset) rows; stdout: b, d, dd per base
+ * signal and the angle. */
 int main(void)
 {
     int32_t table[SEA_LINK_TABLE_LEN];
+    int32_t v[12];
+    sea_act a;
     sea_features_state s;
     sea_features_out f;
     long e, p, r;
@@ -136,10 +143,18 @@ int main(void)
         if (scanf("%ld", &e) != 1) return 2;
         table[k] = (int32_t)e;
     }
+    for (k = 0; k < 12; ++k) {
+        if (scanf("%ld", &e) != 1) return 2;
+        v[k] = (int32_t)e;
+    }
+    a.link_q16 = table;
+    a.link_shift = v[0]; a.link_i32_bits = v[1]; a.pot_max = v[2]; a.travel_q = v[3]; a.travel_shift = v[4];
+    a.enc_i32_bits = v[5]; a.pot_deg_q24 = v[6]; a.pot_offset_q24 = v[7]; a.motor_max_mv = v[8];
+    a.enc_jump_max = v[9]; a.pot_avg_ticks = v[10]; a.pot_stuck_ticks = v[11];
     sea_features_reset(&s);
     while (scanf("%ld %ld %ld", &e, &p, &r) == 3) {
         if (r) sea_features_reset(&s);
-        sea_features_step(&s, table, (int32_t)e, (int32_t)p, &f);
+        sea_features_step(&s, &a, (int32_t)e, (int32_t)p, &f);
         for (k = 0; k < SEA_FEAT_N_BASE; ++k)
             printf("%ld %lld %lld ", (long)f.b[k], (long long)sea_features_value(&f, SEA_FEAT_D, k),
                    (long long)sea_features_value(&f, SEA_FEAT_DD, k));
@@ -163,18 +178,20 @@ def test_sanitized_edges():
     pot = np.concatenate([np.repeat(edges, 7), rng.integers(*I32, 100, endpoint=True)])
     reset = np.r_[1, np.zeros(len(enc) - 1, int)]
     reset[[20, 21, 60]] = 1
-    table = P.linkage_table_q16()
+    a = act_q_of()
     text = (
-        " ".join(map(str, table))
+        " ".join(map(str, a.link))
+        + "\n"
+        + " ".join(str(v) for _, v in a.struct_fields())
         + "\n"
         + "\n".join(f"{e} {p} {r}" for e, p, r in zip(enc, pot, reset, strict=True))
     )
     res = subprocess.run([str(exe)], input=text, capture_output=True, text=True, check=False)
     assert res.returncode == 0, res.stderr
     got = np.array([line.split() for line in res.stdout.splitlines()], dtype=np.int64)
-    b = F.bases_q(table, enc, pot)
+    b = F.bases_q(a, enc, pot)
     d, dd = F.over_trials(b, np.cumsum(reset))
     want = np.column_stack(
-        [*(np.stack([b[k], d[k], dd[k]], axis=1) for k in range(F.N_BASE)), F.angle_q24(pot)]
+        [*(np.stack([b[k], d[k], dd[k]], axis=1) for k in range(F.N_BASE)), F.angle_q24(a, pot)]
     )
     assert np.array_equal(got, want)

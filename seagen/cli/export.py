@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from seagen.actuator import Actuator, load_actuator
 from seagen.defaults import model_arg
 
 
@@ -56,12 +57,23 @@ def register(sub: argparse._SubParsersAction) -> None:
         "files you trust)",
     )
     p.add_argument(
+        "--actuator",
+        metavar="FILE",
+        help="actuator description (TOML) for a bare network or ONNX graph; a seagen model file carries its "
+        "own, and a FILE that disagrees with it is refused (default: the model's, else the paper's)",
+    )
+    p.add_argument(
         "--check",
         metavar="DIR",
         help="before writing, also check C == numpy == torch == onnxruntime on DIR's test and validation "
         "sets, and the C against the original model on those rows",
     )
     p.set_defaults(func=cmd_export)
+
+
+def given_actuator(path: str | None) -> Actuator | None:
+    """The description named by --actuator, validated (None without the option)."""
+    return None if path is None else load_actuator(path)
 
 
 def cmd_export(args: argparse.Namespace) -> int:
@@ -80,6 +92,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         args.allow_pickle,
         controller=args.controller,
         target=args.target,
+        actuator=given_actuator(args.actuator),
     )
     if args.check:
         from seagen.datacheck import check_data_dir

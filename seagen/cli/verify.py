@@ -44,6 +44,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--features", metavar="SPEC", help="feature specification, as given to seagen export")
     p.add_argument(
+        "--actuator",
+        metavar="FILE",
+        help="actuator description, as given to seagen export (a model file's own is used; a FILE that "
+        "disagrees with it is refused)",
+    )
+    p.add_argument(
         "--allow-pickle",
         action="store_true",
         help="unpickle a .pt holding arbitrary Python objects (RUNS CODE from the file: trusted files only)",
@@ -66,6 +72,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def cmd_verify(args: argparse.Namespace) -> int:
     """Run every check, print the report, write the JUnit file; 0 agrees, 1 disagrees. Bad input (exit 2)
     still prints the JSON object and writes the JUnit file, each carrying the error."""
+    from seagen.cli.export import given_actuator
     from seagen.errors import UserError
     from seagen.verify.result import Verdict
     from seagen.verify.run import verify
@@ -83,6 +90,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
             args.features,
             args.allow_pickle,
             misra=args.misra,
+            actuator=given_actuator(args.actuator),
         )
     except UserError as e:
         failed = Verdict(args.prefix or "?", args.dir, error=str(e))

@@ -11,15 +11,18 @@ from seagen.codegen.render import environment, model_hash
 from seagen.codegen.runtime import CONTROL_RUNTIME, runtime_sources
 from seagen.errors import UserError
 from seagen.ir import QMLP, QModel
+from seagen.runtime.actq import ActQ
 from seagen.runtime.control import MLP_PRED_AVG, ControlConfig
 from seagen.runtime.features import is_predictor
 
 FIELDS = ("predict_every", "pred_avg", "force_min", "force_max", "enc_jump_max", "pot_stuck_ticks")
 
 
-def shipped_config(qm: QModel) -> ControlConfig:
-    """The configuration the closed-loop experiments use for this kind of predictor (Table II)."""
-    return ControlConfig(pred_avg=MLP_PRED_AVG) if isinstance(qm, QMLP) else ControlConfig()
+def shipped_config(qm: QModel, act: ActQ | None = None) -> ControlConfig:
+    """The configuration the closed-loop experiments use for this kind of predictor (Table II), for actuator
+    `act` (the paper's when None: its defaults are ControlConfig's)."""
+    kw = {"pred_avg": MLP_PRED_AVG} if isinstance(qm, QMLP) else {}
+    return ControlConfig(**kw) if act is None else ControlConfig.for_act(act, **kw)
 
 
 def tick_config(c: ControlConfig) -> dict[str, int]:
@@ -40,14 +43,16 @@ def summary(c: ControlConfig) -> list[str]:
     ]
 
 
-def controller_files(prefix: str, qm: QModel, cfg: ControlConfig | None = None) -> dict[str, str]:
+def controller_files(
+    prefix: str, qm: QModel, cfg: ControlConfig | None = None, act: ActQ | None = None
+) -> dict[str, str]:
     """{NAME_controller.h, NAME_controller.c, sea_pid.*, sea_control.*} for a control predictor `qm`."""
     prefix = assert_valid_prefix(prefix)
     if not is_predictor(qm):
         raise UserError(
             f"--controller needs a control model (desired force -> compression_mm), not {qm.output.name}"
         )
-    c = cfg or shipped_config(qm)
+    c = cfg or shipped_config(qm, act)
     ctx = {
         "P": prefix,
         "PU": prefix.upper(),

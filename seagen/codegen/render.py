@@ -16,7 +16,7 @@ from seagen.codegen.quant_summary import buffer_width, summary_lines
 from seagen.codegen.targets import kernel_context
 from seagen.ir import QMLP, QSF, QLayer, QModel
 from seagen.runtime import features as F
-from seagen.runtime.fixed import linkage_table_q16
+from seagen.runtime.actq import ActQ, act_q_of
 
 RUNTIME = ("sea_fixed.h", "sea_fixed.c", "sea_nn.h", "sea_nn.c", "sea_features.h", "sea_features.c")
 
@@ -151,8 +151,8 @@ def _kind_context(qm: QModel, prefix: str) -> dict[str, Any]:
     }
 
 
-def context(qm: QModel, prefix: str) -> dict[str, Any]:
-    """Everything the templates print, decided here."""
+def context(qm: QModel, prefix: str, act: ActQ | None = None) -> dict[str, Any]:
+    """Everything the templates print, decided here (`act`: the actuator, the paper's when None)."""
     pipeline = F.has_pipeline(qm)
     prefix = assert_valid_prefix(prefix)
     check_input_macros(prefix, [q.signal.name for q in qm.inputs])
@@ -170,20 +170,26 @@ def context(qm: QModel, prefix: str) -> dict[str, Any]:
         "pipeline": pipeline,
         "features": _features(qm) if pipeline else [],
         "externals": F.external_inputs(qm),
-        "link": linkage_table_q16(),
+        "act": (act or act_q_of()).cid,
         "predictor": {"force_input": "force_n"} if F.is_predictor(qm) else None,
         **_kind_context(qm, prefix),
     }
 
 
-def render(qm: QModel, prefix: str, target: str = "portable") -> dict[str, str]:
-    """{NAME.h, NAME.c} rendered from templates/ (the runtime files are added by the exporter); a target
-    other than portable replaces the weight tables and NAME_infer by its kernel (codegen/targets.py)."""
+def render(qm: QModel, prefix: str, target: str = "portable", act: ActQ | None = None) -> dict[str, str]:
+    """{NAME.h, NAME.c} and the actuator's sea_act_<id>.{h,c} (when the feature pipeline is used) rendered
+    from templates/ (the runtime files are added by the exporter); a target other than portable replaces
+    the weight tables and NAME_infer by its kernel (codegen/targets.py); `act`: the actuator whose sea_act
+    the feature pipeline reads (the paper's if None)."""
+    from seagen.codegen.actfile import act_files
+
     env = environment()
-    ctx = context(qm, prefix)
+    a = act or act_q_of()
+    ctx = context(qm, prefix, a)
     kctx = kernel_context(qm, target)
     ctx["kernel"] = env.get_template(kctx["template"]).render({**ctx, **kctx}) if kctx else None
     return {
         f"{prefix}.h": env.get_template("model.h.j2").render(ctx),
         f"{prefix}.c": env.get_template("model.c.j2").render(ctx),
+        **(act_files(a) if ctx["pipeline"] else {}),
     }

@@ -15,6 +15,7 @@ from seagen.reference import float_ref, numpy_ref
 from seagen.runtime import features as F
 from seagen.runtime import fixed as P
 from seagen.runtime import nn as K
+from seagen.runtime.actq import ActQ, act_q_of
 from seagen.runtime.control import FORCE_FRAC
 
 MODEL_FILES = {prefix: f"{name}.pt" for name, prefix in DEFAULT_PREFIX.items()}  # prefix -> model file
@@ -45,9 +46,10 @@ class StepTwin:
     like NAME_reset.
     """
 
-    def __init__(self, prefix: str, qm=None) -> None:
+    def __init__(self, prefix: str, qm=None, act: ActQ | None = None) -> None:
         self.qm = qm if qm is not None else export(prefix).qmodel
-        self.pipeline = F.Pipeline(P.linkage_table_q16())
+        self.act = act or act_q_of()
+        self.pipeline = F.Pipeline(self.act)
 
     def __call__(self, enc: np.ndarray, pot: np.ndarray, force_q16: np.ndarray) -> np.ndarray:
         """Desired compression (Q16 mm, int64) for raw counts and the desired force (Q16 N)."""
@@ -56,7 +58,7 @@ class StepTwin:
         names = F.external_inputs(self.qm)
         fr = {q.signal.name: q.frac for q in self.qm.inputs}
         ext = np.stack([K.to_s16(force, FORCE_FRAC, fr[n]) for n in names], axis=1) if names else None
-        y = numpy_ref.infer(self.qm, F.inputs(self.qm.inputs, b, d, dd, ext))
+        y = numpy_ref.infer(self.qm, F.inputs(self.act, self.qm.inputs, b, d, dd, ext))
         return K.to_s32(y, self.qm.out_frac, P.COMP_FRAC_BITS)
 
 

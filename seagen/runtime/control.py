@@ -3,29 +3,22 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
 
 from seagen.c_runtime import defines
-from seagen.runtime.fixed import (
-    FORCE_FRAC_BITS,
-    POT_MAX,
-    compression_q16,
-    div_rne,
-    linkage_table_q16,
-    rshift_rne,
-    sat32,
-)
-from seagen.runtime.pid import DEFAULT_PID, PidParams, PidState, merge, pid_reset, pid_step
+from seagen.runtime.actq import ActQ, act_q_of
+from seagen.runtime.fixed import FORCE_FRAC_BITS, compression_q16, div_rne, rshift_rne, sat32
+from seagen.runtime.pid import DEFAULT_PID, DEFAULT_PID_SI, PidParams, PidState, merge, pid_reset, pid_step
 
 _C = defines("sea_control.h")  # the header is the one definition of the controller's constants
 FORCE_FRAC = FORCE_FRAC_BITS  # SEA_FORCE_FRAC_BITS: desired force in Q16 N
-POT_AVG_TICKS = _C["SEA_CTRL_POT_AVG_TICKS"]
-POT_STUCK_TICKS = _C["SEA_CTRL_POT_STUCK_TICKS"]
 PRED_AVG_MAX = _C["SEA_CTRL_PRED_AVG_MAX"]
-ENC_JUMP_MAX = _C["SEA_CTRL_ENC_JUMP_MAX"]  # ceil(2 x 32,300 rpm x 12 CPR / 60 / 100 Hz)
+PAPER = act_q_of()  # the paper's actuator: the defaults below
+POT_STUCK_TICKS = PAPER.pot_stuck_ticks  # its defaults (sea_act.pot_stuck_ticks, .enc_jump_max)
+ENC_JUMP_MAX = PAPER.enc_jump_max  # ceil(2 x 32,300 rpm x 12 CPR / 60 / 100 Hz)
 FAULT_POT_STUCK_LOW, FAULT_POT_STUCK_HIGH = _C["SEA_FAULT_POT_STUCK_LOW"], _C["SEA_FAULT_POT_STUCK_HIGH"]
 FAULT_ENC_JUMP, FAULT_FORCE_RANGE = _C["SEA_FAULT_ENC_JUMP"], _C["SEA_FAULT_FORCE_RANGE"]
 FAULT_NAMES = {
@@ -72,7 +65,7 @@ class ControlConfig:
     """sea_control_config (the predictor is a twin callable, or None for an externally supplied one)."""
 
     pid: PidParams = DEFAULT_PID
-    table: np.ndarray = field(default_factory=linkage_table_q16)
+    act: ActQ = PAPER
     predictor: Predictor | None = None
     predict_every: int = 1
     pred_avg: int = 1  # predictions averaged into the desired compression (1..10)
@@ -81,13 +74,21 @@ class ControlConfig:
     enc_jump_max: int = ENC_JUMP_MAX
     pot_stuck_ticks: int = POT_STUCK_TICKS
 
+    @classmethod
+    def for_act(cls, a: ActQ, **kw: Any) -> ControlConfig:
+        """A configuration of actuator `a` with its default encoder-jump and stuck-pot bounds."""
+        kw.setdefault(
+            "pid", PidParams.from_si(**DEFAULT_PID_SI, max_mv=a.motor_max_mv, tick_s=1.0 / a.loop_hz)
+        )
+        return cls(act=a, enc_jump_max=a.enc_jump_max, pot_stuck_ticks=a.pot_stuck_ticks, **kw)
+
 
 @dataclass(frozen=True)
 class ControlState:
-    """sea_control_state for a batch (int64 arrays; pot_buf is (n, 10))."""
+    """sea_control_state for a batch (int64 arrays)."""
 
     pid: PidState
-    pot_buf: np.ndarray
+    pot_sum: np.ndarray
     pot_idx: np.ndarray
     pot_avg: np.ndarray
     pred_count: np.ndarray
@@ -117,12 +118,11 @@ def _where(mask: np.ndarray, a: ControlState, b: ControlState) -> ControlState:
 def control_reset(c: ControlConfig, enc: np.ndarray, pot: np.ndarray) -> ControlState:
     """Twin of sea_control_reset."""
     enc, pot = np.asarray(enc, np.int64), np.asarray(pot, np.int64)
-    comp = compression_q16(c.table, enc, pot)
+    comp = compression_q16(c.act, enc, pot)
     z = np.zeros_like(enc)
-    buf = np.repeat(pot[:, None], POT_AVG_TICKS, axis=1)
     pbuf = np.repeat(comp[:, None], PRED_AVG_MAX, axis=1)
     return ControlState(
-        pid_reset(c.pid, comp, 0), buf, z, pot.copy(), z, pbuf, z, enc.copy(), z, z, comp, comp, z, z
+        pid_reset(c.pid, comp, 0), z, z, pot.copy(), z, pbuf, z, enc.copy(), z, z, comp, comp, z, z
     )
 
 
@@ -132,20 +132,19 @@ def _check(c: ControlConfig, s: ControlState, enc: np.ndarray, pot: np.ndarray, 
     jump = enc - s.enc_prev
     bits = np.where((jump > c.enc_jump_max) | (-jump > c.enc_jump_max), FAULT_ENC_JUMP, 0)
     lo = np.where(pot <= 0, np.minimum(s.stuck_lo + 1, need), 0)
-    hi = np.where(pot >= POT_MAX, np.minimum(s.stuck_hi + 1, need), 0)
+    hi = np.where(pot >= c.act.pot_max, np.minimum(s.stuck_hi + 1, need), 0)
     bits = bits | np.where(lo >= need, FAULT_POT_STUCK_LOW, 0) | np.where(hi >= need, FAULT_POT_STUCK_HIGH, 0)
     bits = bits | np.where((force < c.force_min) | (force > c.force_max), FAULT_FORCE_RANGE, 0)
     return bits.astype(np.int64), replace(s, enc_prev=enc.copy(), stuck_lo=lo, stuck_hi=hi)
 
 
-def _pot(s: ControlState, pot: np.ndarray) -> ControlState:
-    """Push one pot reading; refresh the average when the ring wraps (sea_control_pot)."""
-    buf = s.pot_buf.copy()
-    buf[np.arange(buf.shape[0]), s.pot_idx] = pot
-    idx = s.pot_idx + 1
-    wrap = idx >= POT_AVG_TICKS
-    avg = np.where(wrap, div_rne(sat32(buf.sum(axis=1)), POT_AVG_TICKS), s.pot_avg)
-    return replace(s, pot_buf=buf, pot_idx=np.where(wrap, 0, idx), pot_avg=avg)
+def _pot(c: ControlConfig, s: ControlState, pot: np.ndarray) -> ControlState:
+    """Push one pot reading; refresh the average when the block is full (sea_control_pot)."""
+    n = max(c.act.pot_avg_ticks, 1)
+    total, idx = s.pot_sum + pot, s.pot_idx + 1
+    full = idx >= n
+    avg = np.where(full, div_rne(sat32(total), n), s.pot_avg)
+    return replace(s, pot_sum=np.where(full, 0, total), pot_idx=np.where(full, 0, idx), pot_avg=avg)
 
 
 def _predict(c: ControlConfig, s: ControlState, pred: np.ndarray) -> ControlState:
@@ -166,8 +165,8 @@ def control_step(
     latched = s.fault != 0
     bits, checked = _check(c, s, enc, pot, force)
     every = max(c.predict_every, 1)
-    n = _pot(checked, pot)
-    comp = compression_q16(c.table, enc, n.pot_avg)
+    n = _pot(c, checked, pot)
+    comp = compression_q16(c.act, enc, n.pot_avg)
     due = n.pred_count == 0
     if c.predictor is not None and due.any():
         n = _where(due, _predict(c, n, np.asarray(c.predictor(enc, pot, force), np.int64)), n)

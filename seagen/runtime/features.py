@@ -2,7 +2,8 @@
 
 sea_features_step keeps the previous two samples of three base signals — pot (counts, Q0), enc (counts,
 Q0) and the compression (Q16 mm, sea_compression_q16) — and gives their first and second backward
-differences with a warm-up (`Differences`); the angle is pot * POT_DEG_Q24 + POT_OFFSET_Q24 (Q24 deg).
+differences with a warm-up (`Differences`); the angle is pot * pot_deg_q24 + pot_offset_q24 (Q24 deg). The
+actuator's constants come from one `ActQ` (seagen/runtime/actq.py), the C's `const sea_act *`.
 `FEATURES` names every model input the pipeline can compute; the float feature function
 (seagen.data.features.derive) builds its columns from the same table and the same `Differences`.
 Constants (signal indices, kinds) are read from sea_features.h, their one definition.
@@ -20,6 +21,7 @@ from seagen.errors import UserError
 from seagen.ir import FeatureSource, QInput, QModel
 from seagen.runtime import fixed as P
 from seagen.runtime import nn as K
+from seagen.runtime.actq import ActQ
 
 _H = defines("sea_features.h")
 N_BASE = _H["SEA_FEAT_N_BASE"]
@@ -115,38 +117,38 @@ def over_trials(x: np.ndarray, trial: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return np.moveaxis(d[pos, ..., seg], 0, -1), np.moveaxis(dd[pos, ..., seg], 0, -1)
 
 
-def bases_q(table: np.ndarray, enc: np.ndarray, pot: np.ndarray) -> np.ndarray:
+def bases_q(a: ActQ, enc: np.ndarray, pot: np.ndarray) -> np.ndarray:
     """The integer base signals (N_BASE, ...) of sea_features_step: pot, enc, compression Q16 mm."""
     enc, pot = np.asarray(enc, dtype=np.int64), np.asarray(pot, dtype=np.int64)
     b = np.zeros((N_BASE, *np.shape(enc)), dtype=np.int64)
-    b[POT], b[ENC], b[COMP] = pot, enc, P.compression_q16(table, enc, pot)
+    b[POT], b[ENC], b[COMP] = pot, enc, P.compression_q16(a, enc, pot)
     return b
 
 
-def angle_q24(pot: np.ndarray) -> np.ndarray:
-    """Eq. 5 in Q24 deg from raw pot counts, exact in int64 (sea_features_out.angle_q24)."""
-    return np.asarray(pot, dtype=np.int64) * P.POT_DEG_Q24 + P.POT_OFFSET_Q24
+def angle_q24(a: ActQ, pot: np.ndarray) -> np.ndarray:
+    """Eq. 5 in Q24 deg from raw pot counts, exact in int64 (sea_features_value, SEA_FEAT_ANGLE)."""
+    return np.asarray(pot, dtype=np.int64) * a.pot_deg_q24 + a.pot_offset_q24
 
 
 class Pipeline:
     """Twin of sea_features_state with sea_features_step, for a batch of actuators (one call per tick)."""
 
-    def __init__(self, table: np.ndarray) -> None:
-        self.table, self.diff = table, Differences()
+    def __init__(self, a: ActQ) -> None:
+        self.act, self.diff = a, Differences()
 
     def step(self, enc: np.ndarray, pot: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(b, d, dd), each (N_BASE, batch), of one sample of raw counts."""
-        b = bases_q(self.table, enc, pot)
+        b = bases_q(self.act, enc, pot)
         return (b, *self.diff(b))
 
 
-def value(kind: int, index: int, b: np.ndarray, d: np.ndarray, dd: np.ndarray) -> np.ndarray:
+def value(a: ActQ, kind: int, index: int, b: np.ndarray, d: np.ndarray, dd: np.ndarray) -> np.ndarray:
     """sea_features_value: the base signal, difference or angle of one step (b, d, dd: (N_BASE, ...))."""
-    return angle_q24(b[POT]) if kind == ANGLE else {BASE: b, D: d, DD: dd}[kind][index]
+    return angle_q24(a, b[POT]) if kind == ANGLE else {BASE: b, D: d, DD: dd}[kind][index]
 
 
 def inputs(
-    qins: Sequence[QInput], b: np.ndarray, d: np.ndarray, dd: np.ndarray, ext: np.ndarray | None
+    a: ActQ, qins: Sequence[QInput], b: np.ndarray, d: np.ndarray, dd: np.ndarray, ext: np.ndarray | None
 ) -> np.ndarray:
     """The int16 inputs (N, n_in) NAME_step gives NAME_infer: each input's sea_features_value converted
     by sea_to_s16 to its format, or its already-quantized external argument (ext: (N, n_ext))."""
@@ -159,7 +161,7 @@ def inputs(
             assert ext is not None, "this model needs external inputs (desired force)"
             cols.append(np.asarray(ext, dtype=np.int64).reshape(b.shape[1], -1)[:, src.index])
         else:
-            cols.append(K.to_s16(value(src.kind, src.index, b, d, dd), src.from_frac, q.frac))
+            cols.append(K.to_s16(value(a, src.kind, src.index, b, d, dd), src.from_frac, q.frac))
     return np.stack(cols, axis=1)
 
 
@@ -206,13 +208,13 @@ def external_inputs(qm: QModel) -> list[str]:
 
 def step_features(
     qm: QModel,
-    table: np.ndarray,
+    a: ActQ,
     enc: np.ndarray,
     pot: np.ndarray,
     trial: np.ndarray,
     external: np.ndarray | None = None,
 ) -> np.ndarray:
     """The int16 model inputs NAME_step computes, for whole recorded trials (N samples) at once."""
-    b = bases_q(table, enc, pot)
+    b = bases_q(a, enc, pot)
     d, dd = over_trials(b, trial)
-    return inputs(qm.inputs, b, d, dd, external)
+    return inputs(a, qm.inputs, b, d, dd, external)

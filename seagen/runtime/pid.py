@@ -6,14 +6,15 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from seagen.runtime.actq import act_q_of
 from seagen.runtime.fixed import COMP_FRAC_BITS, clamp, rshift_rne, sat16, sat32
 
 GAIN_FRAC = 12  # SEA_PID_GAIN_FRAC
 ALPHA_FRAC = 16  # SEA_PID_ALPHA_FRAC
 OUT_FRAC = 16  # SEA_PID_OUT_FRAC
 TERM_SHIFT = GAIN_FRAC + COMP_FRAC_BITS - OUT_FRAC
-MOTOR_MAX_MV = 12000
-TICK_S = 0.01  # the controller's tick (100 Hz)
+MOTOR_MAX_MV = act_q_of().motor_max_mv  # the paper's actuator: its supply (sea_act.motor_max_mv)
+TICK_S = 1.0 / act_q_of().loop_hz  # its controller tick (100 Hz)
 PAPER_MARGIN_MM = 0.1  # the paper's control margin (its compression came from the noisy pot at 10 Hz)
 
 
@@ -38,15 +39,17 @@ class PidParams:
         d_alpha: float,
         margin_mm: float = PAPER_MARGIN_MM,
         limit_v: float = MOTOR_MAX_MV / 1000,
+        max_mv: int = MOTOR_MAX_MV,
+        tick_s: float = TICK_S,
     ) -> PidParams:
-        """Quantize gains given in V/mm, V/(mm s), V s/mm at the 10 ms tick (rounded to nearest); the
-        output is limited to +-limit_v."""
+        """Quantize gains given in V/mm, V/(mm s), V s/mm at the tick `tick_s` (rounded to nearest); the
+        output is limited to +-limit_v within the motor's +-max_mv (sea_act.motor_max_mv)."""
         q = float(1 << GAIN_FRAC)
-        lim = round(min(limit_v, MOTOR_MAX_MV / 1000) * 1000)
+        lim = min(round(limit_v * 1000), max_mv)
         return cls(
             kp=round(kp_v_mm * 1000 * q),
-            ki=round(ki_v_mm_s * 1000 * TICK_S * q),
-            kd=round(kd_v_s_mm * 1000 / TICK_S * q),
+            ki=round(ki_v_mm_s * 1000 * tick_s * q),
+            kd=round(kd_v_s_mm * 1000 / tick_s * q),
             d_alpha=round(d_alpha * (1 << ALPHA_FRAC)),
             margin=round(margin_mm * (1 << COMP_FRAC_BITS)),
             out_min=-lim,

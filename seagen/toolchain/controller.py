@@ -11,6 +11,7 @@ import numpy as np
 from seagen.codegen.runtime import cdef_of, runtime_sources
 from seagen.runtime.control import ControlConfig, KinParams
 from seagen.toolchain import host
+from seagen.toolchain.actc import CAct
 
 SOURCES = (
     "sea_fixed.h",
@@ -43,9 +44,11 @@ def generated_cdef(prefix: str, root: Path) -> str:
 
 
 def generated_sources(prefix: str, root: Path) -> dict[str, str]:
-    """The exported {prefix}.c/.h (from the folder root) plus the sea_nn runtime they link against."""
+    """The exported {prefix}.c/.h and the actuator files (from the folder root) plus the sea_nn runtime they
+    link against."""
     files = {f"{prefix}{ext}": (root / f"{prefix}{ext}").read_text() for ext in (".h", ".c")}
-    return {**runtime_sources(*NN_SOURCES), **files}
+    acts = {p.name: p.read_text() for p in sorted(root.glob("sea_act_*.[ch]"))}
+    return {**runtime_sources(*NN_SOURCES), **files, **acts}
 
 
 def generated_ctx(prefix: str) -> Callable[[ModuleType], object]:
@@ -73,7 +76,7 @@ class CController:
     ) -> None:
         self.mod, self.ffi, self.lib = mod, mod.ffi, mod.lib
         self.c, self.predictor, self.make_ctx = c, predictor, make_ctx
-        self.table = self.ffi.new("int32_t[]", [int(x) for x in c.table])
+        self.act = CAct(self.ffi, c.act)
         self.ctxs: list = [ctx]  # owned: the C config points into them
         self.cfgs = [] if make_ctx else [self._config(ctx)]
         self.states: list = []
@@ -84,7 +87,7 @@ class CController:
         cfg = ffi.new("sea_control_config *")
         p = cfg.pid
         p.kp, p.ki, p.kd, p.d_alpha, p.margin, p.out_min, p.out_max = c.pid.as_tuple()
-        cfg.link_table = self.table
+        cfg.act = self.act.ptr
         cfg.predictor = ffi.addressof(self.lib, self.predictor) if self.predictor else ffi.NULL
         cfg.predictor_ctx = ffi.cast("void *", ctx) if ctx is not None else ffi.NULL
         cfg.predict_every, cfg.pred_avg = c.predict_every, c.pred_avg

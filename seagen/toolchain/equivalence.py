@@ -81,14 +81,15 @@ def compare(name: str, qm, c: Target, x: np.ndarray, onnx_model=None) -> Check:
     return chk
 
 
-def step_problem(qm, target, enc, pot, trial, ext: np.ndarray) -> str | None:
+def step_problem(qm, target, enc, pot, trial, ext: np.ndarray, act=None) -> str | None:
     """NAME_step of a target over whole sequences (reset at each trial start) vs the numpy feature pipeline
-    and reference: the first mismatch with its (trial, enc, pot), or None."""
+    and reference: the first mismatch with its (trial, enc, pot), or None. `act`: the export's ActQ (the
+    paper's actuator when None)."""
+    from seagen.runtime.actq import act_q_of
     from seagen.runtime.features import step_features
-    from seagen.runtime.fixed import linkage_table_q16
 
     e = ext if ext.shape[1] else None
-    ref = numpy_ref.infer(qm, step_features(qm, linkage_table_q16(), enc, pot, trial, e))
+    ref = numpy_ref.infer(qm, step_features(qm, act or act_q_of(), enc, pot, trial, e))
     return first_mismatch(target.step(enc, pot, trial, e), ref, np.column_stack([trial, enc, pot]))
 
 

@@ -150,7 +150,7 @@ def check_fields(v: Verdict, man: Manifest, recomputed: Manifest) -> None:
     bound, bound_now = got["resolved"].get("error_bound"), want["resolved"]["error_bound"]
     if not isinstance(bound, int | float) or not math.isclose(bound, bound_now, rel_tol=1e-9, abs_tol=1e-12):
         problems.append(f"error_bound {bound!r} (recomputed: {bound_now!r})")
-    for key in ("inputs", "output", "features"):
+    for key in ("inputs", "output", "features", "actuator"):
         if got["resolved"].get(key) != want["resolved"].get(key):
             problems.append(
                 f"resolved.{key} {got['resolved'].get(key)!r} (recomputed: {want['resolved'][key]!r})"

@@ -43,19 +43,21 @@ class PilResult:
 class CalTwin:
     """Twin of NAME_step of a calibration model for a batch, one call per tick (starts reset)."""
 
-    def __init__(self, qm) -> None:
+    def __init__(self, qm, act=None) -> None:
         from seagen.runtime import features as F
-        from seagen.runtime import fixed as P
+        from seagen.runtime.actq import act_q_of
 
-        self.qm, self.F = qm, F
-        self.pipeline = F.Pipeline(P.linkage_table_q16())
+        self.qm, self.F, self.act = qm, F, act or act_q_of()
+        self.pipeline = F.Pipeline(self.act)
 
     def __call__(self, enc: np.ndarray, pot: np.ndarray) -> np.ndarray:
         """The force estimates (int16 in Q out_frac) of this tick."""
         from seagen.reference import numpy_ref
 
         b, d, dd = self.pipeline.step(enc, pot)
-        return numpy_ref.infer(self.qm, self.F.inputs(self.qm.inputs, b, d, dd, None)).astype(np.int64)
+        return numpy_ref.infer(self.qm, self.F.inputs(self.act, self.qm.inputs, b, d, dd, None)).astype(
+            np.int64
+        )
 
 
 def _mismatch(k: int, enc, pot, force, got: dict[str, np.ndarray], want: dict[str, np.ndarray]) -> str | None:

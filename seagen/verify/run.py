@@ -30,7 +30,12 @@ from seagen.verify.result import Verdict
 
 
 def rebuild(
-    man: Manifest, model: Path, features: str | None, allow_pickle: bool = False, with_onnx: bool = False
+    man: Manifest,
+    model: Path,
+    features: str | None,
+    allow_pickle: bool = False,
+    with_onnx: bool = False,
+    actuator=None,
 ):
     """The export MODEL gives today with the manifest's resolved options (ranges, features, weights)."""
     from seagen.export import prepare
@@ -47,6 +52,7 @@ def rebuild(
         controller=bool(opts.get("controller")),
         target=opts.get("target", "portable"),
         ranges=[[float(lo), float(hi)] for _n, _u, lo, hi in res["inputs"]],
+        actuator=actuator,
     )
 
 
@@ -86,7 +92,7 @@ def check_steps(v: Verdict, ex, target, data: str | None, onnx_model) -> None:
         )
         v.add(
             f"{p}_step on synthetic sequences",
-            step_problem(qm, target, enc, pot, trial, ext),
+            step_problem(qm, target, enc, pot, trial, ext, ex.act),
             info=f"{len(set(trial))} sequences",
         )
         return
@@ -184,6 +190,7 @@ def verify(
     features: str | None = None,
     allow_pickle: bool = False,
     misra: bool = False,
+    actuator=None,
 ) -> Verdict:
     """Every check of `seagen verify`, in order: drift first (model, files, manifest, quantization), then
     numbers (header constants, NAME_infer, the oracle, NAME_step, the controller); checks after a failure
@@ -212,7 +219,7 @@ def verify(
         why = "another model" if not matches else "a file of the export is missing"
         return skip_rest(v, [fields_name(man), "quantization unchanged", *later], f"not run: {why}")
     try:
-        ex = rebuild(man, mpath, features, allow_pickle, bool(man.data["options"].get("onnx")))
+        ex = rebuild(man, mpath, features, allow_pickle, bool(man.data["options"].get("onnx")), actuator)
     except CheckFailed as e:  # the original model and the integer reference disagree beyond the bound
         check_files(v, root, man, changed, None)
         check_stray(v, root, man)
@@ -262,7 +269,7 @@ def verify(
         from seagen.verify.tick import check_controller, tick_name
 
         try:
-            check_controller(v, files, p, qm)
+            check_controller(v, files, p, qm, ex.act)
         except build_errors() as e:
             v.add(tick_name(p), build_problem(e, root))
     return v

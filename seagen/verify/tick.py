@@ -31,21 +31,23 @@ def disk_ticks(files: dict[str, str], p: str, enc, pot, force) -> np.ndarray:
     return np.array([tick(a, int(e), int(q), int(f)) for e, q, f in zip(enc, pot, force, strict=True)])
 
 
-def twin_ticks(qm, prefix: str, enc, pot, force) -> np.ndarray:
-    """The Python controller twin with the shipped configuration and the per-tick predictor twin."""
+def twin_ticks(qm, prefix: str, enc, pot, force, act=None) -> np.ndarray:
+    """The Python controller twin with the shipped configuration and the per-tick predictor twin, for the
+    export's actuator `act` (the paper's when None)."""
     from seagen.codegen.controller import shipped_config
     from seagen.control.gentwin import StepTwin
     from seagen.runtime.control import ControlConfig, control_run
 
-    cfg = shipped_config(qm)
-    return control_run(ControlConfig(**{**cfg.__dict__, "predictor": StepTwin(prefix, qm)}), enc, pot, force)
+    cfg = shipped_config(qm, act)
+    twin = StepTwin(prefix, qm, act)
+    return control_run(ControlConfig(**{**cfg.__dict__, "predictor": twin}), enc, pot, force)
 
 
-def check_controller(v: Verdict, files: dict[str, str], prefix: str, qm) -> None:
+def check_controller(v: Verdict, files: dict[str, str], prefix: str, qm, act=None) -> None:
     """Record whether the exported controller's ticks equal the twin's on one synthetic sequence."""
     enc, pot, force = sequence(qm)
     got = disk_ticks(files, prefix, enc, pot, force)
-    want = twin_ticks(qm, prefix, enc, pot, force)
+    want = twin_ticks(qm, prefix, enc, pot, force, act)
     bad = np.flatnonzero(got != want)
     problem = None
     if bad.size:

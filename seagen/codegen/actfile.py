@@ -1,0 +1,38 @@
+"""sea_act_<id>.h/.c: one actuator's constants (seagen/runtime/actq.py) rendered for the C runtime."""
+
+from __future__ import annotations
+
+from seagen.codegen.cfmt import c_int
+from seagen.runtime.actq import ActQ
+
+NOTES = {
+    "link_shift": "table step 2^link_shift pot counts",
+    "link_i32_bits": "entries below 2^k interpolate in int32",
+    "pot_max": "largest pot reading",
+    "travel_q": "Eq. 3 mm per encoder count, Q(16 + travel_shift)",
+    "travel_shift": "enc * travel_q >> travel_shift is Q16 mm",
+    "enc_i32_bits": "|enc| below 2^k multiplies in int32",
+    "pot_deg_q24": "Eq. 5 deg per pot count, Q24",
+    "pot_offset_q24": "Eq. 5 deg at pot 0, Q24",
+    "motor_max_mv": "command limit, mV",
+    "enc_jump_max": "default encoder-jump bound, counts per tick",
+    "pot_avg_ticks": "ticks per pot average (10 Hz)",
+    "pot_stuck_ticks": "default stuck-pot ticks (100 ms)",
+}
+
+
+def act_files(a: ActQ) -> dict[str, str]:
+    """{sea_act_<id>.h, sea_act_<id>.c} of actuator `a`."""
+    from seagen.codegen.render import environment
+
+    ctx = {
+        "cid": a.cid,
+        "CID": a.cid.upper(),
+        "name": a.name,
+        "digest": a.digest,
+        "link_shift": a.link_shift,
+        "link": a.link,
+        "fields": [(n, c_int(v, 32), NOTES[n]) for n, v in a.struct_fields()],
+    }
+    env = environment()
+    return {f"{a.cid}{x}": env.get_template(f"sea_act{x}.j2").render(ctx) for x in (".h", ".c")}
