@@ -84,7 +84,7 @@ static void sea_control_predict(const sea_control_config *c, sea_control_state *
     s->desired = sea_div_rne_s32(sea_sat32(sum), n);
 }
 
-int16_t sea_control_step(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot,
+int32_t sea_control_step(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot,
                          int32_t force_q16)
 {
     int32_t bits;

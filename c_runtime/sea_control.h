@@ -60,7 +60,7 @@ typedef struct {
     int32_t desired;   /* desired compression, Q16 mm */
     int32_t comp;      /* measured compression, Q16 mm */
     int32_t fault;     /* latched SEA_FAULT_* bits; nonzero = safe state */
-    int16_t out;       /* last motor command, mV */
+    int32_t out;       /* last motor command, mV */
 } sea_control_state;
 
 /* Start (or restart after a fault): clears faults, starts a pot block with average `pot`, measures the
@@ -69,7 +69,7 @@ void sea_control_reset(const sea_control_config *c, sea_control_state *s, int32_
 
 /* One tick with raw encoder counts, raw pot counts and the desired force (Q16 N at the shaft).
  * Returns the motor command in mV (0 in the safe state); s->fault holds the latched fault bits. */
-int16_t sea_control_step(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot,
+int32_t sea_control_step(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot,
                          int32_t force_q16);
 
 #endif

@@ -50,7 +50,7 @@ typedef struct {
     int32_t enc_i32_bits;     /* -2^k <= enc < 2^k: enc * travel_q fits int32 */
     int32_t pot_deg_q24;      /* Eq. 5: deg per pot count, Q24 */
     int32_t pot_offset_q24;   /* Eq. 5: deg at pot 0, Q24 */
-    int32_t motor_max_mv;     /* the motor supply: command range +-motor_max_mv (<= 32767) */
+    int32_t motor_max_mv;     /* the motor supply: command range +-motor_max_mv (int32 mV, sea_pid.h) */
     int32_t enc_jump_max;     /* default encoder-jump bound: twice the no-load counts per tick */
     int32_t pot_avg_ticks;    /* ticks per pot average (refreshed at 10 Hz) */
     int32_t pot_stuck_ticks;  /* default: rail readings over 100 ms = stuck */

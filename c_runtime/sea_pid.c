@@ -24,13 +24,13 @@ static inline int64_t sea_pid_mul_rne(int32_t a, int32_t b, int s)
     return ((r > half) || ((r == half) && ((q & 1) != 0))) ? (q + 1) : q;
 }
 
-void sea_pid_reset(const sea_pid_params *p, sea_pid_state *s, int32_t meas, int16_t out)
+void sea_pid_reset(const sea_pid_params *p, sea_pid_state *s, int32_t meas, int32_t out)
 {
     int64_t o = sea_clamp_s64(out, p->out_min, p->out_max);
-    s->integ = sea_sat32(o * SEA_PID_ONE_MV); /* |o| <= 2^15: o * 2^16 fits int32 */
+    s->integ = o * SEA_PID_ONE_MV; /* |o| <= 2^31: o * 2^16 fits int64 */
     s->d_filt = 0;
     s->meas_prev = meas;
-    s->out = sea_sat16(o);
+    s->out = sea_sat32(o);
 }
 
 /* Filtered rate of the measurement, Q16 mm per tick; |alpha * (x - d)| < 2^17 * 2^33: fits int64. */
@@ -45,7 +45,7 @@ static int32_t sea_pid_rate(const sea_pid_params *p, const sea_pid_state *s, int
     return sea_sat32(s->d_filt + step);
 }
 
-int16_t sea_pid_step(const sea_pid_params *p, sea_pid_state *s, int32_t setpoint, int32_t meas)
+int32_t sea_pid_step(const sea_pid_params *p, sea_pid_state *s, int32_t setpoint, int32_t meas)
 {
     const int64_t lo = (int64_t)p->out_min * SEA_PID_ONE_MV; /* Q16 mV */
     const int64_t hi = (int64_t)p->out_max * SEA_PID_ONE_MV;
@@ -66,14 +66,14 @@ int16_t sea_pid_step(const sea_pid_params *p, sea_pid_state *s, int32_t setpoint
     pterm = sea_pid_mul_rne(p->kp, e, SEA_PID_TERM_SHIFT);
     dterm = -sea_pid_mul_rne(p->kd, s->d_filt, SEA_PID_TERM_SHIFT);
     inc = sea_pid_mul_rne(p->ki, e, SEA_PID_TERM_SHIFT);
-    integ = sea_clamp_s64((int64_t)s->integ + inc, lo, hi);
+    integ = sea_clamp_s64(s->integ + inc, lo, hi); /* |integ| <= 2^47, |inc| < 2^50 */
     u = pterm + integ + dterm;
     if (((u > hi) && (inc > 0)) || ((u < lo) && (inc < 0))) {
 
         integ = s->integ; /* anti-windup: no integration deeper into saturation */
         u = pterm + integ + dterm;
     }
-    s->integ = sea_sat32(integ); /* within [lo, hi] c [-2^31, 2^31 - 2^16] already */
-    s->out = sea_sat16(sea_clamp_s64(sea_rshift_rne_s64(u, SEA_PID_OUT_FRAC), p->out_min, p->out_max));
+    s->integ = integ; /* within [lo, hi] */
+    s->out = sea_sat32(sea_clamp_s64(sea_rshift_rne_s64(u, SEA_PID_OUT_FRAC), p->out_min, p->out_max));
     return s->out;
 }

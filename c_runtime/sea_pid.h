@@ -5,7 +5,7 @@
  *   e     = 0 if |e| <= margin                       (control margin: no P action, integrator held)
  *   d     = d + alpha (meas - meas_prev - d)         (first-order filter of the measurement's rate)
  *   P     = kp e,  I += ki e (anti-windup),  D = -kd d   (all Q16 mV)
- *   out   = clamp(round(P + I + D), out_min, out_max) (int16 millivolts)
+ *   out   = clamp(round(P + I + D), out_min, out_max) (int32 millivolts: any supply, a 48 V motor included)
  * Every shift rounds half to even (sea_rshift_rne_s64); every narrowing saturates first. The Python twin
  * seagen/control/pid.py computes the same integers. Integers only; no float, no malloc; C99.
  */
@@ -26,23 +26,23 @@ typedef struct {
     int32_t kd;      /* mV per (mm per tick), Q12 (derivative gain over the tick), on -d(meas)/dt */
     int32_t d_alpha; /* derivative filter: d += alpha (x - d), Q16, clamped to [0, 65536] */
     int32_t margin;  /* control margin, Q16 mm (0.1 mm = 6554); negative means none */
-    int16_t out_min; /* command range, mV (out_min <= out_max; within +-act->motor_max_mv, sea_fixed.h) */
-    int16_t out_max; /* mV */
+    int32_t out_min; /* command range, mV (out_min <= out_max; within +-act->motor_max_mv, sea_fixed.h) */
+    int32_t out_max; /* mV; |out_min|, |out_max| < 2^31 */
 } sea_pid_params;
 
 typedef struct {
-    int32_t integ;     /* integrator, Q16 mV, always inside [out_min, out_max] */
+    int64_t integ;     /* integrator, Q16 mV, always inside [out_min, out_max] (|integ| < 2^47) */
     int32_t d_filt;    /* filtered measurement rate, Q16 mm per tick */
     int32_t meas_prev; /* the previous measurement, Q16 mm */
-    int16_t out;       /* the last command, mV */
+    int32_t out;       /* the last command, mV */
 } sea_pid_state;
 
 /* Bumpless (re)start: the integrator takes `out` (clamped to the range, Q16), the derivative filter is
  * cleared and the previous measurement set to `meas`, so a following step with |e| <= margin and an
  * unchanged measurement returns exactly `out`. sea_pid_reset(p, s, meas, 0) clears the integrator. */
-void sea_pid_reset(const sea_pid_params *p, sea_pid_state *s, int32_t meas, int16_t out);
+void sea_pid_reset(const sea_pid_params *p, sea_pid_state *s, int32_t meas, int32_t out);
 
 /* One tick: setpoint and measurement in Q16 mm (any int32); returns the command in mV (also s->out). */
-int16_t sea_pid_step(const sea_pid_params *p, sea_pid_state *s, int32_t setpoint, int32_t meas);
+int32_t sea_pid_step(const sea_pid_params *p, sea_pid_state *s, int32_t setpoint, int32_t meas);
 
 #endif

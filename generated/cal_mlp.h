@@ -24,6 +24,7 @@
 #include <stdint.h>
 
 #include "sea_features.h"
+#include "sea_act_22310129.h"
 
 #define CAL_MLP_N_IN 9
 #define CAL_MLP_N_OUT 1
@@ -44,8 +45,8 @@
 /* State of the feature pipeline (sea_features.h): previous pot, enc and compression for the differences. */
 typedef sea_features_state cal_mlp_state_t;
 
-/* Eq. 2 linkage term of the feature pipeline: Q16 mm every 16 pot counts. */
-extern const int32_t cal_mlp_link_q16[SEA_LINK_TABLE_LEN];
+/* The actuator this model was exported for: its constants (sea_act, sea_fixed.h) in sea_act_22310129.c. */
+#define CAL_MLP_ACT (&sea_act_22310129)
 
 /* The stateless model on already-quantized features. */
 void cal_mlp_infer(const int16_t in[CAL_MLP_N_IN], int16_t out[CAL_MLP_N_OUT]);
@@ -53,7 +54,7 @@ void cal_mlp_infer(const int16_t in[CAL_MLP_N_IN], int16_t out[CAL_MLP_N_OUT]);
 /* Start a new run of samples (the next cal_mlp_step has no history: its differences are 0). */
 void cal_mlp_reset(cal_mlp_state_t *s);
 
-/* One 100 Hz sample from raw sensor counts:
+/* One control-loop sample from raw sensor counts:
  * the feature pipeline, then cal_mlp_infer. Returns force_n in Q7. */
 int16_t cal_mlp_step(cal_mlp_state_t *s, int32_t enc, int32_t pot);
 

@@ -15,6 +15,7 @@
 #include <stdint.h>
 
 #include "sea_features.h"
+#include "sea_act_22310129.h"
 
 #define CAL_SF_N_IN 2
 #define CAL_SF_N_OUT 1
@@ -28,8 +29,8 @@
 /* State of the feature pipeline (sea_features.h): previous pot, enc and compression for the differences. */
 typedef sea_features_state cal_sf_state_t;
 
-/* Eq. 2 linkage term of the feature pipeline: Q16 mm every 16 pot counts. */
-extern const int32_t cal_sf_link_q16[SEA_LINK_TABLE_LEN];
+/* The actuator this model was exported for: its constants (sea_act, sea_fixed.h) in sea_act_22310129.c. */
+#define CAL_SF_ACT (&sea_act_22310129)
 
 /* The stateless model on already-quantized features. */
 void cal_sf_infer(const int16_t in[CAL_SF_N_IN], int16_t out[CAL_SF_N_OUT]);
@@ -37,7 +38,7 @@ void cal_sf_infer(const int16_t in[CAL_SF_N_IN], int16_t out[CAL_SF_N_OUT]);
 /* Start a new run of samples (the next cal_sf_step has no history: its differences are 0). */
 void cal_sf_reset(cal_sf_state_t *s);
 
-/* One 100 Hz sample from raw sensor counts:
+/* One control-loop sample from raw sensor counts:
  * the feature pipeline, then cal_sf_infer. Returns force_n in Q9. */
 int16_t cal_sf_step(cal_sf_state_t *s, int32_t enc, int32_t pot);
 

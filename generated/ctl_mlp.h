@@ -22,6 +22,7 @@
 #include <stdint.h>
 
 #include "sea_features.h"
+#include "sea_act_22310129.h"
 
 #define CTL_MLP_N_IN 7
 #define CTL_MLP_N_OUT 1
@@ -40,8 +41,8 @@
 /* State of the feature pipeline (sea_features.h): previous pot, enc and compression for the differences. */
 typedef sea_features_state ctl_mlp_state_t;
 
-/* Eq. 2 linkage term of the feature pipeline: Q16 mm every 16 pot counts. */
-extern const int32_t ctl_mlp_link_q16[SEA_LINK_TABLE_LEN];
+/* The actuator this model was exported for: its constants (sea_act, sea_fixed.h) in sea_act_22310129.c. */
+#define CTL_MLP_ACT (&sea_act_22310129)
 
 /* The stateless model on already-quantized features. */
 void ctl_mlp_infer(const int16_t in[CTL_MLP_N_IN], int16_t out[CTL_MLP_N_OUT]);
@@ -49,7 +50,7 @@ void ctl_mlp_infer(const int16_t in[CTL_MLP_N_IN], int16_t out[CTL_MLP_N_OUT]);
 /* Start a new run of samples (the next ctl_mlp_step has no history: its differences are 0). */
 void ctl_mlp_reset(ctl_mlp_state_t *s);
 
-/* One 100 Hz sample from raw sensor counts and force_n (quantized as above):
+/* One control-loop sample from raw sensor counts and force_n (quantized as above):
  * the feature pipeline, then ctl_mlp_infer. Returns compression_mm in Q10. */
 int16_t ctl_mlp_step(ctl_mlp_state_t *s, int32_t enc, int32_t pot, int16_t force_n_q);
 

@@ -11,13 +11,13 @@ void sea_features_reset(sea_features_state *s)
     s->primed = 0;
 }
 
-void sea_features_step(sea_features_state *s, const int32_t table[SEA_LINK_TABLE_LEN], int32_t enc, int32_t pot,
-                       sea_features_out *f)
+void sea_features_step(sea_features_state *s, const sea_act *act, int32_t enc, int32_t pot, sea_features_out *f)
 {
     int k;
+    f->act = act;
     f->b[SEA_FEAT_POT] = pot;
     f->b[SEA_FEAT_ENC] = enc;
-    f->b[SEA_FEAT_COMP] = sea_compression_q16(table, enc, pot);
+    f->b[SEA_FEAT_COMP] = sea_compression_q16(act, enc, pot);
     if (!s->primed) {
         for (k = 0; k < SEA_FEAT_N_BASE; ++k) {
             s->p1[k] = f->b[k];

@@ -1,9 +1,10 @@
 /* sea_features.h -- the feature pipeline of every generated model (twin: seagen/quant/features.py).
  *
- * One call per 100 Hz sample with the raw encoder and pot counts:
+ * One call per control-loop sample with the raw encoder and pot counts and the actuator's constants
+ * (a `const sea_act *`, sea_fixed.h; the generated sea_act_<id>.c):
  *   base signals  b[SEA_FEAT_POT] = pot (counts, Q0), b[SEA_FEAT_ENC] = enc (counts, Q0),
- *                 b[SEA_FEAT_COMP] = sea_compression_q16(table, enc, pot) (Q16 mm, Eq. 2);
- *   angle         pot * SEA_POT_DEG_Q24 + SEA_POT_OFFSET_Q24 (Q24 deg, Eq. 5; exact in int64);
+ *                 b[SEA_FEAT_COMP] = sea_compression_q16(act, enc, pot) (Q16 mm, Eq. 2);
+ *   angle         pot * act->pot_deg_q24 + act->pot_offset_q24 (Q24 deg, Eq. 5; exact in int64);
  *   differences   d = b - b[-1], dd = b - 2 b[-1] + b[-2] per base signal (exact in int64);
  *   warm-up       the first step after sea_features_reset takes b[-1] = b[-2] = b (d = dd = 0); the
  *                 second takes b[-2] = b[-1] (the previous sample).
@@ -38,8 +39,9 @@ typedef struct {
     uint8_t primed; /* 0 after sea_features_reset */
 } sea_features_state;
 
-/* One step's samples: the base signals and the two before them (warm-up applied). */
+/* One step's samples: the base signals and the two before them (warm-up applied), and the actuator. */
 typedef struct {
+    const sea_act *act;
     int32_t b[SEA_FEAT_N_BASE];
     int32_t p1[SEA_FEAT_N_BASE];
     int32_t p2[SEA_FEAT_N_BASE];
@@ -49,8 +51,7 @@ typedef struct {
 void sea_features_reset(sea_features_state *s);
 
 /* One sample from raw counts (any int32 enc, pot): base signals and their history; updates the state. */
-void sea_features_step(sea_features_state *s, const int32_t table[SEA_LINK_TABLE_LEN], int32_t enc, int32_t pot,
-                       sea_features_out *f);
+void sea_features_step(sea_features_state *s, const sea_act *act, int32_t enc, int32_t pot, sea_features_out *f);
 
 /* The value of `kind` for base signal `index` (exact): SEA_FEAT_BASE b (pot, enc Q0; compression Q16 mm),
  * SEA_FEAT_D b - b[-1], SEA_FEAT_DD b - 2 b[-1] + b[-2], SEA_FEAT_ANGLE the angle (Q24 deg; index unused).
@@ -63,7 +64,7 @@ static inline int64_t sea_features_value(const sea_features_out *f, int kind, in
     case SEA_FEAT_DD:
         return ((int64_t)f->b[index] - (2 * (int64_t)f->p1[index])) + f->p2[index];
     case SEA_FEAT_ANGLE:
-        return ((int64_t)f->b[SEA_FEAT_POT] * SEA_POT_DEG_Q24) + SEA_POT_OFFSET_Q24;
+        return ((int64_t)f->b[SEA_FEAT_POT] * f->act->pot_deg_q24) + f->act->pot_offset_q24;
 
     default:
         return f->b[index];

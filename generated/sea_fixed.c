@@ -63,34 +63,33 @@ int32_t sea_sat32(int64_t v)
 /* -2^k <= x < 2^k (0 <= k <= 30), in unsigned 32-bit arithmetic: no overflow for any int32 x. */
 #define SEA_ABS_BELOW(x, k) ((uint32_t)(x) + ((uint32_t)1 << (k)) < ((uint32_t)1 << ((k) + 1)))
 
-int32_t sea_linkage_q16(const int32_t table[SEA_LINK_TABLE_LEN], int32_t pot)
+int32_t sea_linkage_q16(const sea_act *a, int32_t pot)
 {
-    int32_t p = (pot < 0) ? 0 : ((pot > SEA_POT_MAX) ? SEA_POT_MAX : pot);
-    int32_t i = p >> SEA_LINK_TABLE_SHIFT;
-    int32_t f = p - (i << SEA_LINK_TABLE_SHIFT);       /* p >= 0: no negative shifts */
-    int64_t a = table[i];
-    int64_t b = table[i + 1];
+    const int32_t s = a->link_shift;
+    const int32_t *t = a->link_q16;
+    int32_t p = (pot < 0) ? 0 : ((pot > a->pot_max) ? a->pot_max : pot);
+    int32_t i = p >> s;
+    int32_t f = p - (i << s); /* p >= 0: no negative shifts */
+    int64_t lo = t[i];
+    int64_t hi = t[i + 1];
     int64_t v;
-    if (SEA_ABS_BELOW(table[i], 26) && SEA_ABS_BELOW(table[i + 1], 26)) {
-        /* the same integers in int32: |a 2^4 + (b - a) f| = |a (16 - f) + b f| < 2^4 2^26 */
-        const int32_t a32 = table[i];
-        const int32_t b32 = table[i + 1];
-        return sea_rshift_rne_s32((a32 * ((1 << SEA_LINK_TABLE_SHIFT) - f)) + (b32 * f), SEA_LINK_TABLE_SHIFT);
+    if (SEA_ABS_BELOW(t[i], a->link_i32_bits) && SEA_ABS_BELOW(t[i + 1], a->link_i32_bits)) {
+        /* the same integers in int32: |lo (2^s - f) + hi f| < 2^s 2^(30 - s) */
+        const int32_t lo32 = t[i];
+        const int32_t hi32 = t[i + 1];
+        return sea_rshift_rne_s32((lo32 * ((1 << s) - f)) + (hi32 * f), s);
     }
-    v = (a * ((int64_t)1 << SEA_LINK_TABLE_SHIFT)) + ((b - a) * f);
-    return (int32_t)sea_rshift_rne_s64(v, SEA_LINK_TABLE_SHIFT);
+    v = (lo * ((int64_t)1 << s)) + ((hi - lo) * f); /* |entry| < 2^30: fits int64 */
+    return (int32_t)sea_rshift_rne_s64(v, s);
 }
 
-/* Encoder counts with enc * SEA_MM_PER_COUNT_Q24 inside int32: -2^14 <= enc < 2^14, 2^14 < 2^31 / 73584. */
-#define SEA_ENC_INT32_BITS 14
-
-int32_t sea_compression_q16(const int32_t table[SEA_LINK_TABLE_LEN], int32_t enc, int32_t pot)
+int32_t sea_compression_q16(const sea_act *a, int32_t enc, int32_t pot)
 {
     int64_t travel;
-    if (SEA_ABS_BELOW(enc, SEA_ENC_INT32_BITS)) { /* the same integers in int32 (no 64-bit multiply) */
-        travel = sea_rshift_rne_s32(enc * SEA_MM_PER_COUNT_Q24, 24 - SEA_COMP_FRAC_BITS);
+    if (SEA_ABS_BELOW(enc, a->enc_i32_bits)) { /* the same integers in int32 (no 64-bit multiply) */
+        travel = sea_rshift_rne_s32(enc * a->travel_q, a->travel_shift);
     } else {
-        travel = sea_rshift_rne_s64((int64_t)enc * SEA_MM_PER_COUNT_Q24, 24 - SEA_COMP_FRAC_BITS);
+        travel = sea_rshift_rne_s64((int64_t)enc * a->travel_q, a->travel_shift); /* < 2^62 */
     }
-    return sea_sat32((int64_t)sea_linkage_q16(table, pot) + travel);
+    return sea_sat32((int64_t)sea_linkage_q16(a, pot) + travel);
 }

@@ -28,26 +28,41 @@ int16_t sea_sat16(int64_t v);
 int32_t sea_sat32(int64_t v);
 
 /* --- the SEA's geometry in fixed point (Eq. 2, 3, 5) --------------------------------------------------
- * The linkage term of Eq. 2, cos(angle(pot)) * CB - (DE_home - CE), is a table in Q16 mm sampled every
- * 2^SEA_LINK_TABLE_SHIFT pot counts (SEA_LINK_TABLE_LEN entries covering pot 0..4096). The generator
- * emits the table (it depends on the actuator's geometry); the same integers feed every reference. */
+ * Every number of the actuator is a field of a `const sea_act` (below) that the exporter emits per actuator
+ * description in sea_act_<id>.c (<id>: the first 8 hex digits of the description's sha256); the runtime reads
+ * it through a pointer, so actuators of different designs share one firmware. seagen/runtime/actq.py chooses
+ * and proves the formats for each description (or refuses it); the same object feeds every reference.
+ * The linkage term of Eq. 2, cos(angle(pot)) * CB - (DE_home - CE), is a table in Q16 mm of
+ * SEA_LINK_TABLE_LEN entries, one every 2^link_shift pot counts (link_shift = ADC bits - 8). */
 
 #define SEA_COMP_FRAC_BITS 16   /* compression is Q16 millimetres in int32 */
 #define SEA_FORCE_FRAC_BITS 16  /* desired force: Q16 newtons at the SEA output shaft, int32 */
-#define SEA_LINK_TABLE_SHIFT 4  /* one table entry every 16 pot counts */
-#define SEA_LINK_TABLE_LEN 257  /* pot 0..4096 */
-#define SEA_MM_PER_COUNT_Q24 73584 /* Eq. 3: 0.00438596 mm per encoder count, Q24 */
-#define SEA_POT_MAX 4095
-#define SEA_POT_DEG_Q24 217588      /* Eq. 5: 53.12195/4096 deg per pot count, Q24 */
-#define SEA_POT_OFFSET_Q24 (-83886080) /* Eq. 5: -5 deg, Q24 */
+#define SEA_LINK_TABLE_LEN 257  /* 2^8 + 1 entries: pot 0..2^adc_bits */
 
-/* Q16 mm: linkage term for a pot reading (clamped to 0..4095), linear interpolation between entries,
- * rounded half to even. Exact integer arithmetic; |table| < 2^30 is required. */
-int32_t sea_linkage_q16(const int32_t table[SEA_LINK_TABLE_LEN], int32_t pot);
+/* One actuator's constants (field order: seagen/runtime/actq.py ActQ.struct_fields). */
+typedef struct {
+    const int32_t *link_q16;  /* SEA_LINK_TABLE_LEN entries, Q16 mm, |entry| < 2^30 */
+    int32_t link_shift;       /* one entry every 2^link_shift pot counts (0..8) */
+    int32_t link_i32_bits;    /* 30 - link_shift: entries in [-2^k, 2^k) interpolate in int32 */
+    int32_t pot_max;          /* the largest pot reading, 2^adc_bits - 1 */
+    int32_t travel_q;         /* Eq. 3: mm per encoder count in Q(16 + travel_shift), 1..2^31 - 1 */
+    int32_t travel_shift;     /* 8..30 */
+    int32_t enc_i32_bits;     /* -2^k <= enc < 2^k: enc * travel_q fits int32 */
+    int32_t pot_deg_q24;      /* Eq. 5: deg per pot count, Q24 */
+    int32_t pot_offset_q24;   /* Eq. 5: deg at pot 0, Q24 */
+    int32_t motor_max_mv;     /* the motor supply: command range +-motor_max_mv (<= 32767) */
+    int32_t enc_jump_max;     /* default encoder-jump bound: twice the no-load counts per tick */
+    int32_t pot_avg_ticks;    /* ticks per pot average (refreshed at 10 Hz) */
+    int32_t pot_stuck_ticks;  /* default: rail readings over 100 ms = stuck */
+} sea_act;
 
-/* Q16 mm: spring compression (Eq. 2) = linkage term + enc * MM_PER_COUNT (rounded half to even),
- * saturated to int32. Any int32 enc and pot. */
-int32_t sea_compression_q16(const int32_t table[SEA_LINK_TABLE_LEN], int32_t enc, int32_t pot);
+/* Q16 mm: linkage term for a pot reading (clamped to 0..pot_max), linear interpolation between entries,
+ * rounded half to even. Exact integer arithmetic. */
+int32_t sea_linkage_q16(const sea_act *a, int32_t pot);
+
+/* Q16 mm: spring compression (Eq. 2) = linkage term + enc * travel (rounded half to even), saturated to
+ * int32. Any int32 enc and pot. */
+int32_t sea_compression_q16(const sea_act *a, int32_t enc, int32_t pot);
 
 /* --- added for the controller (c_runtime/README.md) ------------------------------------------------ */
 

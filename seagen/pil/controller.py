@@ -48,10 +48,10 @@ class PilController:
         """One frame with int32 columns `words` per actuator; the reply becomes the state."""
         assert self.link is not None
         payload = np.ascontiguousarray(np.stack(words, axis=1).astype("<i4")).tobytes()
-        body = self.link.exchange(kind, self.n, payload, 20 * self.n + 4, what)
+        body = self.link.exchange(kind, self.n, payload, 22 * self.n + 4, what)
         rec = np.frombuffer(
             body[:-4],
-            dtype=np.dtype([("out", "<i2"), ("force_est", "<i2"), *((f, "<i4") for f in REPLY_FIELDS[2:])]),
+            dtype=np.dtype([("out", "<i4"), ("force_est", "<i2"), *((f, "<i4") for f in REPLY_FIELDS[2:])]),
         )
         self.state = {f: rec[f].astype(np.int64) for f in REPLY_FIELDS}
         (counts,) = struct.unpack("<I", body[-4:])

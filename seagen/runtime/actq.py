@@ -29,7 +29,7 @@ TRAVEL_FRAC_MIN, TRAVEL_FRAC_MAX = 24, 46
 POT_AVG_HZ = 10.0  # the controller refreshes its pot average at 10 Hz
 POT_STUCK_S = 0.1  # a pot at a rail this long is stuck
 ENC_JUMP_MARGIN = 2.0  # the encoder-jump bound: twice the no-load count rate per tick
-CMD_MAX_MV = 2**15 - 1  # the PID command is int16 mV (sea_pid.h)
+CMD_MAX_MV = 2**31 - 1  # the PID command is int32 mV, its integrator Q16 in int64 (sea_pid.h)
 I32_MAX = 2**31 - 1
 
 
@@ -146,7 +146,7 @@ def act_q(act: Actuator) -> ActQ:
     table = link_table(act, shift)
     # sea_linkage_q16: a 2^s + (b - a) f with f < 2^s in int64 needs |entry| < 2^30 (Q16: 16,384 mm).
     if int(np.abs(table).max()) >= 2**30:
-        raise _refuse(act, "the linkage term exceeds 2^30 in Q16 mm (CB over 8 m)")
+        raise _refuse(act, "the linkage term of Eq. 2 reaches 16,384 mm (2^30 in Q16 mm, the table's int32 bound)")
     travel_q, travel_shift, enc_bits = _travel(act)
     pot_deg = _q24(act, act.pot_deg_per_count, "pot.full_scale_deg per count")
     if pot_deg == 0:
@@ -154,7 +154,7 @@ def act_q(act: Actuator) -> ActQ:
     offset = _q24(act, act.pot.offset_deg, "pot.offset_deg")
     supply_mv = round(act.motor.supply_v * 1000.0)
     if supply_mv > CMD_MAX_MV:
-        raise _refuse(act, f"motor.supply_v {act.motor.supply_v:g} V exceeds the int16 mV command (32.767 V)")
+        raise _refuse(act, f"motor.supply_v {act.motor.supply_v:g} V exceeds the int32 mV command")
     rate = act.motor.no_load_rpm / 60.0 * act.motor.counts_per_rev  # counts per second at no load
     jump = math.ceil(ENC_JUMP_MARGIN * rate / act.loop_hz - 1e-9)
     if not 1 <= jump <= I32_MAX:

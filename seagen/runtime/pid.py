@@ -7,7 +7,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from seagen.runtime.actq import act_q_of
-from seagen.runtime.fixed import COMP_FRAC_BITS, clamp, rshift_rne, sat16, sat32
+from seagen.runtime.fixed import COMP_FRAC_BITS, clamp, rshift_rne, sat32
 
 GAIN_FRAC = 12  # SEA_PID_GAIN_FRAC
 ALPHA_FRAC = 16  # SEA_PID_ALPHA_FRAC
@@ -87,7 +87,7 @@ def pid_reset(p: PidParams, meas: np.ndarray | int, out: np.ndarray | int = 0) -
     """Bumpless (re)start (sea_pid_reset): integrator = out (clamped), filter cleared, meas remembered."""
     meas = np.atleast_1d(np.asarray(meas, dtype=np.int64))
     o = np.broadcast_to(clamp(out, p.out_min, p.out_max), meas.shape).astype(np.int64)
-    return PidState(sat32(o * (1 << OUT_FRAC)), np.zeros_like(meas), meas.copy(), sat16(o))
+    return PidState(o * (1 << OUT_FRAC), np.zeros_like(meas), meas.copy(), sat32(o))
 
 
 def _rate(p: PidParams, s: PidState, meas: np.ndarray) -> np.ndarray:
@@ -114,8 +114,8 @@ def pid_step(p: PidParams, s: PidState, setpoint: np.ndarray | int, meas: np.nda
     hold = ((u > hi) & (inc > 0)) | ((u < lo) & (inc < 0))
     integ = np.where(hold, s.integ, integ)
     u = pterm + integ + dterm
-    out = sat16(clamp(rshift_rne(u, OUT_FRAC), p.out_min, p.out_max))
-    return PidState(sat32(integ), d_filt, meas.copy(), out)
+    out = sat32(clamp(rshift_rne(u, OUT_FRAC), p.out_min, p.out_max))
+    return PidState(integ, d_filt, meas.copy(), out)
 
 
 def merge(keep_old: np.ndarray, old: PidState, new: PidState) -> PidState:

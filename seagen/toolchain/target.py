@@ -19,8 +19,8 @@ from seagen.runtime.features import external_inputs, has_pipeline, is_predictor
 # NAME_tick_batch's parameter words: the sea_control_config fields, in order, with their C types.
 TICK_FIELDS = (
     *((f"pid.{f}", "int32_t") for f in ("kp", "ki", "kd", "d_alpha", "margin")),
-    ("pid.out_min", "int16_t"),
-    ("pid.out_max", "int16_t"),
+    ("pid.out_min", "int32_t"),
+    ("pid.out_max", "int32_t"),
     *((f, "int32_t") for f in ("predict_every", "pred_avg", "force_min", "force_max")),
     *((f, "int32_t") for f in ("enc_jump_max", "pot_stuck_ticks")),
 )
@@ -105,6 +105,6 @@ class Target(ABC):
             np.ascontiguousarray(pot, dtype=np.int32),
             np.ascontiguousarray(np.broadcast_to(force_q16, np.shape(enc)), dtype=np.int32),
             n,
-            np.zeros(n, np.int16),
+            np.zeros(n, np.int32),
         )
         return self._call("tick_batch", *args)[-1].astype(np.int64)

@@ -22,7 +22,7 @@ def disk_ticks(files: dict[str, str], p: str, enc, pot, force) -> np.ndarray:
     cdef = (  # the actuator struct stays opaque: cffi takes its size from NAME_controller.h
         f"typedef struct {{ ...; }} {p}_controller_t;\n"
         f"void {p}_controller_init({p}_controller_t *a, int32_t enc, int32_t pot);\n"
-        f"int16_t {p}_controller_tick({p}_controller_t *a, int32_t enc, int32_t pot, int32_t force_q16);\n"
+        f"int32_t {p}_controller_tick({p}_controller_t *a, int32_t enc, int32_t pot, int32_t force_q16);\n"
     )
     mod = build(cdef, files, name=f"{p}_controller")
     a = mod.ffi.new(f"{p}_controller_t *")

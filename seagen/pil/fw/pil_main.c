@@ -3,7 +3,7 @@
  * Host to board: A5 type n seq payload f16; board to host: 5A type n seq payload f16, where f16 is the
  * Fletcher-16 sum of every byte before it (little-endian). Types: 'R' reset (n x enc, pot: int32), 'T' tick
  * (n x enc, pot, force_q16: int32), 'D' set desired (n x desired_q16: int32), 'C' calibrate, 'X' exit. The
- * reply to R/T/D carries per actuator the command (int16 mV), the force estimate (int16), desired, comp,
+ * reply to R/T/D carries per actuator the command (int32 mV), the force estimate (int16), desired, comp,
  * pot_avg and fault (int32), then the SysTick counts of the tick's computation; the reply to C the counts of an
  * empty measurement and of a 2,000-instruction loop; a frame that fails its check gets an 'E' reply. */
 #include "pil_board.h"
@@ -11,13 +11,13 @@
 
 #define PIL_HEAD 4u
 #define PIL_IN_MAX (PIL_HEAD + 12u * PIL_N_MAX + 2u)
-#define PIL_OUT_MAX (PIL_HEAD + 20u * PIL_N_MAX + 4u + 2u)
+#define PIL_OUT_MAX (PIL_HEAD + 22u * PIL_N_MAX + 4u + 2u)
 
 static pil_ctl_t pil_ctl[PIL_N_MAX];
 #if PIL_HAS_CAL
 static pil_cal_t pil_cal[PIL_N_MAX];
 #endif
-static int16_t pil_cmd[PIL_N_MAX];
+static int32_t pil_cmd[PIL_N_MAX];
 static int16_t pil_est[PIL_N_MAX];
 static uint8_t pil_in[PIL_IN_MAX];
 static uint8_t pil_out[PIL_OUT_MAX];
@@ -94,11 +94,10 @@ static void pil_reply(uint8_t type, uint32_t n, uint8_t seq, uint32_t counts)
     uint32_t i;
     for (i = 0; i < n; ++i) {
         const sea_control_state *s = PIL_CTL_STATE(&pil_ctl[i]);
-        p[0] = (uint8_t)(uint16_t)pil_cmd[i];
-        p[1] = (uint8_t)((uint16_t)pil_cmd[i] >> 8);
-        p[2] = (uint8_t)(uint16_t)pil_est[i];
-        p[3] = (uint8_t)((uint16_t)pil_est[i] >> 8);
-        p = pil_put32(p + 4, (uint32_t)s->desired);
+        p = pil_put32(p, (uint32_t)pil_cmd[i]);
+        p[0] = (uint8_t)(uint16_t)pil_est[i];
+        p[1] = (uint8_t)((uint16_t)pil_est[i] >> 8);
+        p = pil_put32(p + 2, (uint32_t)s->desired);
         p = pil_put32(p, (uint32_t)s->comp);
         p = pil_put32(p, (uint32_t)s->pot_avg);
         p = pil_put32(p, (uint32_t)s->fault);
