@@ -29,7 +29,7 @@ int32_t sea_sat32(int64_t v);
 
 /* --- the SEA's geometry in fixed point (Eq. 2, 3, 5) --------------------------------------------------
  * Every number of the actuator is a field of a `const sea_act` (below) that the exporter emits per actuator
- * description in sea_act_<id>.c (<id>: the first 8 hex digits of the description's sha256); the runtime reads
+ * description in sea_act_<id>.c (<id>: the digest's first 32 bits as letters); the runtime reads
  * it through a pointer, so actuators of different designs share one firmware. seagen/runtime/actq.py chooses
  * and proves the formats for each description (or refuses it); the same object feeds every reference.
  * The linkage term of Eq. 2, cos(angle(pot)) * CB - (DE_home - CE), is a table in Q16 mm of

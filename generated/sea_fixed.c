@@ -70,17 +70,19 @@ int32_t sea_linkage_q16(const sea_act *a, int32_t pot)
     int32_t p = (pot < 0) ? 0 : ((pot > a->pot_max) ? a->pot_max : pot);
     int32_t i = p >> s;
     int32_t f = p - (i << s); /* p >= 0: no negative shifts */
-    int64_t lo = t[i];
-    int64_t hi = t[i + 1];
-    int64_t v;
+    int32_t r;
     if (SEA_ABS_BELOW(t[i], a->link_i32_bits) && SEA_ABS_BELOW(t[i + 1], a->link_i32_bits)) {
         /* the same integers in int32: |lo (2^s - f) + hi f| < 2^s 2^(30 - s) */
         const int32_t lo32 = t[i];
         const int32_t hi32 = t[i + 1];
-        return sea_rshift_rne_s32((lo32 * ((1 << s) - f)) + (hi32 * f), s);
+        r = sea_rshift_rne_s32((lo32 * ((1 << s) - f)) + (hi32 * f), s);
+    } else {
+        const int64_t lo = t[i];
+        const int64_t hi = t[i + 1];
+        const int64_t v = (lo * ((int64_t)1 << s)) + ((hi - lo) * f); /* |entry| < 2^30: fits int64 */
+        r = (int32_t)sea_rshift_rne_s64(v, s);
     }
-    v = (lo * ((int64_t)1 << s)) + ((hi - lo) * f); /* |entry| < 2^30: fits int64 */
-    return (int32_t)sea_rshift_rne_s64(v, s);
+    return r;
 }
 
 int32_t sea_compression_q16(const sea_act *a, int32_t enc, int32_t pot)

@@ -29,7 +29,7 @@ int32_t sea_sat32(int64_t v);
 
 /* --- the SEA's geometry in fixed point (Eq. 2, 3, 5) --------------------------------------------------
  * Every number of the actuator is a field of a `const sea_act` (below) that the exporter emits per actuator
- * description in sea_act_<id>.c (<id>: the first 8 hex digits of the description's sha256); the runtime reads
+ * description in sea_act_<id>.c (<id>: the digest's first 32 bits as letters); the runtime reads
  * it through a pointer, so actuators of different designs share one firmware. seagen/runtime/actq.py chooses
  * and proves the formats for each description (or refuses it); the same object feeds every reference.
  * The linkage term of Eq. 2, cos(angle(pot)) * CB - (DE_home - CE), is a table in Q16 mm of
@@ -50,7 +50,7 @@ typedef struct {
     int32_t enc_i32_bits;     /* -2^k <= enc < 2^k: enc * travel_q fits int32 */
     int32_t pot_deg_q24;      /* Eq. 5: deg per pot count, Q24 */
     int32_t pot_offset_q24;   /* Eq. 5: deg at pot 0, Q24 */
-    int32_t motor_max_mv;     /* the motor supply: command range +-motor_max_mv (<= 32767) */
+    int32_t motor_max_mv;     /* the motor supply: command range +-motor_max_mv (int32 mV, sea_pid.h) */
     int32_t enc_jump_max;     /* default encoder-jump bound: twice the no-load counts per tick */
     int32_t pot_avg_ticks;    /* ticks per pot average (refreshed at 10 Hz) */
     int32_t pot_stuck_ticks;  /* default: rail readings over 100 ms = stuck */

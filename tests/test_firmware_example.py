@@ -52,7 +52,7 @@ def _run(files: dict[str, str], cpu: str, enc, pot, force) -> tuple[np.ndarray, 
     g = m.call("glove_init", np.zeros(16384, np.uint8), enc[0].astype(i32), pot[0].astype(i32))[0][0]
     motor, est, counts = [], [], []
     for k in range(TICKS):
-        out, fe = np.zeros(N_SEA, np.int16), np.zeros(N_SEA, np.int16)
+        out, fe = np.zeros(N_SEA, np.int32), np.zeros(N_SEA, np.int16)
         args = (g, enc[k].astype(i32), pot[k].astype(i32), force[k].astype(i32), out, fe)
         back, n = m.call("glove_tick", *args, count=k in (60, 61))
         g = back[0]

@@ -16,7 +16,7 @@ from seagen.toolchain.host import build, build_exe
 HARNESS_C = r"""
 #include "sea_pid.h"
 void pid_run(const sea_pid_params *p, int32_t n, const int32_t *sp, const int32_t *meas, const int32_t *reset,
-             const int16_t *rout, int16_t *out, int32_t *integ, int32_t *dfilt)
+             const int32_t *rout, int32_t *out, int64_t *integ, int32_t *dfilt)
 {
     sea_pid_state s;
     int32_t k;
@@ -35,29 +35,30 @@ MAIN_C = r"""
 #include <stdio.h>
 #include "sea_pid.h"
 void pid_run(const sea_pid_params *p, int32_t n, const int32_t *sp, const int32_t *meas, const int32_t *reset,
-             const int16_t *rout, int16_t *out, int32_t *integ, int32_t *dfilt);
-static int32_t sp[4096], meas[4096], rst[4096], integ[4096], dfilt[4096];
-static int16_t rout[4096], out[4096];
+             const int32_t *rout, int32_t *out, int64_t *integ, int32_t *dfilt);
+static int32_t sp[4096], meas[4096], rst[4096], dfilt[4096];
+static int64_t integ[4096];
+static int32_t rout[4096], out[4096];
 int main(void)
 {
     sea_pid_params p;
     long a, b, c, d;
     int32_t n = 0, k;
-    if (scanf("%d %d %d %d %d %hd %hd", &p.kp, &p.ki, &p.kd, &p.d_alpha, &p.margin, &p.out_min,
+    if (scanf("%d %d %d %d %d %d %d", &p.kp, &p.ki, &p.kd, &p.d_alpha, &p.margin, &p.out_min,
               &p.out_max) != 7)
         return 2;
     while (n < 4096 && scanf("%ld %ld %ld %ld", &a, &b, &c, &d) == 4) {
-        sp[n] = (int32_t)a; meas[n] = (int32_t)b; rst[n] = (int32_t)c; rout[n] = (int16_t)d; n++;
+        sp[n] = (int32_t)a; meas[n] = (int32_t)b; rst[n] = (int32_t)c; rout[n] = (int32_t)d; n++;
     }
     pid_run(&p, n, sp, meas, rst, rout, out, integ, dfilt);
     for (k = 0; k < n; k++)
-        printf("%d %d %d\n", out[k], integ[k], dfilt[k]);
+        printf("%d %lld %d\n", out[k], (long long)integ[k], dfilt[k]);
     return 0;
 }
 """
 HARNESS_CDEF = """
 void pid_run(const sea_pid_params *p, int32_t n, const int32_t *sp, const int32_t *meas, const int32_t *reset,
-             const int16_t *rout, int16_t *out, int32_t *integ, int32_t *dfilt);
+             const int32_t *rout, int32_t *out, int64_t *integ, int32_t *dfilt);
 """
 SOURCES = ("sea_fixed.h", "sea_fixed.c", "sea_fixed_ctrl.c", "sea_pid.h", "sea_pid.c")
 CDEF = cdef_of(*runtime_sources("sea_fixed.h", "sea_pid.h").values()) + "\n"
@@ -85,6 +86,8 @@ def _seq(kind: str, n: int, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
         sp = np.repeat(rng.integers(-300_000, 300_000, n // 50 + 1), 50)[:n]
     reset = (rng.random(n) < (0.02 if kind in ("resets", "walk") else 0.0)).astype(np.int64)
     rout = rng.integers(-20_000, 20_000, n)
+    if kind == "extreme":  # bumpless restarts anywhere in the int32 command range
+        rout = rng.integers(*I32, n, endpoint=True)
     return sp, meas, reset, rout
 
 
@@ -109,8 +112,8 @@ def _c_run(c, p: PidParams, sp, meas, reset, rout) -> tuple[np.ndarray, ...]:
     ffi, n = c.ffi, len(sp)
     cp = ffi.new("sea_pid_params *", p.as_tuple())
     arr = [ffi.new("int32_t[]", [int(x) for x in a]) for a in (sp, meas, reset)]
-    ro = ffi.new("int16_t[]", [int(x) for x in rout])
-    out, integ, dfilt = ffi.new("int16_t[]", n), ffi.new("int32_t[]", n), ffi.new("int32_t[]", n)
+    ro = ffi.new("int32_t[]", [int(x) for x in rout])
+    out, integ, dfilt = ffi.new("int32_t[]", n), ffi.new("int64_t[]", n), ffi.new("int32_t[]", n)
     c.lib.pid_run(cp, n, *arr, ro, out, integ, dfilt)
     return tuple(np.array(list(a), dtype=np.int64) for a in (out, integ, dfilt))
 
@@ -123,6 +126,13 @@ PARAMS = {
     "narrow_range": PidParams(kp=50_000, ki=900, kd=4000, d_alpha=20_000, margin=0, out_min=-3, out_max=700),
     "alpha_negative": PidParams(
         kp=90_000, ki=77, kd=123_456, d_alpha=-7, margin=100, out_min=-32768, out_max=32767
+    ),
+    # a 48 V motor, and the whole int32 command range (the command is int32 mV, the integrator Q16 int64)
+    "supply_48v": PidParams(
+        kp=2**22, ki=2**18, kd=2**20, d_alpha=40_000, margin=0, out_min=-48000, out_max=48000
+    ),
+    "int32_range": PidParams(
+        kp=2**31 - 1, ki=2**31 - 1, kd=-(2**31), d_alpha=65536, margin=0, out_min=-(2**31), out_max=2**31 - 1
     ),
 }
 KINDS = ("unsaturated", "saturated", "margin", "resets", "walk", "extreme")

@@ -78,8 +78,8 @@ def _unicorn_ticks(core: str, enc, pot, force, tmp) -> np.ndarray:
         "void probe_init(probe_t *p, int32_t e, int32_t q);\n"
         "void probe_init(probe_t *p, int32_t e, int32_t q)\n"
         "{ cal_mlp_reset(&p->s); ctl_sf_controller_init(&p->c, e, q); }\n"
-        "int16_t probe_tick(probe_t *p, int32_t e, int32_t q, int32_t f, int16_t *est);\n"
-        "int16_t probe_tick(probe_t *p, int32_t e, int32_t q, int32_t f, int16_t *est)\n"
+        "int32_t probe_tick(probe_t *p, int32_t e, int32_t q, int32_t f, int16_t *est);\n"
+        "int32_t probe_tick(probe_t *p, int32_t e, int32_t q, int32_t f, int16_t *est)\n"
         "{ *est = cal_mlp_step(&p->s, e, q); return ctl_sf_controller_tick(&p->c, e, q, f); }\n"
     )
     from seagen.bench.run import _machine

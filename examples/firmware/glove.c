@@ -10,7 +10,7 @@ void glove_init(glove_t *g, const int32_t *enc, const int32_t *pot)
     }
 }
 
-void glove_tick(glove_t *g, const int32_t *enc, const int32_t *pot, const int32_t *force_q16, int16_t *motor_mv,
+void glove_tick(glove_t *g, const int32_t *enc, const int32_t *pot, const int32_t *force_q16, int32_t *motor_mv,
                 int16_t *force_est)
 {
     int i;

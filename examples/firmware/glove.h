@@ -27,7 +27,7 @@ void glove_init(glove_t *g, const int32_t *enc, const int32_t *pot);
 
 /* One 10 ms tick for all actuators: raw counts and desired forces (Q16 N at the shaft) in; motor commands
  * (mV) and calibrated force estimates (int16, Q CAL_MLP_OUT_Q newtons) out. */
-void glove_tick(glove_t *g, const int32_t *enc, const int32_t *pot, const int32_t *force_q16, int16_t *motor_mv,
+void glove_tick(glove_t *g, const int32_t *enc, const int32_t *pot, const int32_t *force_q16, int32_t *motor_mv,
                 int16_t *force_est);
 
 #endif /* GLOVE_H */

@@ -80,7 +80,7 @@ def _run(
     g = machine.call("glove_init", np.zeros(16384, np.uint8), enc[0].astype(i32), pot[0].astype(i32))[0][0]
     instr, cycles, skipped = [], [], []
     for k in range(traced.stop):
-        out, est = np.zeros(N_SEA, np.int16), np.zeros(N_SEA, np.int16)
+        out, est = np.zeros(N_SEA, np.int32), np.zeros(N_SEA, np.int16)
         args = (g, enc[k].astype(i32), pot[k].astype(i32), force[k].astype(i32), out, est)
         if k in traced:
             back, t = traced_call(machine, code, "glove_tick", *args, flash_wait=flash_wait)

@@ -56,8 +56,9 @@ class ActQ:
 
     @property
     def cid(self) -> str:
-        """The C name of the constant object: sea_act_ and the first 8 hex digits of the digest."""
-        return f"sea_act_{self.digest[:8]}"
+        """The C name of the constant object: sea_act_ and the digest's first 32 bits as 8 letters a-p (one
+        per hex digit: no digits in file or check names)."""
+        return "sea_act_" + "".join("abcdefghijklmnop"[int(h, 16)] for h in self.digest[:8])
 
     @property
     def table(self) -> np.ndarray:

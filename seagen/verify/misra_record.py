@@ -28,7 +28,7 @@ def _d(ident: str, rule: str, files: str, *matches: str) -> tuple[Deviation, ...
 # Model files: NAME.c of any prefix (runtime files are named sea_*).
 MODEL_C = r"(?!sea_)\w+\.c"
 # The actuator's constants: sea_act_<id>.c (seagen/codegen/actfile.py).
-ACT_C = r"sea_act_[0-9a-f]{8}\.c"
+ACT_C = r"sea_act_[a-p]{8}\.c"
 
 RECORD: tuple[Deviation, ...] = (
     # D1 (10.1, required; shiftNegativeLHS): arithmetic right shift of a signed value = floor division.
@@ -42,8 +42,8 @@ RECORD: tuple[Deviation, ...] = (
         r"r = \(int64_t\)\(\(uint64_t\)v & \(\(\(uint64_t\)1 << s\) - 1u\)\);",
         r"int32_t i = p >> s;",
         r"int32_t f = p - \(i << s\);",
-        r"return sea_rshift_rne_s32\(\(lo32 \* \(\(1 << s\) - f\)\)",
-        r"v = \(lo \* \(\(int64_t\)1 << s\)\)",
+        r"r = sea_rshift_rne_s32\(\(lo32 \* \(\(1 << s\) - f\)\)",
+        r"const int64_t v = \(lo \* \(\(int64_t\)1 << s\)\)",
         r"if \(SEA_ABS_BELOW\(",
     ),
     *_d("D1", "shiftNegativeLHS", r"sea_fixed(_ctrl)?\.c", r"q = v >> s;"),
@@ -73,7 +73,7 @@ RECORD: tuple[Deviation, ...] = (
         r"const uint32_t r = \(uint32_t\)p & ",
         r"const int64_t (lo|hi) = \(int64_t\)p->out_(min|max) \* SEA_PID_ONE_MV;",
         r"int64_t alpha = sea_clamp_s64\(p->d_alpha",
-        r"s->integ = sea_sat32\(o \* SEA_PID_ONE_MV\);",
+        r"s->integ = o \* SEA_PID_ONE_MV;",
     ),
     *_d("D1", "shiftNegativeLHS", "sea_pid.c", r"const int32_t bh = b >> 16;"),
     *_d(
@@ -125,13 +125,13 @@ RECORD: tuple[Deviation, ...] = (
         r"^static const u?int(8|16|32|64)_t \w+_(in_lo|in_hi|w\d+|b\d+|c\d+|t\d+|u\d+|tanh\w*|sigmoid\w*|tab\w*)\[",
         r"^static const sea_pid_params \w+_pid = ",
     ),
-    *_d("D7", "8.9", ACT_C, r"^static const int32_t sea_act_[0-9a-f]{8}_link_q16\["),
+    *_d("D7", "8.9", ACT_C, r"^static const int32_t sea_act_[a-p]{8}_link_q16\["),
     # D8 (8.7, advisory): the public API (the actuator's constants and sea_linkage_q16) has external linkage.
-    *_d("D8", "8.7", ACT_C, r"^const sea_act sea_act_[0-9a-f]{8} = \{"),
+    *_d("D8", "8.7", ACT_C, r"^const sea_act sea_act_[a-p]{8} = \{"),
     *_d("D8", "8.7", r"sea_fixed(_ctrl)?\.c", r"^int32_t sea_linkage_q16\("),
     # D9 (2.5, advisory): documented constants of the runtime API that a given export does not use.
     *_d("D9", "2.5", "sea_features.h", r"^#define SEA_FEAT_(ANGLE_FRAC_BITS|EXTERNAL|BASE) "),
-    *_d("D9", "2.5", "sea_fixed.h", r"^#define SEA_FORCE_FRAC_BITS "),
+    *_d("D9", "2.5", "sea_fixed.h", r"^#define SEA_(FORCE|COMP)_FRAC_BITS "),
     *_d("D9", "2.5", "sea_dsp.h", r"^#define SEA_OPAQUE\(p\) "),
     # D10 (2.3, advisory): the compile-time check of the arithmetic right shift.
     *_d("D10", "2.3", "sea_fixed.h", r"^typedef char sea_check_arith_shift\["),
