@@ -4,6 +4,7 @@ and the controller runtime, so firmware gets the whole force loop from one folde
 from __future__ import annotations
 
 from dataclasses import fields
+from typing import Any
 
 from seagen import __version__
 from seagen.cnames import assert_valid_prefix
@@ -21,7 +22,7 @@ FIELDS = ("predict_every", "pred_avg", "force_min", "force_max", "enc_jump_max",
 def shipped_config(qm: QModel, act: ActQ | None = None) -> ControlConfig:
     """The configuration the closed-loop experiments use for this kind of predictor (Table II), for actuator
     `act` (the paper's when None: its defaults are ControlConfig's)."""
-    kw = {"pred_avg": MLP_PRED_AVG} if isinstance(qm, QMLP) else {}
+    kw: dict[str, Any] = {"pred_avg": MLP_PRED_AVG} if isinstance(qm, QMLP) else {}
     return ControlConfig(**kw) if act is None else ControlConfig.for_act(act, **kw)
 
 

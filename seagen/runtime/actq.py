@@ -147,7 +147,7 @@ def act_q(act: Actuator) -> ActQ:
     table = link_table(act, shift)
     # sea_linkage_q16: a 2^s + (b - a) f with f < 2^s in int64 needs |entry| < 2^30 (Q16: 16,384 mm).
     if int(np.abs(table).max()) >= 2**30:
-        raise _refuse(act, "the linkage term of Eq. 2 reaches 16,384 mm (2^30 in Q16 mm, the table's int32 bound)")
+        raise _refuse(act, "the linkage term of Eq. 2 reaches 16,384 mm (2^30 in Q16 mm, the table's bound)")
     travel_q, travel_shift, enc_bits = _travel(act)
     pot_deg = _q24(act, act.pot_deg_per_count, "pot.full_scale_deg per count")
     if pot_deg == 0:

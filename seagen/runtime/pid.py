@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -62,7 +63,7 @@ class PidParams:
 
 
 # Tuned on the simulated plant (c_runtime/README.md "Tuned gains"; python -m seagen.control.tune).
-DEFAULT_PID_SI = {
+DEFAULT_PID_SI: dict[str, Any] = {
     "kp_v_mm": 31.0,
     "ki_v_mm_s": 6.5,
     "kd_v_s_mm": 0.85,
