@@ -37,11 +37,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--junit", metavar="FILE", help="also write a JUnit XML report (one test case per check)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    p.add_argument(
+        "--actuator",
+        metavar="FILE",
+        help="actuator description, as given to seagen export (the model file's own is used; a FILE that "
+        "disagrees with it is refused)",
+    )
     p.set_defaults(func=cmd_pil)
 
 
 def cmd_pil(args: argparse.Namespace) -> int:
     """Run the experiment on the board; print the report and instruction counts; 0 agrees, 1 disagrees."""
+    from seagen.cli.export import given_actuator
     from seagen.errors import UserError
     from seagen.verify.pil import run_pil
 
@@ -56,6 +63,7 @@ def cmd_pil(args: argparse.Namespace) -> int:
         args.cal_model,
         args.prefix,
         args.allow_pickle,
+        given_actuator(args.actuator),
     )
     v, s = res.verdict, res.summary()
     if args.json:

@@ -86,7 +86,7 @@ def closed_loop(
     from seagen.plant import Plant, PlantConfig
 
     plant = Plant(PlantConfig(), contact_deg, seed=seed)
-    twin, cal = PyController(twin_cfg), CalTwin(cal_qm) if cal_qm is not None else None
+    twin, cal = PyController(twin_cfg), CalTwin(cal_qm, twin_cfg.act) if cal_qm is not None else None
     s = plant.read()
     board.reset(s.enc, s.pot)
     twin.reset(s.enc, s.pot)
@@ -106,7 +106,9 @@ def closed_loop(
     return None, ticks
 
 
-def _export(folder: Path, model: str, prefix: str | None, v: Verdict, allow_pickle: bool = False):
+def _export(
+    folder: Path, model: str, prefix: str | None, v: Verdict, allow_pickle: bool = False, actuator=None
+):
     """(files on disk, rebuilt export, manifest) of MODEL's export in DIR; its drift recorded in `v`."""
     from seagen.defaults import resolve_model
     from seagen.verify.drift import (
@@ -125,7 +127,7 @@ def _export(folder: Path, model: str, prefix: str | None, v: Verdict, allow_pick
     check_model(v, man, Path(model), matches)
     check_files(v, folder, man, changed_files(folder, man), None)
     check_stray(v, folder, man)
-    return disk_files(folder, man), rebuild(man, Path(model), None, allow_pickle), man
+    return disk_files(folder, man), rebuild(man, Path(model), None, allow_pickle, actuator=actuator), man
 
 
 def run_pil(
@@ -137,6 +139,7 @@ def run_pil(
     cal_model: str | None = None,
     prefix: str | None = None,
     allow_pickle: bool = False,
+    actuator=None,
 ) -> PilResult:
     """The experiment (targets 5/10/15 N, `actuators` contact angles, `ticks` per run) on the board."""
     from seagen.codegen.controller import shipped_config
@@ -147,7 +150,7 @@ def run_pil(
         raise UserError(f"--ticks must be >= 1 and --actuators 1..{MAX_ACTUATORS} (got {ticks}, {actuators})")
     root = Path(folder)
     v = Verdict("", str(root), command="pil")
-    files, ex, man = _export(root, model, prefix, v, allow_pickle)
+    files, ex, man = _export(root, model, prefix, v, allow_pickle, actuator)
     if not man.data["options"].get("controller"):
         raise UserError(
             f"{man.path}: exported without --controller (re-export with seagen export --controller)"
@@ -155,16 +158,16 @@ def run_pil(
     v.prefix = ex.prefix
     cal_qm, cal = None, None
     if cal_model is not None:
-        cal_files, cal_ex, _ = _export(root, cal_model, None, v, allow_pickle)
+        cal_files, cal_ex, _ = _export(root, cal_model, None, v, allow_pickle, actuator)
         cal_qm, cal = cal_ex.qmodel, cal_ex.prefix
         files = {**files, **cal_files}
     board = PilController(files, ex.prefix, core, cal)
     res = PilResult(v, core, board.board.machine, actuators)
-    cfg = shipped_config(ex.qmodel)  # the configuration export --controller renders
+    cfg = shipped_config(ex.qmodel, ex.act)  # the configuration export --controller renders
     angles = np.linspace(7.0, 25.0, actuators)
     try:
         for i, target in enumerate(TARGETS_N):
-            twin_cfg = replace(cfg, predictor=StepTwin(ex.prefix, ex.qmodel))
+            twin_cfg = replace(cfg, predictor=StepTwin(ex.prefix, ex.qmodel, ex.act))
             problem, done = closed_loop(board, twin_cfg, cal_qm, angles, target, ticks, seed=i)
             what = "commands, desired, comp, pot_avg, fault" + (f" and {cal} force estimates" if cal else "")
             v.add(
