@@ -313,3 +313,15 @@ def test_manifest_records_the_actuator(tmp_path):
         "file": f"{ex.act.cid}.c",
     }
     assert Path(man["resolved"]["actuator"]["file"]).name in man["files"]
+
+
+def test_verify_checks_the_geometry_file(tmp_path, capsys):
+    """seagen verify fails (exit 1) when the emitted sea_act file was edited, naming the file."""
+    model = GENERATED / "models" / "sf_calibration.pt"
+    out = tmp_path / "fw"
+    assert main(["export", str(model), "--out", str(out), "--prefix", "m"]) == 0
+    (act_c,) = out.glob("sea_act_*.c")
+    act_c.write_text(act_c.read_text().replace("    73584,", "    73585,"))
+    capsys.readouterr()
+    assert main(["verify", str(out), "--model", str(model), "--vectors", "50"]) == 1
+    assert f"{act_c.name}: edited since export" in capsys.readouterr().out
