@@ -111,6 +111,7 @@ def _tick_driver(prefix: str) -> dict[str, str]:
         .get_template("bench_tick.c.j2")
         .render(
             P=prefix,
+            PU=prefix.upper(),
             version=__version__,
             pid=c.pid.as_tuple(),
             pred_avg=MLP_PRED_AVG,

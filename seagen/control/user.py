@@ -27,6 +27,7 @@ class Exported:
     qmodel: Any
     prefix: str
     files: dict[str, str]
+    act: Any = None  # the actuator's constants (seagen.runtime.actq.ActQ) the C was rendered for
 
 
 def exported(model: str, features: str | None = None, allow_pickle: bool = False) -> Exported:
@@ -36,9 +37,11 @@ def exported(model: str, features: str | None = None, allow_pickle: bool = False
     from seagen.codegen.render import RUNTIME, render
     from seagen.codegen.runtime import runtime_sources
     from seagen.errors import CheckFailed
+    from seagen.export import export_actuator
     from seagen.frontends.load import load_with_original, read_features_file
     from seagen.quant.model import quantize
     from seagen.reference.oracle import box_points, compare_original
+    from seagen.runtime.actq import act_q
 
     loaded = load_with_original(model, read_features_file(features), None, allow_pickle)
     qm = quantize(loaded.model)
@@ -49,7 +52,9 @@ def exported(model: str, features: str | None = None, allow_pickle: bool = False
         raise CheckFailed(f"{model}: {rep.line()}")
     stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(model).stem)
     prefix = assert_valid_prefix(stem if stem[:1].isalpha() and not stem.startswith("sea") else f"m_{stem}")
-    return Exported(loaded.model, qm, prefix, {**render(qm, prefix), **runtime_sources(*RUNTIME)})
+    aq = act_q(export_actuator(model, None, allow_pickle))  # the model file's actuator (the paper's if none)
+    files = {**render(qm, prefix, act=aq), **runtime_sources(*RUNTIME)}
+    return Exported(loaded.model, qm, prefix, files, aq)
 
 
 def control_setups(
@@ -74,13 +79,20 @@ def control_setups(
         )
     cdef = cdef_of(*runtime_sources("sea_features.h").values(), ex.files[f"{p}.h"])
     sources = {**runtime_sources(*NN_SOURCES), f"{p}.h": ex.files[f"{p}.h"], f"{p}.c": ex.files[f"{p}.c"]}
-    cfg = shipped_config(qm)
+    sources |= {n: t for n, t in ex.files.items() if n.startswith("sea_act_")}
+    cfg = shipped_config(qm, ex.act)
     fm = ex.float_model
     names = [s.name for s in fm.inputs]
 
     def mcu(_latency_s: float) -> Setup:
         pred = McuPredictor(
-            f"{p}_predict_q16", generated_ctx(p), lambda: StepTwin(p, qm), 1, cdef, sources, stateful=True
+            f"{p}_predict_q16",
+            generated_ctx(p),
+            lambda: StepTwin(p, qm, ex.act),
+            1,
+            cdef,
+            sources,
+            stateful=True,
         )
         return pred, cfg
 
