@@ -10,9 +10,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from seagen.actuator import Actuator, default_actuator
+from seagen.actuator import Actuator
 from seagen.atomic import locked_folder, writable_place
 from seagen.cnames import assert_valid_prefix, identifier_from
+from seagen.codegen.actfile import export_actuator
 from seagen.codegen.manifest import SUFFIX, manifest_text
 from seagen.codegen.quant_summary import summary_lines
 from seagen.codegen.render import RUNTIME, model_hash, render
@@ -56,22 +57,6 @@ def calib_ranges(data_dir: str, names: list[str]) -> list[list[float]]:
     if missing:
         raise UserError(f"{data_dir}: cannot compute a calibration range for {', '.join(missing)}")
     return [[float(df[n].min()), float(df[n].max())] for n in names]
-
-
-def export_actuator(model_path: str, given: Actuator | None = None, allow_pickle: bool = False) -> Actuator:
-    """The actuator an export is for: the one a seagen model file recorded (the paper's for a file from
-    before the record), else the given one (a bare network or ONNX graph), else the paper's. A given
-    description that disagrees with the model file's is refused (exit 2)."""
-    from seagen.filekind import PICKLE, TORCH_SAVE, file_kind
-    from seagen.frontends.torch_files import load_torch
-    from seagen.modelfile import FORMAT, model_actuator
-
-    p = Path(model_path)
-    if file_kind(p) in (TORCH_SAVE, PICKLE):
-        obj = load_torch(p, allow_pickle)
-        if isinstance(obj, dict) and obj.get("format") == FORMAT:
-            return model_actuator(obj, model_path, given)
-    return given or default_actuator()
 
 
 def default_prefix(model_path: str) -> str:

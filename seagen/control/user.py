@@ -34,10 +34,10 @@ def exported(model: str, features: str | None = None, allow_pickle: bool = False
     """MODEL read, quantized, checked against its original by the oracle (CheckFailed beyond the bound) and
     rendered to C: the in-memory core of `seagen export` (no manifest, nothing written)."""
     from seagen.cnames import assert_valid_prefix
+    from seagen.codegen.actfile import export_actuator
     from seagen.codegen.render import RUNTIME, render
     from seagen.codegen.runtime import runtime_sources
     from seagen.errors import CheckFailed
-    from seagen.export import export_actuator
     from seagen.frontends.load import load_with_original, read_features_file
     from seagen.quant.model import quantize
     from seagen.reference.oracle import box_points, compare_original
