@@ -101,33 +101,71 @@ def _words(row: np.ndarray) -> list[int]:
     ]
 
 
+def _groups(n_out: int, size: int) -> list[list[int]]:
+    """Neuron indices in passes of `size` (the last pass may be smaller)."""
+    return [list(range(j, min(j + size, n_out))) for j in range(0, n_out, size)]
+
+
+def _pass_plan(g: int, n_words: int, acc: int, run: int) -> dict[str, Any]:
+    """One M4 pass over g neurons: its table words in order, in runs of `run` loads back to back (the
+    biases into the accumulators a0.., the weights into v0..), each run followed by the SMLADs it feeds."""
+    items = [(f"a{n}", -1, n) for n in range(g)] if acc == 32 else []
+    items += [("", i, n) for i in range(n_words) for n in range(g)]
+    runs = []
+    for start in range(0, len(items), run):
+        chunk = items[start : start + run]
+        names = [a or f"v{p}" for p, (a, _, _) in enumerate(chunk)]
+        macs = [(n, i, names[p]) for p, (_, i, n) in enumerate(chunk) if i >= 0]
+        runs.append({"at": start, "names": names, "macs": macs})
+    return {"g": g, "runs": runs, "temps": sorted({v for r in runs for _, _, v in r["macs"]})}
+
+
 def m4_layers(qm: QMLP) -> list[dict[str, Any]]:
-    """Cortex-M4 layer context: packed tables and the accumulator width proven with the folded half."""
+    """Cortex-M4 layer context: packed tables and the accumulator width proven with the folded half.
+
+    A hidden layer runs `group` neurons per pass (4 with 32-bit accumulators, 2 with 64-bit ones), its table
+    holding per pass the biases (32-bit) then, input word by input word, that word of each neuron's weights:
+    the pass reads the table in order, its loads back to back, one input word serving `group` SMLADs."""
     out = []
     for k, (q, (lo, hi)) in enumerate(zip(qm.layers, _in_bounds(qm), strict=True)):
         n_out, n_in = q.w_q.shape
         half = _half(q.shift)
         mn, mx, worst = acc_interval(q.w_q, q.b_q, lo, hi)
         acc = 32 if max(worst) + half <= INT32_MAX else 64
-        unroll = 4 if len(_words(q.w_q[0])) % 4 == 0 else (2 if len(_words(q.w_q[0])) % 2 == 0 else 1)
-        bias = [int(b) + half for b in q.b_q]
+        last = k == len(qm.layers) - 1
+        n_words = (n_in + 1) // 2
+        unroll = 4 if n_words % 4 == 0 else (2 if n_words % 2 == 0 else 1)
+        group = 1 if last else 2
+        # back-to-back loads: 4 while the inputs (in registers) leave the room, else 2
+        run = 4 if n_words <= 6 else 2
+        bias = [int(b) + half - 1 for b in q.b_q]  # sea_rne_bit_* rounds u = acc + 2^(s-1) - 1
         rows = [_words(q.w_q[j]) for j in range(n_out)]
-        table = [v for j in range(n_out) for v in ([bias[j]] if acc == 32 else []) + rows[j]]
+        table = [
+            v
+            for g in _groups(n_out, group)
+            for v in ([bias[j] for j in g] if acc == 32 else []) + [rows[j][i] for i in range(n_words) for j in g]
+        ]
         out.append(
             {
                 "k": k,
                 "n_in": n_in,
                 "n_out": n_out,
-                "n_words": (n_in + 1) // 2,
+                "n_words": n_words,
+                "group": group,
+                "n_groups": n_out // group,
+                "rest": n_out % group,
                 "stride": len(rows[0]) + (1 if acc == 32 else 0),
                 "acc": acc,
                 "shift": q.shift,
                 "act": q.activation,
                 "table": table,
                 "bias64": bias if acc == 64 else None,
-                "last": k == len(qm.layers) - 1,
+                "last": last,
                 "unroll": unroll,
                 **_helpers(acc, q.activation, _proven16(mn, mx, q.shift)),
+                "rne": f"sea_rne_bit_s{acc}",
+                "pack": "sea_pack_nonneg16x2" if q.activation == "relu" else "sea_pack16x2",
+                "plans": [_pass_plan(g, n_words, acc, run) for g in (group, n_out % group) if g and not last],
             }
         )
     return out
@@ -224,5 +262,8 @@ def kernel_context(qm: QModel, target: str) -> dict[str, Any]:
     if isinstance(qm, QSF):
         return {"target": target, **sf_steps(qm)}
     _check_layers(qm, target)
-    layers = m4_layers(qm) if target == "cortex-m4" else m0plus_layers(qm)
-    return {"target": target, "tlayers": layers, "template": TEMPLATES[target]}
+    if target == "cortex-m4":
+        box = [(_words(np.array([i.lo_q for i in qm.inputs])), _words(np.array([i.hi_q for i in qm.inputs])))]
+        clamp = {"own_clamp": True, "in_lo2": box[0][0], "in_hi2": box[0][1]}
+        return {"target": target, "tlayers": m4_layers(qm), "template": TEMPLATES[target], **clamp}
+    return {"target": target, "tlayers": m0plus_layers(qm), "template": TEMPLATES[target]}
