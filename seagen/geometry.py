@@ -18,6 +18,7 @@ class Geometry:
         self.actuator = act
         lk = act.linkage
         self.spring_n_per_mm = act.stiffness_n_per_mm  # k_s
+        self.friction_n = act.friction_n  # F_fa of Eq. 1: what the textbook estimate compensates
         self.mm_per_count = act.mm_per_count  # Eq. 3: nut travel per encoder count
         self.pot_deg_per_count = act.pot_deg_per_count  # Eq. 4-5
         self.pot_offset_deg = act.pot.offset_deg  # Eq. 5

@@ -30,7 +30,8 @@ def rig_trials(
     n = len(moves)
     peak = np.array([m.peak_n for m in moves])
     back = np.array([m.retract_v for m in moves])
-    pushing = _stairs(moves, cfg.dt_s)
+    pushing = _stairs(moves, cfg)
+    period_ms = int(round(1000.0 / cfg.actuator.loop_hz))  # the protocol's sample period
     step_ms = cfg.dt_s * 1000.0
     phase, quiet = np.zeros(n, dtype=int), np.zeros(n, dtype=int)
     nxt = np.zeros(n, dtype=int)  # plant step of each trial's next sample
@@ -43,7 +44,7 @@ def rig_trials(
             phase = np.where(due & (phase == 0) & (s.force_n >= peak), 1, phase)
             quiet = np.where(due, np.where((phase == 1) & (s.force_n < 0.4), quiet + 1, 0), quiet)
             done = due & (phase == 1) & ((quiet >= 25) | (s.enc <= 0))
-            push_now = pushing(int(k * step_ms) // 10, s.enc, s.force_n)
+            push_now = pushing(int(k * step_ms) // period_ms, s.enc, s.force_n)
             new = np.where(phase == 0, push_now, np.where(phase == 1, back, 0.0))
             for i in np.flatnonzero(due):
                 logged = new[i] if convention == "from_row" else volts[i]
