@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from seagen.actuator import Actuator, default_actuator
 from seagen.data.protocol import Move, _stairs
 from seagen.plant import Plant, PlantConfig
 
@@ -65,9 +66,13 @@ def rig_trials(
     return out
 
 
-def rig_csv(frames: list[pd.DataFrame], start_ms: int = 12_345, gap_ms: int = 2_000) -> str:
-    """The trials as one log a rig writes: integer-ms clock from power-on, gaps between trials, PWM in %,
-    pot in mV, forces in kgf, angle in rad, an extra column, CRLF line ends, no trial column."""
+def rig_csv(
+    frames: list[pd.DataFrame], start_ms: int = 12_345, gap_ms: int = 2_000, act: Actuator | None = None
+) -> str:
+    """The trials as one log a rig writes: integer-ms clock from power-on, gaps between trials, PWM in % of
+    the supply of `act` (the paper's when None), pot in mV of its ADC, forces in kgf, angle in rad, an extra
+    column, CRLF line ends, no trial column."""
+    act = act or default_actuator()
     parts, t0 = [], start_ms
     for df in frames:
         ms = t0 + np.rint(df["t_s"].to_numpy() * 1000.0).astype(np.int64)
@@ -76,9 +81,9 @@ def rig_csv(frames: list[pd.DataFrame], start_ms: int = 12_345, gap_ms: int = 2_
                 {
                     "millis": ms,
                     "contact_rad": np.radians(df["angle_set_deg"].to_numpy(float)),
-                    "pwm_pct": df["motor_v"].to_numpy(float) / 12.0 * 100.0,
+                    "pwm_pct": df["motor_v"].to_numpy(float) / act.motor.supply_v * 100.0,
                     "enc": df["enc"].to_numpy(),
-                    "pot_mV": df["pot"].to_numpy(float) * 3300.0 / 4095.0,
+                    "pot_mV": df["pot"].to_numpy(float) * 3300.0 / float(act.adc_max),
                     "tip_kgf": df["load_cell_n"].to_numpy(float) / 9.80665,
                     "shaft_kgf": df["force_n"].to_numpy(float) / 9.80665,
                     "temp_C": 24.5,
