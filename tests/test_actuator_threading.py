@@ -211,7 +211,7 @@ def test_cli_refuses_old_plant_toml(tmp_path, capsys):
 
 def test_generate_and_train_on_the_second_design(tmp_path, monkeypatch, capsys):
     """`data generate --actuator` keeps the description in the data folder; `train` records it in the model
-    file (values + sha256) and its loop rate in the feature spec; a disagreeing --actuator is refused (~9 s)."""
+    file (values + sha256), its loop rate in the feature spec; a disagreeing --actuator is refused (~9 s)."""
     act = load_actuator(EXAMPLE)
     assert act.digest() != default_actuator().digest()
     monkeypatch.setattr(protocol, "SECONDS", {"train": 4.0, "test": 1.5, "validation": 0.5})
