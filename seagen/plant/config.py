@@ -273,7 +273,7 @@ MOVED_MOTOR_KEYS = ("supply_v", "no_load_rpm", "counts_per_rev", "time_constant_
 
 def _fill(cls: type, data: dict[str, Any], where: str, path: str) -> Any:
     """Build dataclass `cls` from `data`, rejecting unknown keys and wrong types with their location."""
-    known = {f.name: f for f in fields(cls)}
+    known = {f.name: f for f in fields(cls) if f.name != "actuator"}  # the description is its own file
     kwargs: dict[str, Any] = {}
     for key, value in data.items():
         if key not in known:
