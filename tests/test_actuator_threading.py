@@ -214,7 +214,7 @@ def test_generate_and_train_on_the_second_design(tmp_path, monkeypatch, capsys):
     file (values + sha256), its loop rate in the feature spec; a disagreeing --actuator is refused (~9 s)."""
     act = load_actuator(EXAMPLE)
     assert act.digest() != default_actuator().digest()
-    monkeypatch.setattr(protocol, "SECONDS", {"train": 4.0, "test": 1.5, "validation": 0.5})
+    monkeypatch.setattr(protocol, "SECONDS", {"train": 4.0, "test": 2.5, "validation": 2.5})
     data = tmp_path / "data"
     assert main(["data", "generate", "--out", str(data), "--actuator", str(EXAMPLE)]) == 0
     assert load_actuator(data / "actuator.toml") == act
