@@ -171,7 +171,7 @@ EXPECTED = {
 
 def test_every_field_moves_the_consumers_that_read_it(tmp_path):
     """Each numeric field scaled in turn (x1.1, or the first of 0.9, 2, 0.5 that stays valid) changes the
-    output of exactly the consumers listed in EXPECTED; a field nobody reads fails (~10 s)."""
+    output of exactly the consumers listed in EXPECTED; a field nobody reads fails (~10-15 s)."""
     fields = _numeric_fields(default_actuator().to_dict())
     assert set(fields) == set(EXPECTED), "a description field without an expected reader (or a stale one)"
     base = _consumers(default_actuator(), tmp_path)
@@ -211,7 +211,7 @@ def test_cli_refuses_old_plant_toml(tmp_path, capsys):
 
 def test_generate_and_train_on_the_second_design(tmp_path, monkeypatch, capsys):
     """`data generate --actuator` keeps the description in the data folder; `train` records it in the model
-    file (values + sha256), its loop rate in the feature spec; a disagreeing --actuator is refused (~9 s)."""
+    file (values + sha256), its loop rate in the feature spec; a disagreeing --actuator is refused (~10 s)."""
     act = load_actuator(EXAMPLE)
     assert act.digest() != default_actuator().digest()
     monkeypatch.setattr(protocol, "SECONDS", {"train": 4.0, "test": 2.5, "validation": 2.5})
@@ -226,15 +226,16 @@ def test_generate_and_train_on_the_second_design(tmp_path, monkeypatch, capsys):
     capsys.readouterr()
     paper = str(Path(__file__).resolve().parents[1] / "seagen" / "actuators" / "paper.toml")
     other = tmp_path / "x.pt"
-    assert (
-        main(["train", "--data", str(data), "--model", "sf", "--out", str(other), "--actuator", paper]) == 2
-    )
+    cmd = ["train", "--data", str(data), "--model", "sf", "--out", str(other), "--actuator"]
+    assert main([*cmd, paper]) == 2
     err = capsys.readouterr().err
     assert "actuator.toml" in err and "--actuator" in err and not other.exists()
-    assert (
-        main(["train", "--data", str(data), "--model", "sf", "--out", str(other), "--actuator", str(EXAMPLE)])
-        == 0
-    )
+    assert main([*cmd, str(EXAMPLE)]) == 0
+    ctl = tmp_path / "ctl.pt"
+    assert main(["train", "--data", str(data), "--model", "sf", "--task", "control", "--out", str(ctl)]) == 0
+    capsys.readouterr()
+    assert main(["simulate", "--model", str(ctl)]) == 2  # the C side has the paper's geometry compiled in
+    assert "paper's geometry" in capsys.readouterr().err
 
 
 def test_simulate_and_evaluate_refuse_another_actuator(tmp_path, capsys):
