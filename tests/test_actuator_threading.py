@@ -104,13 +104,13 @@ def _consumers(act, tmp: Path) -> dict[str, object]:
     out: dict[str, object] = {}
     plant = Plant(cfg, np.array([8.0, 18.0]), seed=1)
     reads = []
-    for k in range(400):
-        plant.step(5.0 if k < 300 else -5.0)
+    for k in range(320):
+        plant.step(5.0 if k < 280 else -5.0)
         if k % 20 == 0:
             s = plant.read()
             reads.append(np.concatenate([s.enc, s.pot, s.load_cell_n, s.motor_current]))
     out["plant"] = np.concatenate(reads)
-    frame = run_trials(cfg, [Move(12.0, 3.0, 4.0, -6.0, 0.5)], seed=2, max_s=0.6)[0]
+    frame = run_trials(cfg, [Move(12.0, 3.0, 4.0, -6.0, 0.5)], seed=2, max_s=0.4)[0]
     out["protocol"] = (
         frame.to_numpy(float),
         protocol.train_angles(geo),
@@ -171,7 +171,7 @@ EXPECTED = {
 
 def test_every_field_moves_the_consumers_that_read_it(tmp_path):
     """Each numeric field scaled in turn (x1.1, or the first of 0.9, 2, 0.5 that stays valid) changes the
-    output of exactly the consumers listed in EXPECTED; a field nobody reads fails (~10-15 s)."""
+    output of exactly the consumers listed in EXPECTED; a field nobody reads fails (~8 s)."""
     fields = _numeric_fields(default_actuator().to_dict())
     assert set(fields) == set(EXPECTED), "a description field without an expected reader (or a stale one)"
     base = _consumers(default_actuator(), tmp_path)
