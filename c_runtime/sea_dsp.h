@@ -47,6 +47,52 @@ static inline int32_t sea_pack16x2(int32_t lo, int32_t hi)
 
 }
 
+/* Pack two int16 values known to be >= 0 (ReLU outputs): lo + hi * 2^16, one ADD; equals sea_pack16x2. */
+static inline int32_t sea_pack_nonneg16x2(int32_t lo, int32_t hi)
+{
+    return (hi * 65536) + lo;
+}
+
+/* v0 = p[0], v1 = p[1]; with gcc on a core with the DSP extension as two LDRs back to back in one asm
+ * statement: the compiler would interleave the loads with the SMLADs that use them, and the Cortex-M4
+ * pipelines a load only behind another load (2 cycles for the first, 1 for each next). */
+static inline void sea_ld2(const int32_t *p, int32_t *v0, int32_t *v1)
+{
+#if defined(__ARM_FEATURE_SIMD32) && defined(__GNUC__)
+    int32_t a;
+    int32_t b;
+    __asm__("ldr %0, %2\n\tldr %1, %3" : "=&r"(a), "=r"(b) : "m"(p[0]), "m"(p[1]));
+    *v0 = a;
+    *v1 = b;
+#else
+    *v0 = p[0];
+    *v1 = p[1];
+#endif
+}
+
+/* v0..v3 = p[0..3], four LDRs back to back (see sea_ld2). */
+static inline void sea_ld4(const int32_t *p, int32_t *v0, int32_t *v1, int32_t *v2, int32_t *v3)
+{
+#if defined(__ARM_FEATURE_SIMD32) && defined(__GNUC__)
+    int32_t a;
+    int32_t b;
+    int32_t c;
+    int32_t d;
+    __asm__("ldr %0, %4\n\tldr %1, %5\n\tldr %2, %6\n\tldr %3, %7"
+            : "=&r"(a), "=&r"(b), "=&r"(c), "=r"(d)
+            : "m"(p[0]), "m"(p[1]), "m"(p[2]), "m"(p[3]));
+    *v0 = a;
+    *v1 = b;
+    *v2 = c;
+    *v3 = d;
+#else
+    *v0 = p[0];
+    *v1 = p[1];
+    *v2 = p[2];
+    *v3 = p[3];
+#endif
+}
+
 #if defined(__ARM_FEATURE_SIMD32)
 /* acc + lo(x)*lo(w) + hi(x)*hi(w): one SMLAD. The generator proves |acc| + the products stay < 2^31. */
 static inline int32_t sea_smlad(int32_t x, int32_t w, int32_t acc)
@@ -81,6 +127,27 @@ static inline int32_t sea_rne_folded_s32(int32_t v, int s)
     if (((uint32_t)v << (32 - s)) == 0u) {
         q &= ~1;
     }
+    return q;
+}
+
+/* Round-half-to-even shift of u = acc + 2^(s-1) - 1 (the bias carries 2^(s-1) - 1), 1 <= s <= 30:
+ * (u + bit s of u) >> s, which equals sea_rshift_rne_s32(acc, s). With acc = k 2^s + r (0 <= r < 2^s):
+ * r < 2^(s-1) gives k, r > 2^(s-1) gives k + 1, and the tie r = 2^(s-1) gives k + (k & 1), the even one.
+ * Three instructions on the M4 with the saturation (UBFX, ADD, USAT/SSAT with the shift), no IT block. */
+static inline int32_t sea_rne_bit_s32(int32_t u, int s)
+{
+    const uint32_t bit = ((uint32_t)u >> s) & 1u;
+    const int32_t v = u + (int32_t)bit;
+    int32_t q = v >> s;
+    return q;
+}
+
+/* The same for a 64-bit accumulator, 1 <= s <= 62. */
+static inline int64_t sea_rne_bit_s64(int64_t u, int s)
+{
+    const uint64_t bit = ((uint64_t)u >> s) & 1u;
+    const int64_t v = u + (int64_t)bit;
+    int64_t q = v >> s;
     return q;
 }
 
@@ -189,6 +256,23 @@ static inline int32_t sea_mulshr_s32(int32_t x, int32_t r, int s)
 static inline int32_t sea_u32_to_s32(uint32_t u)
 {
     return (u <= 0x7FFFFFFFu) ? (int32_t)u : ((int32_t)(u - 0x80000000u) - 0x7FFFFFFF - 1);
+}
+
+/* Clamp both int16 halves of the packed word x to [lo, hi] (the halves of the packed words lo and hi, each
+ * lo half <= its hi half): sea_clamp_s32 on each half. With the DSP extension max then min as SSUB16 (GE
+ * flags per half) and SEL, four instructions for two inputs. */
+static inline int32_t sea_clamp16x2(int32_t x, int32_t lo, int32_t hi)
+{
+#if defined(__ARM_FEATURE_SIMD32)
+    int32_t m;
+    (void)__ssub16(x, lo);
+    m = sea_u32_to_s32(__sel((uint32_t)x, (uint32_t)lo));
+    (void)__ssub16(m, hi);
+    return sea_u32_to_s32(__sel((uint32_t)hi, (uint32_t)m));
+#else
+    return sea_pack16x2(sea_clamp_s32(sea_lo16(x), sea_lo16(lo), sea_lo16(hi)),
+                        sea_clamp_s32(sea_hi16(x), sea_hi16(lo), sea_hi16(hi)));
+#endif
 }
 
 #endif

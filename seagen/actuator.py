@@ -8,7 +8,13 @@ Fields and units (the paper's actuator, `seagen/actuators/paper.toml`, is the de
             no_load_rpm          rpm    no-load speed of the motor shaft at supply_v
             gear_ratio           -      gearbox reduction (motor turns per output turn)
             counts_per_rev       count  encoder counts per motor revolution (integer)
+            stall_force_n        N      nut force that stalls the motor at supply_v (stall torque x gear
+                                        ratio x 2 pi / lead, less the screw's losses)
+            time_constant_s      s      first-order lag of the nut speed behind the command (electrical +
+                                        rotor inertia through the gearbox)
     [transmission] lead_mm       mm     nut travel per gearbox output revolution
+                   friction_n    N      actuator friction at the output shaft, measured as in the paper's
+                                        Fig. 7: the constant the textbook (kinematics) estimate compensates
     [spring] stiffness_n_per_mm  N/mm   series spring stiffness k_s
     [linkage] cb_mm, ce_mm       mm     the constant lengths CB and CE of Eq. 2
               home_deg           deg    contact angle at rest with the spring unloaded
@@ -31,6 +37,7 @@ import math
 import os
 import tomllib
 from dataclasses import asdict, dataclass
+from functools import lru_cache
 from importlib import resources
 from typing import Any
 
@@ -50,6 +57,8 @@ class Motor:
     no_load_rpm: float
     gear_ratio: float
     counts_per_rev: int
+    stall_force_n: float
+    time_constant_s: float
 
 
 @dataclass(frozen=True)
@@ -83,6 +92,7 @@ class Actuator:
     name: str
     motor: Motor
     lead_mm: float
+    friction_n: float
     stiffness_n_per_mm: float
     linkage: Linkage
     pot: Pot
@@ -109,7 +119,7 @@ class Actuator:
             "kind": self.kind,
             "name": self.name,
             "motor": asdict(self.motor),
-            "transmission": {"lead_mm": self.lead_mm},
+            "transmission": {"lead_mm": self.lead_mm, "friction_n": self.friction_n},
             "spring": {"stiffness_n_per_mm": self.stiffness_n_per_mm},
             "linkage": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self.linkage).items()},
             "pot": asdict(self.pot),
@@ -126,8 +136,15 @@ class Actuator:
 
 
 _TABLES: dict[str, dict[str, type]] = {
-    "motor": {"supply_v": float, "no_load_rpm": float, "gear_ratio": float, "counts_per_rev": int},
-    "transmission": {"lead_mm": float},
+    "motor": {
+        "supply_v": float,
+        "no_load_rpm": float,
+        "gear_ratio": float,
+        "counts_per_rev": int,
+        "stall_force_n": float,
+        "time_constant_s": float,
+    },
+    "transmission": {"lead_mm": float, "friction_n": float},
     "spring": {"stiffness_n_per_mm": float},
     "linkage": {
         "cb_mm": float,
@@ -191,6 +208,8 @@ def _check(a: Actuator, where: str) -> Actuator:
         "motor.no_load_rpm": a.motor.no_load_rpm,
         "motor.gear_ratio": a.motor.gear_ratio,
         "motor.counts_per_rev": a.motor.counts_per_rev,
+        "motor.stall_force_n": a.motor.stall_force_n,
+        "motor.time_constant_s": a.motor.time_constant_s,
         "transmission.lead_mm": a.lead_mm,
         "spring.stiffness_n_per_mm": a.stiffness_n_per_mm,
         "linkage.cb_mm": a.linkage.cb_mm,
@@ -200,6 +219,8 @@ def _check(a: Actuator, where: str) -> Actuator:
     for field, v in positive.items():
         if v <= 0:
             raise ActuatorError(f"{where}: '{field}' must be positive, got {v!r}")
+    if a.friction_n < 0:
+        raise ActuatorError(f"{where}: 'transmission.friction_n' must be >= 0, got {a.friction_n!r}")
     lk = a.linkage
     if not lk.angle_min_deg < lk.split_deg < lk.angle_max_deg:
         raise ActuatorError(f"{where}: 'linkage': need angle_min_deg < split_deg < angle_max_deg")
@@ -226,6 +247,7 @@ def actuator_from_dict(data: dict[str, Any], where: str = "<dict>") -> Actuator:
         name=name,
         motor=Motor(**t["motor"]),
         lead_mm=t["transmission"]["lead_mm"],
+        friction_n=t["transmission"]["friction_n"],
         stiffness_n_per_mm=t["spring"]["stiffness_n_per_mm"],
         linkage=Linkage(**t["linkage"]),
         pot=Pot(**t["pot"]),
@@ -234,11 +256,20 @@ def actuator_from_dict(data: dict[str, Any], where: str = "<dict>") -> Actuator:
     return _check(act, where)
 
 
+def to_toml(act: Actuator, note: str = "") -> str:
+    """The parsed values as a description file (what `data generate` / `data import` keep beside the data)."""
+    import tomli_w
+
+    head = "# seagen actuator description (fields: seagen/actuator.py)" + (f"; {note}" if note else "")
+    return head + "\n" + tomli_w.dumps(act.to_dict())
+
+
 def load_actuator(path: str | os.PathLike[str]) -> Actuator:
     """Read and validate an actuator description (TOML)."""
     return actuator_from_dict(read_toml(path, ActuatorError), str(path))
 
 
+@lru_cache(maxsize=1)
 def default_actuator() -> Actuator:
     """The paper's actuator, shipped as package data (`seagen/actuators/paper.toml`)."""
     text = resources.files("seagen.actuators").joinpath("paper.toml").read_text(encoding="utf-8")

@@ -41,8 +41,9 @@ def check_data_dir(ex, data_dir: str, target=None, onnx_model=None) -> DataRepor
     """NAME_infer on the test and validation features, NAME_step on whole recorded trials, and |C - float|;
     on `target` (default: ex.files built for the host) against `onnx_model` (default: the export's)."""
     from seagen.data.features import derive
-    from seagen.data.schema import load_split
+    from seagen.data.schema import data_actuator, load_split
     from seagen.errors import UserError
+    from seagen.geometry import geometry
     from seagen.reference.float_ref import predict, quantize_features
     from seagen.runtime.features import has_pipeline
 
@@ -57,8 +58,9 @@ def check_data_dir(ex, data_dir: str, target=None, onnx_model=None) -> DataRepor
             else onnx_ref.build_onnx(qm)
         )
     checks, max_err, oracles = [], 0.0, []
+    geo = geometry(data_actuator(data_dir))  # the features of the actuator the data came from
     for split in ("test", "validation"):
-        df = derive(load_split(data_dir, split))
+        df = derive(load_split(data_dir, split), geo)
         missing = [n for n in names if n not in df.columns]
         if missing:
             raise UserError(f"{data_dir}/{split}.csv: no column {', '.join(missing)} for the model's inputs")

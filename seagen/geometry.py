@@ -18,6 +18,7 @@ class Geometry:
         self.actuator = act
         lk = act.linkage
         self.spring_n_per_mm = act.stiffness_n_per_mm  # k_s
+        self.friction_n = act.friction_n  # F_fa of Eq. 1: what the textbook estimate compensates
         self.mm_per_count = act.mm_per_count  # Eq. 3: nut travel per encoder count
         self.pot_deg_per_count = act.pot_deg_per_count  # Eq. 4-5
         self.pot_offset_deg = act.pot.offset_deg  # Eq. 5
@@ -74,22 +75,8 @@ def geometry(act: Actuator | None = None) -> Geometry:
     return Geometry(default_actuator() if act is None else act)
 
 
-# The default actuator's geometry under the module names older callers use (seagen/actuators/paper.toml).
-DEFAULT = geometry()
-ACTUATOR = DEFAULT.actuator
-SPRING_N_PER_MM = DEFAULT.spring_n_per_mm
-MM_PER_COUNT = DEFAULT.mm_per_count
-POT_DEG_PER_COUNT = DEFAULT.pot_deg_per_count
-POT_OFFSET_DEG = DEFAULT.pot_offset_deg
-ANGLE_MIN_DEG, ANGLE_MAX_DEG = DEFAULT.angle_min_deg, DEFAULT.angle_max_deg
-R_L_SPLIT_DEG = DEFAULT.split_deg
-ADC_MAX = DEFAULT.adc_max
-CB_MM, CE_MM, HOME_DEG, DE_HOME_MM = DEFAULT.cb_mm, DEFAULT.ce_mm, DEFAULT.home_deg, DEFAULT.de_home_mm
-H_FIT, V_FIT = DEFAULT.h_fit, DEFAULT.v_fit
-linkage_ratio = DEFAULT.linkage_ratio
-angle_from_pot = DEFAULT.angle_from_pot
-pot_from_angle = DEFAULT.pot_from_angle
-nut_travel_mm = DEFAULT.nut_travel_mm
-compression_mm = DEFAULT.compression_mm
-shaft_advance_mm = DEFAULT.shaft_advance_mm
-angle_from_shaft = DEFAULT.angle_from_shaft
+# The default actuator's numbers that seagen/runtime/fixed.py (the C side, not yet threaded) still reads;
+# nothing else in seagen uses module-level geometry: remove these with that file's last use.
+_DEFAULT = geometry()
+POT_DEG_PER_COUNT, POT_OFFSET_DEG = _DEFAULT.pot_deg_per_count, _DEFAULT.pot_offset_deg
+CB_MM, CE_MM, DE_HOME_MM = _DEFAULT.cb_mm, _DEFAULT.ce_mm, _DEFAULT.de_home_mm

@@ -7,8 +7,8 @@ from importlib import resources
 
 import pytest
 
-from seagen import geometry as g
 from seagen.actuator import ActuatorError, actuator_from_dict, default_actuator, load_actuator
+from seagen.geometry import geometry
 
 
 def _paper() -> dict:
@@ -23,7 +23,8 @@ def test_default_is_the_papers_actuator():
     assert round(a.mm_per_count, 8) == 0.00438596
     assert round(a.pot_deg_per_count, 6) == 0.012969
     assert a.adc_max == 4095 and a.stiffness_n_per_mm == 4.2 and a.motor.no_load_rpm == 32300.0
-    assert a == g.ACTUATOR and a.mm_per_count == g.MM_PER_COUNT and a.adc_max == g.ADC_MAX
+    g = geometry()
+    assert a == g.actuator and a.mm_per_count == g.mm_per_count and a.adc_max == g.adc_max
 
 
 def test_digest_follows_values_not_formatting(tmp_path):

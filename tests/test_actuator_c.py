@@ -51,8 +51,10 @@ def description(u: list[float]) -> dict:
             "no_load_rpm": _log(u[1], 1000.0, 40000.0),
             "gear_ratio": _log(u[2], 1.0, 1000.0),
             "counts_per_rev": CPR[min(int(u[3] * len(CPR)), len(CPR) - 1)],
+            "stall_force_n": 120.0,  # the plant's: no C constant reads them
+            "time_constant_s": 0.01,
         },
-        "transmission": {"lead_mm": _log(u[4], 0.5, 40.0)},
+        "transmission": {"lead_mm": _log(u[4], 0.5, 40.0), "friction_n": 2.7},
         "spring": {"stiffness_n_per_mm": _log(u[5], 0.5, 50.0)},
         "linkage": {
             "cb_mm": _log(u[6], 5.0, 150.0),

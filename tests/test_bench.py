@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from seagen.bench.run import FLOAT_HELPER
@@ -78,3 +79,17 @@ def test_bench_of_a_folder_without_models_is_a_clear_error(tmp_path, capsys):
     """A folder with no NAME.h declaring NAME_infer: exit 2 and one line naming it."""
     assert main(["bench", str(tmp_path)]) == 2
     assert "no exported model" in capsys.readouterr().err
+
+
+def test_box_read_from_every_target_is_the_same():
+    """seagen bench reads the input box from NAME.c: int16 tables, or the M4 kernel's packed int16 pairs (an
+    odd input count padded), the same values either way."""
+    from seagen.bench.run import _box
+    from seagen.export import prepare
+
+    model = str(GENERATED / "models" / "mlp_calibration.pt")
+    boxes = []
+    for target in ("portable", "cortex-m4", "cortex-m0plus"):
+        f = prepare(model, prefix="cal_mlp", target=target).files
+        boxes.append(_box(f["cal_mlp.c"], "cal_mlp", f["cal_mlp.h"]))
+    assert len(boxes[0][0]) == 9 and all(np.array_equal(b[k], boxes[0][k]) for b in boxes for k in (0, 1))

@@ -7,15 +7,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from seagen import geometry as g
 from seagen.data.features import derive
 from seagen.data.friction import measure_friction
 from seagen.data.protocol import Move, run_trials
 from seagen.fit.kinematics import ERROR_THRESHOLD_N, kinematics_errors, shaft_force
+from seagen.geometry import geometry
 from seagen.plant import EFFECT_NAMES, Plant, PlantConfig, load_config, save_config
 from seagen.plant.config import ConfigError
 
-K = g.SPRING_N_PER_MM
+K = geometry().spring_n_per_mm
+ANGLE_RANGE = (geometry().angle_min_deg, geometry().angle_max_deg)
 
 
 def ideal() -> PlantConfig:
@@ -175,7 +176,7 @@ def _mixed_batch(n: int, seed: int = 7) -> tuple[PlantConfig, dict, np.ndarray, 
     cfg.load_cells.horizontal_sigma_n = cfg.load_cells.vertical_sigma_n = 0.0
     for name, p in params.items():
         cfg = cfg.with_effect(name, True, **p)
-    return cfg, params, rng.uniform(g.ANGLE_MIN_DEG, g.ANGLE_MAX_DEG, n), rng.uniform(3.0, 12.0, n)
+    return cfg, params, rng.uniform(*ANGLE_RANGE, n), rng.uniform(3.0, 12.0, n)
 
 
 def _trace(cfg: PlantConfig, angles: np.ndarray, amp: np.ndarray, steps: int = 1500) -> np.ndarray:
@@ -226,7 +227,7 @@ def test_the_shaft_solve_converges_across_the_contact_kink() -> None:
         "series_compliance", True, k_n_per_mm=rng.uniform(10, 80, n), beta_mm_per_n2=0.0048
     )
     cfg = cfg.with_effect("stribeck_friction", True, extra_static_n=rng.uniform(0.1, 3, n), v_s_mm_s=1.0)
-    angles, amp = rng.uniform(g.ANGLE_MIN_DEG, g.ANGLE_MAX_DEG, n), rng.uniform(3.0, 12.0, n)
+    angles, amp = rng.uniform(*ANGLE_RANGE, n), rng.uniform(3.0, 12.0, n)
     plant = _Balance(cfg.with_effect("viscous_friction", False), angles)
     for i in range(1500):
         plant.step(amp * np.sin(2 * np.pi * 1.3 * i * cfg.dt_s) - 0.5)

@@ -106,10 +106,11 @@ def test_compression_matches_float_geometry():
     Bound: interpolation CB*h^2/8 (h = 16 counts = 0.00362 rad) = 5.9e-5, Q24 constant 0.28/2^24 per count
     over 3000 counts = 5.0e-5, two roundings to Q16 = 1.5e-5 mm: 1.24e-4 mm.
     """
-    from seagen import geometry as g
+    from seagen.geometry import geometry
 
     pot = np.arange(380, 2400)
     enc = np.linspace(-200, 3000, pot.size).astype(np.int64)
     fixed = P.compression_q16(act_q_of(), enc, pot) / 2.0**16
+    g = geometry()
     exact = g.compression_mm(g.angle_from_pot(pot), enc)
     assert np.max(np.abs(fixed - exact)) < 1.5e-4

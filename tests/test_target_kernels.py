@@ -105,6 +105,28 @@ def test_odd_sizes_and_wide_accumulators_on_host(case, target):
     assert first_mismatch(c.infer(x), numpy_ref.infer(qm, x), x) is None
 
 
+def _linear_hidden() -> FloatMLP:
+    """A 5-6-3-1 MLP whose first hidden layer is linear (signed hidden outputs, the general pack)."""
+    fm = _odd_mlp((5, 6, 3, 1), 1.0, 4)
+    first = FloatLayer(fm.layers[0].weight, fm.layers[0].bias, "linear")
+    return FloatMLP(fm.inputs, fm.output, (first, *fm.layers[1:]))
+
+
+@pytest.mark.parametrize("case", [*SMALL, None], ids=[*SMALL_IDS, "5-6lin-3-1"])
+def test_odd_sizes_on_m4_core(case):
+    """The cases above and a linear hidden layer, cross-compiled for the Cortex-M4 and emulated, equal numpy:
+    the kernel's odd passes, 64-bit passes, grouped loads and pair clamp (odd input count) on the core."""
+    pytest.importorskip("unicorn", reason="unicorn (the Cortex-M emulator) is not installed")
+    from seagen.toolchain.cortexm import CortexM, toolchain_missing
+
+    if msg := toolchain_missing():
+        pytest.skip(msg)
+    qm = quantize_mlp(_odd_mlp(*case) if case else _linear_hidden())
+    files = {**render(qm, "odd", "cortex-m4"), **prepare_runtime("cortex-m4")}
+    x = _cases(qm)
+    assert first_mismatch(CortexM(files, "odd", qm, "cortex-m4").infer(x), numpy_ref.infer(qm, x), x) is None
+
+
 def test_wide_cases_exercise_64_bit_paths():
     """The wide cases above take each kernel's 64-bit path in a hidden layer and in the last layer."""
     for t in TARGETS:
@@ -123,8 +145,11 @@ def prepare_runtime(target: str) -> dict[str, str]:
 
 
 def test_dsp_helpers_match_python_twins():
-    """sea_dsp.h fallbacks: folded rounding == rshift_rne, SMLAD == exact sum, pack/unpack round-trip, and
+    """sea_dsp.h fallbacks: both roundings (folded half, and the bias carrying 2^(s-1) - 1) == rshift_rne,
+    SMLAD == exact sum, pack/unpack round-trip, the pair clamp == a clamp per half, the grouped loads, and
     both forms of the Horner product equal floor(x * r / 2^s) where the planner allows them."""
+    import cffi
+
     from seagen.codegen.runtime import runtime_sources
     from seagen.toolchain.host import build
 
@@ -133,6 +158,9 @@ def test_dsp_helpers_match_python_twins():
         "int32_t t_smlad(int32_t x, int32_t w, int32_t a); int32_t t_pack(int32_t lo, int32_t hi);"
         "int32_t t_lo(int32_t w); int32_t t_hi(int32_t w); int32_t t_u2s(uint32_t u);"
         "int32_t t_split(int32_t x, int32_t r, int s); int32_t t_wide(int32_t x, int32_t r, int s);"
+        "int32_t t_rneb32(int32_t u, int s); int64_t t_rneb64(int64_t u, int s);"
+        "int32_t t_nnpack(int32_t lo, int32_t hi); int32_t t_clamp2(int32_t x, int32_t lo, int32_t hi);"
+        "int32_t t_ld(const int32_t *p, int n);"
     )
     body = (
         '#include "sea_dsp.h"\n#include "t_dsp.h"\n'
@@ -144,6 +172,14 @@ def test_dsp_helpers_match_python_twins():
         "int32_t t_u2s(uint32_t u) { return sea_u32_to_s32(u); }\n"
         "int32_t t_split(int32_t x, int32_t r, int s) { return sea_mulshr_split_s32(x, r, s); }\n"
         "int32_t t_wide(int32_t x, int32_t r, int s) { return sea_mulshr_wide_s32(x, r, s); }\n"
+        "int32_t t_rneb32(int32_t u, int s) { return sea_rne_bit_s32(u, s); }\n"
+        "int64_t t_rneb64(int64_t u, int s) { return sea_rne_bit_s64(u, s); }\n"
+        "int32_t t_nnpack(int32_t lo, int32_t hi) { return sea_pack_nonneg16x2(lo, hi); }\n"
+        "int32_t t_clamp2(int32_t x, int32_t lo, int32_t hi) { return sea_clamp16x2(x, lo, hi); }\n"
+        "int32_t t_ld(const int32_t *p, int n) {\n"
+        "    int32_t a; int32_t b; int32_t c; int32_t d;\n"
+        "    if (n == 2) { sea_ld2(p, &a, &b); return a - (3 * b); }\n"
+        "    sea_ld4(p, &a, &b, &c, &d); return a - (3 * b) + (5 * c) - (7 * d);\n}\n"
     )
     header = "#include <stdint.h>\n" + cdef.replace(";", ";\n")
     lib = build(cdef, {**runtime_sources("sea_dsp.h"), "t_dsp.h": header, "t_dsp.c": body}, name="tdsp").lib
@@ -155,11 +191,24 @@ def test_dsp_helpers_match_python_twins():
         for v in (v for v in vals if -(2**31) <= v + half < 2**31):
             assert lib.t_rne32(v + half, s) == int(rshift_rne(v, s)), (v, s)
             assert lib.t_rne64((v << 20) + (half << 20), s + 20) == int(rshift_rne(v << 20, s + 20)), (v, s)
+            if s <= 30 and v + half - 1 >= -(2**31):  # sea_rne_bit_*: the bias carries 2^(s-1) - 1
+                assert lib.t_rneb32(v + half - 1, s) == int(rshift_rne(v, s)), (v, s)
+            u64 = (v << 20) + (half << 20) - 1
+            assert lib.t_rneb64(u64, s + 20) == int(rshift_rne(v << 20, s + 20)), (v, s)
     pairs = rng.integers(-(2**15), 2**15, (500, 4)).tolist() + [[-(2**15)] * 4, [2**15 - 1] * 4]
     for a, b, c, d in pairs:
         x, w = lib.t_pack(a, b), lib.t_pack(c, d)
         assert (lib.t_lo(x), lib.t_hi(x)) == (a, b)
         assert lib.t_smlad(x, w, -12345) == -12345 + a * c + b * d  # within the proven bound
+        if min(a, b) >= 0:
+            assert lib.t_nnpack(a, b) == x
+        lo, hi = lib.t_pack(min(a, c), min(b, d)), lib.t_pack(max(a, c), max(b, d))
+        for y in (x, w, lib.t_pack(a, d), lib.t_pack(c, b)):
+            lo_y = min(max(lib.t_lo(y), min(a, c)), max(a, c))
+            want = lib.t_pack(lo_y, min(max(lib.t_hi(y), min(b, d)), max(b, d)))
+            assert lib.t_clamp2(y, lo, hi) == want, (y, a, b, c, d)
+    buf = cffi.FFI().new("int32_t[4]", [7, -11, 13, -17])
+    assert (lib.t_ld(buf, 2), lib.t_ld(buf, 4)) == (7 + 33, 7 + 33 + 65 + 119)
     for u in (0, 1, 2**31 - 1, 2**31, 2**32 - 1):
         assert lib.t_u2s(u) == (u - 2**32 if u >= 2**31 else u)
     xs = [*rng.integers(-(2**15), 2**15, 200).tolist(), -(2**15), 2**15 - 1, 0, -1]

@@ -74,14 +74,21 @@ def find_models(d: Path) -> list[str]:
     return names
 
 
-def _box(c_text: str, prefix: str) -> tuple[np.ndarray, np.ndarray]:
-    """The calibrated input box, read from NAME_in_lo / NAME_in_hi in NAME.c."""
+def _box(c_text: str, prefix: str, header: str) -> tuple[np.ndarray, np.ndarray]:
+    """The calibrated input box, read from NAME_in_lo / NAME_in_hi in NAME.c: int16 values, or int16 pairs
+    packed low half first in int32 words (the Cortex-M4 kernel's pair clamp), NAME_N_IN of them."""
+    n = re.search(rf"#define {prefix.upper()}_N_IN (\d+)", header)
+    if n is None:
+        raise UserError(f"{prefix}.h: no {prefix.upper()}_N_IN")
     out = []
     for side in ("lo", "hi"):
-        m = re.search(rf"{prefix}_in_{side}\[\d+\] = \{{([^}}]*)\}}", c_text)
+        m = re.search(rf"static const int(16|32)_t {prefix}_in_{side}\[\d+\] = \{{([^}}]*)\}}", c_text)
         if m is None:
             raise UserError(f"{prefix}.c: no {prefix}_in_{side} table")
-        out.append(np.array([int(v) for v in m.group(1).split(",")]))
+        vals = [int(v) for v in m.group(2).split(",")]
+        if m.group(1) == "32":
+            vals = [((w >> k & 0xFFFF) ^ 0x8000) - 0x8000 for w in vals for k in (0, 16)]
+        out.append(np.array(vals[: int(n.group(1))]))
     return out[0], out[1]
 
 
@@ -204,7 +211,7 @@ def bench_model(d: Path, prefix: str, cpu: str, flash_wait: int = 0) -> list[Ent
         roots = tuple(r.format(p=prefix) for e in entries for r in ROOTS[e])
         elf = cm.link(work, objs, flags, roots, "all")
         machine, code, usage = _machine(elf, cpu), disassemble(elf), stack_usage(work)
-        box = _box(sources[f"{prefix}.c"], prefix)
+        box = _box(sources[f"{prefix}.c"], prefix, sources[f"{prefix}.h"])
         out = []
         for e in entries:
             measured = ROOTS[e][-1].format(p=prefix)

@@ -4,9 +4,13 @@ from __future__ import annotations
 
 import argparse
 import json
+from typing import TYPE_CHECKING
 
 from seagen.defaults import model_arg
 from seagen.errors import UserError
+
+if TYPE_CHECKING:
+    from seagen.actuator import Actuator
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,6 +42,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="your calibration model: estimates the force of every run from its sensors (est. err column)",
     )
     p.add_argument("--features", metavar="SPEC", help="feature specification of --model (bare networks)")
+    p.add_argument(
+        "--actuator",
+        metavar="FILE",
+        help="actuator description TOML of the simulated SEA (default: the one --model records, else the "
+        "paper's); one that disagrees with the model's is refused",
+    )
     p.add_argument(
         "--allow-pickle",
         action="store_true",
@@ -73,6 +83,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Run each configuration at 5, 10, 15 N over the contact angles; print Table II or JSON."""
     from seagen.control.experiment import TABLE2_CONFIGS, format_table2, simulate, sweep
+    from seagen.plant import PlantConfig
 
     if not 0.0 <= args.latency <= 3600.0:  # NaN fails too
         raise UserError(f"--latency must be a time from 0 to 3600 s, got {args.latency}")
@@ -82,6 +93,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise UserError(f"--seeds must be >= 1, got {args.seeds}")
     from seagen.control.experiment import CONFIGS
 
+    plant_cfg = PlantConfig(actuator=plant_actuator(args))  # refused before anything is built
     setups, rows, estimator = dict(CONFIGS), {}, None
     names = tuple(args.config or (() if args.model else TABLE2_CONFIGS))
     if args.model:
@@ -97,7 +109,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         estimator = force_estimator(args.calibration, args.allow_pickle)
     impl = f"pil:{args.core}" if args.impl == "pil" else args.impl
     if args.seeds == 1:
-        table = simulate(names, args.latency, impl, args.seed, args.plots, setups, estimator)
+        table = simulate(names, args.latency, impl, args.seed, args.plots, setups, estimator, plant_cfg)
     else:
         from tqdm import tqdm
 
@@ -112,6 +124,46 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                 args.plots,
                 setups,
                 estimator,
+                plant_cfg,
             )
     print(json.dumps(table, indent=2) if args.json else format_table2(table, rows))
     return 0
+
+
+def plant_actuator(args: argparse.Namespace) -> Actuator:
+    """The simulated actuator: the one --model was trained for (a bare network: --actuator, else the
+    paper's), or for the default configurations the shipped models' (the paper's); a disagreeing
+    --actuator is refused (exit 2)."""
+    from seagen.actuator import ActuatorError, default_actuator
+    from seagen.cli.data import given_actuator
+    from seagen.defaults import shipped
+    from seagen.modelfile import load_model, model_actuator
+
+    given = given_actuator(args)
+    if args.model:
+        try:
+            model = load_model(args.model, args.allow_pickle)
+        except UserError:  # a bare network: it records no actuator
+            return _c_side_ready(given or default_actuator(), args.model)
+        return _c_side_ready(model_actuator(model, args.model, given), args.model)
+    for name, path in sorted(shipped().items()):  # the default configurations run the shipped models
+        try:
+            model_actuator(load_model(path), f"{path} (the default configurations' model {name})", given)
+        except ActuatorError as e:
+            raise ActuatorError(
+                f"{e}; train a control model on your actuator's data and pass --model"
+            ) from None
+    return given or default_actuator()
+
+
+def _c_side_ready(act: Actuator, where: str) -> Actuator:
+    """The actuator, if the controller's C can run it: the C runtime of this build has the paper's geometry
+    compiled in, so a model of another actuator would read its sensors with the wrong one (exit 2)."""
+    from seagen.actuator import ActuatorError, default_actuator
+
+    if act.digest() != default_actuator().digest():
+        raise ActuatorError(
+            f"{where}: actuator '{act.name}': the controller's C in this build carries the paper's geometry, "
+            "so the closed loop runs only the paper's actuator for now"
+        )
+    return act

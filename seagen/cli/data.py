@@ -7,9 +7,27 @@ import json
 import os
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from seagen.atomic import writable_place
 from seagen.errors import UserError
+
+if TYPE_CHECKING:
+    from seagen.actuator import Actuator
+
+ACTUATOR_HELP = "actuator description TOML (default: the paper's, seagen/actuators/paper.toml)"
+
+
+def add_actuator(p: argparse.ArgumentParser, help: str = ACTUATOR_HELP) -> None:
+    """The --actuator FILE option."""
+    p.add_argument("--actuator", metavar="FILE", help=help)
+
+
+def given_actuator(args: argparse.Namespace) -> Actuator | None:
+    """The description --actuator names, validated (errors name the file and field), or None."""
+    from seagen.actuator import load_actuator
+
+    return load_actuator(args.actuator) if getattr(args, "actuator", None) else None
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -21,12 +39,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     g.add_argument("--out", required=True, help="output directory (created)")
     g.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    g.add_argument("--config", help="plant config TOML (default: the paper's actuator)")
+    g.add_argument("--config", help="plant config TOML: what is non-ideal (default: the shipped catalogue)")
+    add_actuator(g, ACTUATOR_HELP + "; kept as OUT/actuator.toml")
     g.set_defaults(func=cmd_generate)
     i = dsub.add_parser(
         "import",
-        help="a rig's log -> train/test/validation CSVs at the control loop's 100 Hz (train, evaluate, "
-        "export) and as logged in OUT/logged (discrepancy); a column map TOML with units",
+        help="a rig's log -> train/test/validation CSVs at the actuator's control-loop rate (train, "
+        "evaluate, export) and as logged in OUT/logged (discrepancy); a column map TOML with units",
     )
     i.add_argument("log", help="the rig's log (CSV with a header row)")
     i.add_argument("--map", required=True, help="column map TOML: log columns and units -> seagen's schema")
@@ -34,6 +53,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--out",
         required=True,
         help="output directory (created; every file written whole, logged rows in logged/)",
+    )
+    add_actuator(
+        i,
+        "the rig's actuator description TOML (ranges, units, loop rate; default: the paper's); "
+        "kept as OUT/actuator.toml",
     )
     i.set_defaults(func=cmd_import)
     s = dsub.add_parser("summary", help="rows per split, naive kinematics error, friction by angle")
@@ -46,10 +70,13 @@ def cmd_generate(args: argparse.Namespace) -> int:
     """Generate the three splits and write them atomically."""
     from tqdm import tqdm
 
-    from seagen.data.protocol import generate
+    from seagen.actuator import default_actuator, to_toml
+    from seagen.data.protocol import generate, sample_every
     from seagen.plant import PlantConfig, load_config
 
-    cfg = load_config(args.config) if args.config else PlantConfig()
+    act = given_actuator(args) or default_actuator()
+    cfg = load_config(args.config, act) if args.config else PlantConfig(actuator=act)
+    sample_every(cfg)  # a loop rate the plant cannot log is refused before anything runs
     out = Path(args.out)
     if args.seed < 0:
         raise UserError(f"--seed must be >= 0, got {args.seed}")
@@ -65,10 +92,11 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
         splits = generate(cfg, seed=args.seed, progress=step)
         bar.update(1)
-    _write_splits(out, splits)
+    _write_splits(out, splits, {ACTUATOR_FILE: to_toml(act, "the actuator these data were simulated on")})
     return 0
 
 
+ACTUATOR_FILE = "actuator.toml"  # seagen.data.schema.ACTUATOR_FILE (cli imports data lazily)
 LOGGED = "logged"  # `data import`: the rows as logged, beside the 100 Hz copy
 
 
@@ -102,17 +130,21 @@ def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None, 
 
 def cmd_import(args: argparse.Namespace) -> int:
     """Convert a rig's log with a column map; nothing is written unless every row converts."""
-    from seagen.data.features import SAMPLE_RATE_HZ
+    from seagen.actuator import default_actuator, to_toml
     from seagen.data.logimport import import_log, load_map, resample, split_trials, timing
 
+    act = given_actuator(args) or default_actuator()
     mapping = load_map(args.map)
-    df = import_log(args.log, mapping)
+    df = import_log(args.log, mapping, act)
     logged = split_trials(df)
-    grid = {k: resample(v, SAMPLE_RATE_HZ) for k, v in logged.items()}
+    grid = {k: resample(v, act.loop_hz) for k, v in logged.items()}
     out = Path(args.out)
-    info = {"import.json": json.dumps(timing(df, mapping), indent=2) + "\n"}
+    info = {
+        "import.json": json.dumps(timing(df, mapping), indent=2) + "\n",
+        ACTUATOR_FILE: to_toml(act, "the actuator this log was recorded on"),
+    }
     _write_splits(out / LOGGED, logged, info, what="as logged (discrepancy)")
-    _write_splits(out, grid, info, what=f"at {SAMPLE_RATE_HZ:g} Hz (train, evaluate, export)")
+    _write_splits(out, grid, info, what=f"at {act.loop_hz:g} Hz (train, evaluate, export)")
     return 0
 
 

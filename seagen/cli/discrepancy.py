@@ -17,7 +17,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("action", nargs="?", choices=["bench"], help="run the benchmark instead")
     p.add_argument("--measured", help="a CSV or a directory of CSVs (the data schema)")
-    p.add_argument("--base", help="plant config TOML to start from (default: the paper's actuator)")
+    p.add_argument("--base", help="plant config TOML to start from (default: the shipped effect catalogue)")
+    p.add_argument(
+        "--actuator",
+        metavar="FILE",
+        help="actuator description TOML (default: the measured folder's actuator.toml, else the paper's; "
+        "one that disagrees with the folder's is refused; never rewritten)",
+    )
     p.add_argument("--out", help="report directory (written whole, or not at all)")
     p.add_argument("--seeds", type=int, default=3, help="bench: seeds (cases per seed: 14; --families: 8)")
     p.add_argument(
@@ -50,12 +56,16 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
     if not args.measured or not args.out:
         raise UserError("discrepancy: --measured and --out are required (or use `discrepancy bench`)")
     from seagen.atomic import locked_folder
+    from seagen.cli.data import given_actuator
+    from seagen.data.schema import data_actuator
     from seagen.discrepancy.replay import load_measured, load_timing, runs_from_frames
     from seagen.discrepancy.report import summary, write_report
     from seagen.discrepancy.workflow import identify
     from seagen.plant import PlantConfig, load_config
 
-    base = load_config(args.base) if args.base else PlantConfig()
+    folder = Path(args.measured) if Path(args.measured).is_dir() else Path(args.measured).parent
+    act = data_actuator(folder, given_actuator(args))
+    base = load_config(args.base, act) if args.base else PlantConfig(actuator=act)
     timing = load_timing(args.measured)
     runs = runs_from_frames(load_measured(args.measured), timing)
     res = identify(runs, base, pinned=timing.get("lag"))

@@ -8,6 +8,7 @@ import re
 from pathlib import Path
 
 from seagen.atomic import writable_place
+from seagen.cli.data import add_actuator, given_actuator
 from seagen.defaults import model_arg
 from seagen.errors import UserError
 
@@ -62,6 +63,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--study-name", help="Optuna study name (default seagen-TASK-mlp-seedN)")
     t.add_argument("--activation", choices=("relu", "leaky_relu", "tanh"), help="MLP activation (relu)")
     t.add_argument("--out", required=True, metavar="FILE", help="model file to write, e.g. model.pt")
+    add_actuator(
+        t,
+        "actuator description TOML: must match DIR/actuator.toml (the data's, which the model file "
+        "records; without the file the paper's)",
+    )
     t.set_defaults(func=cmd_train)
     e = sub.add_parser(
         "evaluate",
@@ -111,6 +117,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         storage=args.storage,
         study_name=args.study_name,
         activation=args.activation,
+        actuator=given_actuator(args),
     )
     shape = f" {'-'.join(map(str, obj['hidden']))}" if obj.get("hidden") else ""
     took = f"{obj['train_seconds']:.1f} s"
@@ -129,10 +136,13 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         end="" if not args.json else "\n",
     )
     if args.plots:
+        from seagen.data.schema import data_actuator
         from seagen.fit.plots import write_plots
+        from seagen.geometry import geometry
 
         frames, models = frames_and_models(args.models, args.data, args.allow_pickle)
-        written = write_plots(dict(zip(model_names(args.models), models, strict=True)), frames, args.plots)
+        named = dict(zip(model_names(args.models), models, strict=True))
+        written = write_plots(named, frames, args.plots, geometry(data_actuator(args.data)))
         if not args.json:
             print("wrote " + ", ".join(str(p) for p in written))
     return 0

@@ -188,6 +188,7 @@ def render(qm: QModel, prefix: str, target: str = "portable", act: ActQ | None =
     ctx = context(qm, prefix, a)
     kctx = kernel_context(qm, target)
     ctx["kernel"] = env.get_template(kctx["template"]).render({**ctx, **kctx}) if kctx else None
+    ctx["own_clamp"] = kctx.get("own_clamp", False)  # the kernel defines the input box tables itself
     return {
         f"{prefix}.h": env.get_template("model.h.j2").render(ctx),
         f"{prefix}.c": env.get_template("model.c.j2").render(ctx),

@@ -2,8 +2,10 @@
 
 The integer semantics are the portable kernel's (QLayer: acc = b + W x, y = act(sat16(rshift_rne(acc, s))));
 only the evaluation order of the exact integer sum and the representation of the tables change:
-- cortex-m4: per neuron one int32 word b + 2^(s-1) then the weights as int16 pairs (low half first), read
-  by one pointer; inputs and hidden outputs are int16 pairs; SMLAD (or SMLALD for a 64-bit layer).
+- cortex-m4: hidden layers two neurons per pass, the table holding per pass their b + 2^(s-1) - 1 (int32)
+  then, input pair by input pair, both neurons' weights as int16 pairs (low half first), read in order by one
+  pointer in runs of loads back to back; inputs and hidden outputs are int16 pairs; SMLAD (or SMLALD for a
+  64-bit layer); the rounding (sea_rne_bit_*) adds bit s of the sum, so no tie test.
 - cortex-m0plus: weights stored as uint16 w + 32768 for single `ldrh` loads (tables in RAM: .data, never
   written, so flash wait states do not price the reads), two neurons per pass, each
   accumulator starting from b + 2^(s-1) - 32768 * sum(x) in uint32 (modular) arithmetic; a single-output
@@ -101,33 +103,71 @@ def _words(row: np.ndarray) -> list[int]:
     ]
 
 
+def _groups(n_out: int, size: int) -> list[list[int]]:
+    """Neuron indices in passes of `size` (the last pass may be smaller)."""
+    return [list(range(j, min(j + size, n_out))) for j in range(0, n_out, size)]
+
+
+def _pass_plan(g: int, n_words: int, acc: int, run: int) -> dict[str, Any]:
+    """One M4 pass over g neurons: its table words in order, in runs of `run` loads back to back (the
+    biases into the accumulators a0.., the weights into v0..), each run followed by the SMLADs it feeds."""
+    items = [(f"a{n}", -1, n) for n in range(g)] if acc == 32 else []
+    items += [("", i, n) for i in range(n_words) for n in range(g)]
+    runs: list[dict[str, Any]] = []
+    temps: set[str] = set()
+    for start in range(0, len(items), run):
+        chunk = items[start : start + run]
+        names = [a or f"v{p}" for p, (a, _, _) in enumerate(chunk)]
+        macs = [(n, i, names[p]) for p, (_, i, n) in enumerate(chunk) if i >= 0]
+        temps.update(v for _, _, v in macs)
+        runs.append({"at": start, "names": names, "macs": macs})
+    return {"g": g, "runs": runs, "temps": sorted(temps)}
+
+
 def m4_layers(qm: QMLP) -> list[dict[str, Any]]:
-    """Cortex-M4 layer context: packed tables and the accumulator width proven with the folded half."""
+    """Cortex-M4 layer context: packed tables and the accumulator width proven with the folded half.
+
+    A hidden layer runs `group` = 2 neurons per pass with its inputs in registers, its table holding per pass
+    the biases (32-bit) then, input word by input word, that word of each neuron's weights: the pass reads the
+    table in order, `run` loads back to back (the M4 pipelines a load behind a load: runs of 4 where the
+    inputs leave four registers free, else 2). The last layer (one output) keeps b then its weights."""
     out = []
     for k, (q, (lo, hi)) in enumerate(zip(qm.layers, _in_bounds(qm), strict=True)):
         n_out, n_in = q.w_q.shape
         half = _half(q.shift)
         mn, mx, worst = acc_interval(q.w_q, q.b_q, lo, hi)
         acc = 32 if max(worst) + half <= INT32_MAX else 64
-        unroll = 4 if len(_words(q.w_q[0])) % 4 == 0 else (2 if len(_words(q.w_q[0])) % 2 == 0 else 1)
-        bias = [int(b) + half for b in q.b_q]
+        last = k == len(qm.layers) - 1
+        n_words = (n_in + 1) // 2
+        unroll = 4 if n_words % 4 == 0 else (2 if n_words % 2 == 0 else 1)
+        group = 1 if last else 2
+        run = 4 if n_words <= 6 else 2  # registers: n_words inputs, 2 accumulators, 2 pointers, `run` loads
+        bias = [int(b) + half - 1 for b in q.b_q]  # sea_rne_bit_* rounds u = acc + 2^(s-1) - 1
         rows = [_words(q.w_q[j]) for j in range(n_out)]
-        table = [v for j in range(n_out) for v in ([bias[j]] if acc == 32 else []) + rows[j]]
+        table = []
+        for g in _groups(n_out, group):
+            table += [bias[j] for j in g] if acc == 32 else []
+            table += [rows[j][i] for i in range(n_words) for j in g]
         out.append(
             {
                 "k": k,
                 "n_in": n_in,
                 "n_out": n_out,
-                "n_words": (n_in + 1) // 2,
-                "stride": len(rows[0]) + (1 if acc == 32 else 0),
+                "n_words": n_words,
+                "group": group,
+                "n_groups": n_out // group,
+                "rest": n_out % group,
                 "acc": acc,
                 "shift": q.shift,
                 "act": q.activation,
                 "table": table,
                 "bias64": bias if acc == 64 else None,
-                "last": k == len(qm.layers) - 1,
+                "last": last,
                 "unroll": unroll,
                 **_helpers(acc, q.activation, _proven16(mn, mx, q.shift)),
+                "rne": f"sea_rne_bit_s{acc}",
+                "pack": "sea_pack_nonneg16x2" if q.activation == "relu" else "sea_pack16x2",
+                "plans": [_pass_plan(g, n_words, acc, run) for g in (group, n_out % group) if g and not last],
             }
         )
     return out
@@ -224,5 +264,8 @@ def kernel_context(qm: QModel, target: str) -> dict[str, Any]:
     if isinstance(qm, QSF):
         return {"target": target, **sf_steps(qm)}
     _check_layers(qm, target)
-    layers = m4_layers(qm) if target == "cortex-m4" else m0plus_layers(qm)
-    return {"target": target, "tlayers": layers, "template": TEMPLATES[target]}
+    if target == "cortex-m4":  # the input box as int16 pairs, for the pair clamp (sea_clamp16x2)
+        lo, hi = (_words(np.array([getattr(i, f) for i in qm.inputs])) for f in ("lo_q", "hi_q"))
+        clamp = {"own_clamp": True, "in_lo2": lo, "in_hi2": hi}
+        return {"target": target, "tlayers": m4_layers(qm), "template": TEMPLATES[target], **clamp}
+    return {"target": target, "tlayers": m0plus_layers(qm), "template": TEMPLATES[target]}

@@ -8,6 +8,7 @@ import numpy as np
 
 from seagen.control.loop import CloudPredictor, McuPredictor, run_closed_loop
 from seagen.control.predictors import generated_cloud, generated_mcu, kinematic_mcu
+from seagen.plant import PlantConfig
 from seagen.runtime.control import MLP_PRED_AVG, ControlConfig
 
 TARGETS_N = (5.0, 10.0, 15.0)
@@ -66,10 +67,15 @@ def metrics(rec: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
 
 
 def runs(
-    pred: McuPredictor | CloudPredictor, ctl: ControlConfig, impl: str = "c", seed: int = 0
+    pred: McuPredictor | CloudPredictor,
+    ctl: ControlConfig,
+    impl: str = "c",
+    seed: int = 0,
+    plant_cfg: PlantConfig | None = None,
 ) -> Iterator[tuple[float, dict[str, np.ndarray]]]:
     """The experiment for one predictor and controller: (target, record) per target, all contact angles
-    at once, plant-noise seed `seed + i` for the i-th target."""
+    at once, plant-noise seed `seed + i` for the i-th target, on the plant `plant_cfg` (default: the
+    paper's actuator)."""
     for i, target in enumerate(TARGETS_N):
         rec = run_closed_loop(
             pred,
@@ -78,6 +84,7 @@ def runs(
             impl=impl,
             duration_s=DURATION_S,
             seed=seed + i,
+            plant_cfg=plant_cfg,
             control_cfg=ctl,
         )
         yield target, rec
@@ -97,12 +104,13 @@ def run_config(
     seed: int = 0,
     setups: dict[str, Callable[[float], Setup]] | None = None,
     estimator: Callable[[dict[str, np.ndarray]], np.ndarray] | None = None,
+    plant_cfg: PlantConfig | None = None,
 ) -> dict[str, dict]:
     """Every target at every contact angle for one configuration (of `setups`, default CONFIGS):
     {target: {metric: value, ...}}; settling_s is the mean over the angles that settle (`settled` of them),
     None if none does. `estimator` (a calibration model) adds its force estimate and its error."""
     out: dict[str, dict] = {}
-    for target, rec in runs(*(setups or CONFIGS)[name](latency_s), impl=impl, seed=seed):
+    for target, rec in runs(*(setups or CONFIGS)[name](latency_s), impl=impl, seed=seed, plant_cfg=plant_cfg):
         m = metrics(rec)
         s = m["settling_s"]
         out[f"{target:g}"] = {
@@ -126,10 +134,11 @@ def simulate(
     plots: str | None = None,
     setups: dict[str, Callable[[float], Setup]] | None = None,
     estimator: Callable[[dict[str, np.ndarray]], np.ndarray] | None = None,
+    plant_cfg: PlantConfig | None = None,
 ) -> dict[str, dict[str, dict]]:
-    """Run the configurations (of `setups`, default CONFIGS), write a step-response plot of each into
-    `plots`, return Table II."""
-    results = {n: run_config(n, latency_s, impl, seed, setups, estimator) for n in names}
+    """Run the configurations (of `setups`, default CONFIGS) on the plant `plant_cfg`, write a
+    step-response plot of each into `plots`, return Table II."""
+    results = {n: run_config(n, latency_s, impl, seed, setups, estimator, plant_cfg) for n in names}
     if plots:
         from pathlib import Path
 
@@ -153,13 +162,18 @@ def sweep(
     plots: str | None = None,
     setups: dict[str, Callable[[float], Setup]] | None = None,
     estimator: Callable[[dict[str, np.ndarray]], np.ndarray] | None = None,
+    plant_cfg: PlantConfig | None = None,
 ) -> dict[str, dict[str, dict]]:
     """Table II over plant-noise seeds seed..seed+seeds-1: per configuration and target the mean over seeds
     of error and settling time, the settling range over seeds, and the angles settled out of all runs
     (plots, if asked for, are of the first seed)."""
     runs = []
     for k in range(seeds):
-        runs.append(simulate(names, latency_s, impl, seed + k, plots if k == 0 else None, setups, estimator))
+        runs.append(
+            simulate(
+                names, latency_s, impl, seed + k, plots if k == 0 else None, setups, estimator, plant_cfg
+            )
+        )
         if progress:
             progress(k)
     out: dict[str, dict[str, dict]] = {}

@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from seagen import geometry as g
+from seagen.geometry import Geometry, geometry
 from seagen.plant.config import PlantConfig
 
-FRICTION_ANGLES_DEG = (8.0, 16.0, 26.0)  # where the paper's Fig. 8 values are reproduced
 ONSET_BAND_N = (0.5, 3.0)  # reference-force band used to extrapolate the onset compression
 
 
-def friction_from_trial(df: pd.DataFrame) -> float:
-    """Friction (N) the paper's way: k_s x the compression at which the load cell leaves zero.
+def friction_from_trial(df: pd.DataFrame, spring_n_per_mm: float | None = None) -> float:
+    """Friction (N) the paper's way: k_s (the description's spring) x the compression at which the load
+    cell leaves zero (the paper's spring when None).
 
     The onset compression is found robustly: a line compression = a + b F fitted to the loading rows with
     reference force inside ONSET_BAND_N, evaluated at F = 0. `df` holds derived columns of one trial.
@@ -27,19 +27,27 @@ def friction_from_trial(df: pd.DataFrame) -> float:
     if sel.sum() < 3:
         return float("nan")
     b, a = np.polyfit(f[sel], comp[sel], 1)
-    return float(a * g.SPRING_N_PER_MM)
+    return float(a * (geometry().spring_n_per_mm if spring_n_per_mm is None else spring_n_per_mm))
+
+
+def friction_angles(geo: Geometry) -> tuple[float, float, float]:
+    """Low, split and high contact angles (the paper's Fig. 8: 8, 16 and 26 deg on its 5 to 28 deg range)."""
+    return (geo.angle_min_deg + 3.0, geo.split_deg, geo.angle_max_deg - 2.0)
 
 
 def measure_friction(
-    cfg: PlantConfig, angles_deg: tuple[float, ...] = FRICTION_ANGLES_DEG, seed: int = 0, push_v: float = 1.5
+    cfg: PlantConfig, angles_deg: tuple[float, ...] | None = None, seed: int = 0, push_v: float = 1.5
 ) -> dict[float, float]:
-    """Push slowly into the load cell at each angle and report the friction measured the paper's way."""
+    """Push slowly into the load cell at each angle (friction_angles by default) and report the friction
+    measured the paper's way."""
     from seagen.data.features import derive
     from seagen.data.protocol import Move, run_trials
 
+    geo = geometry(cfg.actuator)
+    angles_deg = friction_angles(geo) if angles_deg is None else angles_deg
     moves = [Move(a, push_v, 6.0, -4.0) for a in angles_deg]
     out = {}
     for a, df in zip(angles_deg, run_trials(cfg, moves, seed=seed), strict=True):
         df = df.assign(trial=0)
-        out[a] = friction_from_trial(derive(df))
+        out[a] = friction_from_trial(derive(df, geo), geo.spring_n_per_mm)
     return out

@@ -14,11 +14,13 @@ The map (see README "Data from your rig"):
     [log]                    comment = "#", command = "from_row"   # both optional
 
 Every mapped value is read as `raw * scale + offset` (both optional) in the given unit, then converted.
-The --out folder gets the trials resampled to the control loop's 100 Hz (what train, evaluate and export
-read: the features difference samples 10 ms apart) and, in logged/, the rows as logged: t_s is each row's
-own time from its trial's first row; the discrepancy replay reads those and applies each logged command at
-its own instant. `[log] command` pins which interval a logged
-command covers ("from_row": applied from its row on, the usual rig loop; "up_to_row": applied up to its
+Ranges and units read the actuator description (--actuator; the paper's by default): pot counts within its
+ADC, a PWM duty in % of its motor supply, motor volts within +-supply.
+The --out folder gets the trials resampled to the description's control-loop rate (what train, evaluate
+and export read: the features difference consecutive loop samples) and, in logged/, the rows as logged:
+t_s is each row's own time from its trial's first row; the discrepancy replay reads those and applies each
+logged command at its own instant. `[log] command` pins which interval a logged command covers
+("from_row": applied from its row on, the usual rig loop; "up_to_row": applied up to its
 row, seagen's own data); without it the discrepancy workflow finds it from the data.
 """
 
@@ -31,21 +33,21 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from seagen import geometry as g
+from seagen.actuator import Actuator, default_actuator
 from seagen.data.schema import RAW_COLUMNS, DataError
 from seagen.errors import not_a_file
 from seagen.fields import read_toml
 
 _LBF_N = 4.4482216152605
-SUPPLY_V = 12.0  # the default actuator's motor supply: a PWM duty in % of it
 COMMAND_TIMING = {"from_row": 0.0, "up_to_row": 1.0}  # [log] command -> the replay's command lag
 _KGF_N = 9.80665
-# Per schema column: accepted units and the factor to seagen's unit (pot 'mV'/'V' need full_scale).
+# Per schema column: accepted units and the factor to seagen's unit (nan: from the actuator description,
+# pot 'mV'/'V' with the map's full_scale, motor_v '%' of the motor supply).
 UNITS: dict[str, dict[str, float]] = {
     "t_s": {"s": 1.0, "ms": 1e-3, "us": 1e-6},
     "trial": {"": 1.0},
     "angle_set_deg": {"deg": 1.0, "rad": 180.0 / np.pi},
-    "motor_v": {"V": 1.0, "mV": 1e-3, "%": SUPPLY_V / 100.0},
+    "motor_v": {"V": 1.0, "mV": 1e-3, "%": np.nan},
     "enc": {"counts": 1.0},
     "pot": {"counts": 1.0, "mV": np.nan, "V": np.nan},
     "load_cell_n": {"N": 1.0, "kgf": _KGF_N, "gf": _KGF_N * 1e-3, "lbf": _LBF_N},
@@ -102,7 +104,7 @@ def _check_entry(p: Path, name: str, entry: Any) -> None:
     if unit not in UNITS[name]:
         raise DataError(f"{where}.unit: unknown unit {unit!r} (known: {', '.join(UNITS[name])})")
     if name == "pot" and unit != "counts" and not isinstance(entry.get("full_scale"), int | float):
-        raise DataError(f"{where}.full_scale: the {unit} reading at ADC count {g.ADC_MAX} is required")
+        raise DataError(f"{where}.full_scale: the {unit} reading at the ADC's full scale is required")
     for k in ("scale", "offset", "full_scale"):
         if k in entry and (isinstance(entry[k], bool) or not isinstance(entry[k], int | float)):
             raise DataError(f"{where}.{k} must be a number, got {entry[k]!r}")
@@ -124,8 +126,8 @@ def _numbers(path: Path, df: pd.DataFrame, col: str, target: str) -> np.ndarray:
     return num
 
 
-def _convert(path: Path, df: pd.DataFrame, name: str, entry: dict[str, Any]) -> np.ndarray:
-    """One schema column in seagen's unit."""
+def _convert(path: Path, df: pd.DataFrame, name: str, entry: dict[str, Any], act: Actuator) -> np.ndarray:
+    """One schema column in seagen's unit (pot counts of `act`'s ADC, PWM % of its supply)."""
     raw = (
         _numbers(path, df, entry["column"], name)
         if "column" in entry
@@ -134,7 +136,9 @@ def _convert(path: Path, df: pd.DataFrame, name: str, entry: dict[str, Any]) -> 
     x = raw * float(entry.get("scale", 1.0)) + float(entry.get("offset", 0.0))
     unit = entry.get("unit", next(iter(UNITS[name])))
     if name == "pot" and unit != "counts":
-        return x / float(entry["full_scale"]) * g.ADC_MAX
+        return x / float(entry["full_scale"]) * act.adc_max
+    if name == "motor_v" and unit == "%":
+        return x * (act.motor.supply_v / 100.0)
     return x * UNITS[name][unit]
 
 
@@ -161,7 +165,7 @@ def _trial_ids(path: Path, df: pd.DataFrame, cols: dict, t: np.ndarray, gap_s: f
     (goes back by > gap_s); inside a trial time must increase."""
     col = cols["t_s"]["column"]
     if "trial" in cols:
-        trial = _convert(path, df, "trial", cols["trial"])
+        trial = _convert(path, df, "trial", cols["trial"], default_actuator())  # no actuator unit
         same = trial[1:] == trial[:-1]
     else:
         dt = np.diff(t)
@@ -180,7 +184,11 @@ def _trial_ids(path: Path, df: pd.DataFrame, cols: dict, t: np.ndarray, gap_s: f
 MIN_RATE_HZ = 50.0  # slower logs cannot time the command switches the replay needs (documented in README)
 REST_COUNTS = 3  # a trial whose encoder moves more than this between its first two rows ...
 REST_RATIO = 0.6  # ... at more than this share of the next interval's speed starts in motion
-SENSOR_RANGE = {"pot": (0.0, float(g.ADC_MAX))}
+
+
+def sensor_range(act: Actuator) -> dict[str, tuple[float, float]]:
+    """Per column, the range the actuator's sensors and motor can produce."""
+    return {"pot": (0.0, float(act.adc_max)), "motor_v": (-act.motor.supply_v, act.motor.supply_v)}
 
 
 def _check_rate_unit(path: Path, cols: dict, t: np.ndarray, gap_s: float) -> None:
@@ -223,21 +231,25 @@ def _check_trial(path: Path, df: pd.DataFrame, cols: dict, sel: np.ndarray, conv
         )
 
 
-def _check_range(path: Path, df: pd.DataFrame, cols: dict, conv: dict) -> None:
-    """Values outside the declared sensor range (e.g. pot counts beyond the ADC's full scale)."""
-    for name, (lo, hi) in SENSOR_RANGE.items():
+def _check_range(path: Path, df: pd.DataFrame, cols: dict, conv: dict, act: Actuator) -> None:
+    """Values outside the actuator's sensor range (pot counts beyond its ADC, volts beyond its supply)."""
+    for name, (lo, hi) in sensor_range(act).items():
         x = conv[name]
         bad = (x < lo - 0.5) | (x > hi + 0.5)
         if bad.any() and "column" in cols[name]:
             i = int(np.argmax(bad))
             raise DataError(
                 f"{path}, row {_row(df, i)}, column '{cols[name]['column']}': {name} {x[i]:.6g} is outside "
-                f"the sensor's range {lo:g}..{hi:g} (check unit / full_scale)"
+                f"the range {lo:g}..{hi:g} of actuator '{act.name}' (check unit / full_scale / --actuator)"
             )
 
 
-def import_log(log: str | os.PathLike[str], mapping: dict[str, Any]) -> pd.DataFrame:
-    """The log as one schema frame: trials renumbered 0..n-1, each row at its own time (from trial start)."""
+def import_log(
+    log: str | os.PathLike[str], mapping: dict[str, Any], act: Actuator | None = None
+) -> pd.DataFrame:
+    """The log as one schema frame: trials renumbered 0..n-1, each row at its own time (from trial start);
+    units and ranges of the actuator `act` (the paper's when None)."""
+    act = act or default_actuator()
     path = Path(log)
     if not path.is_file():
         raise DataError(not_a_file(path, "log file"))
@@ -253,9 +265,9 @@ def import_log(log: str | os.PathLike[str], mapping: dict[str, Any]) -> pd.DataF
     if len(lines) == len(df):
         df.attrs["lines"] = lines
     cols = mapping["columns"]
-    conv = {k: _convert(path, df, k, cols[k]) for k in RAW_COLUMNS if k not in ("trial",)}
+    conv = {k: _convert(path, df, k, cols[k], act) for k in RAW_COLUMNS if k not in ("trial",)}
     _check_rate_unit(path, cols, conv["t_s"], mapping["gap_s"])
-    _check_range(path, df, cols, conv)
+    _check_range(path, df, cols, conv, act)
     trial = _trial_ids(path, df, cols, conv["t_s"], mapping["gap_s"])
     parts = []
     for i, key in enumerate(pd.unique(trial)):

@@ -1,4 +1,7 @@
-"""The paper's calibration protocol on the simulated SEA: 12 contact angles, into the load cell and back."""
+"""The paper's calibration protocol on the simulated SEA: 12 contact angles, into the load cell and back.
+
+Angles, stairs and the sample period come from the plant's actuator description (cfg.actuator): rows
+are logged at its control-loop rate, which must be a whole number of plant steps."""
 
 from __future__ import annotations
 
@@ -8,12 +11,13 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from seagen import geometry as g
+from seagen.errors import UserError
+from seagen.geometry import Geometry, geometry
 from seagen.plant import Plant, PlantConfig
 
-TRAIN_ANGLES_DEG = tuple(float(a) for a in np.linspace(6.0, 26.0, 12))  # the 12 contact angles
-ROWS = {"train": 10_400, "test": 2_416, "validation": 140}  # paper §VIII-A
-SAMPLE_EVERY = 10  # 1 kHz plant, 100 Hz samples
+N_ANGLES = 12  # the contact angles of train and test, 1 deg above the range's minimum to 2 deg below its top
+# seconds of each split: paper §VIII-A's 10,400 / 2,416 / 140 rows at its 100 Hz
+SECONDS = {"train": 104.0, "test": 24.16, "validation": 1.4}
 # (push volts, peak force at the shaft N, retract volts): "several speeds" (chosen)
 PUSH_MOVES = ((2.5, 17.0, -5.0), (4.0, 12.0, -7.0), (3.0, 19.0, -6.0), (5.0, 9.0, -8.0), (2.0, 14.0, -4.0))
 # The calibration protocol: the third push climbs in 0.5 mm position-controlled stairs instead ("PID
@@ -40,15 +44,40 @@ class Move:
 
 
 STAIR_S = 0.3  # one stair: move and hold (s)
-STAIR_KP_V = 0.05  # position loop gain: V per encoder count of error
+STAIR_KP_V_PER_MM = 11.4  # position loop gain: V per mm of nut error (0.05 V/count on the paper's encoder)
 CONTACT_N = 0.3  # the stairs start when the reference force first exceeds this
 
 
-def _stairs(moves: list[Move], dt_s: float) -> Callable[[int, np.ndarray, np.ndarray], np.ndarray]:
-    """The push command of every trial at 100 Hz sample k: constant volts, or the staircase position loop."""
+def train_angles(geo: Geometry) -> tuple[float, ...]:
+    """The 12 contact angles of train and test (6 to 26 deg on the paper's 5 to 28 deg range)."""
+    return tuple(float(a) for a in np.linspace(geo.angle_min_deg + 1.0, geo.angle_max_deg - 2.0, N_ANGLES))
+
+
+def rows(split: str, loop_hz: float) -> int:
+    """Rows of a split at the control-loop rate (the paper's counts at 100 Hz)."""
+    return int(round(SECONDS[split] * loop_hz))
+
+
+def sample_every(cfg: PlantConfig) -> int:
+    """Plant steps per logged row: the description's control-loop period over the plant step."""
+    loop_hz = cfg.actuator.loop_hz
+    n = 1.0 / (loop_hz * cfg.dt_s)
+    if abs(n - round(n)) > 1e-9 or round(n) < 1:
+        raise UserError(
+            f"actuator '{cfg.actuator.name}': control.loop_hz {loop_hz:g} is not a whole number of plant "
+            f"steps of {cfg.dt_s * 1000:g} ms (use a rate dividing {1 / cfg.dt_s:g} Hz)"
+        )
+    return int(round(n))
+
+
+def _stairs(moves: list[Move], cfg: PlantConfig) -> Callable[[int, np.ndarray, np.ndarray], np.ndarray]:
+    """The push command of every trial at logged sample k: constant volts, or the staircase position loop."""
+    mm_per_count = geometry(cfg.actuator).mm_per_count
     push = np.array([m.push_v for m in moves])
-    step = np.array([m.stair_mm for m in moves]) / g.MM_PER_COUNT  # counts per stair
-    every = max(int(round(STAIR_S / (dt_s * SAMPLE_EVERY))), 1)  # samples per stair
+    step = np.array([m.stair_mm for m in moves]) / mm_per_count  # counts per stair
+    every = max(int(round(STAIR_S / (cfg.dt_s * sample_every(cfg)))), 1)  # samples per stair
+    m = cfg.actuator.motor
+    kp = STAIR_KP_V_PER_MM / (m.gear_ratio * m.counts_per_rev / cfg.actuator.lead_mm)  # V per count
     start = np.full(len(moves), -1)  # sample of contact, -1 before
     base = np.zeros(len(moves))
 
@@ -56,7 +85,7 @@ def _stairs(moves: list[Move], dt_s: float) -> Callable[[int, np.ndarray, np.nda
         touch = (step > 0) & (start < 0) & (force > CONTACT_N)
         start[touch], base[touch] = k, enc[touch]
         target = base + step * ((k - start) // every)  # held at the contact position first
-        return np.where(start >= 0, np.clip(STAIR_KP_V * (target - enc), -push, push), push)
+        return np.where(start >= 0, np.clip(kp * (target - enc), -push, push), push)
 
     return volts
 
@@ -64,7 +93,8 @@ def _stairs(moves: list[Move], dt_s: float) -> Callable[[int, np.ndarray, np.nda
 def run_trials(
     cfg: PlantConfig, moves: list[Move], seed: int, max_s: float = 8.0, plant_cls: type[Plant] | None = None
 ) -> list[pd.DataFrame]:
-    """Simulate a batch of trials at once; each returns its 100 Hz raw rows until the force is off again.
+    """Simulate a batch of trials at once; each returns its raw rows (at the description's loop rate) until
+    the force is off again.
 
     `plant_cls` replaces the simulator (a Plant subclass, e.g. a discrepancy benchmark family)."""
     plant = (plant_cls or Plant)(cfg, np.array([m.angle_deg for m in moves]), seed=seed)
@@ -72,7 +102,8 @@ def run_trials(
     peak = np.array([m.peak_n for m in moves])
     back = np.array([m.retract_v for m in moves])
     phase = np.zeros(len(moves), dtype=int)  # 0 push, 1 retract, 2 done
-    pushing = _stairs(moves, cfg.dt_s)
+    pushing = _stairs(moves, cfg)
+    every = sample_every(cfg)
     quiet = np.zeros(len(moves), dtype=int)
     cols: dict[str, list[np.ndarray]] = {
         k: [] for k in ("t_s", "motor_v", "enc", "pot", "load_cell_n", "force_n")
@@ -80,7 +111,7 @@ def run_trials(
     alive: list[np.ndarray] = []
     volts = push.copy()
     for k in range(int(max_s / cfg.dt_s)):
-        if k % SAMPLE_EVERY == 0:
+        if k % every == 0:
             s = plant.read()
             alive.append(phase < 2)
             for name, v in (
@@ -97,7 +128,7 @@ def run_trials(
             phase = np.where((phase == 1) & ((quiet >= 8) | (s.enc <= 0)), 2, phase)
             if (phase == 2).all():
                 break
-            push_now = pushing(k // SAMPLE_EVERY, s.enc, s.force_n)
+            push_now = pushing(k // every, s.enc, s.force_n)
             volts = np.where(phase == 0, push_now, np.where(phase == 1, back, 0.0))
         plant.step(volts)
     keep = np.array(alive)
@@ -150,17 +181,20 @@ def generate(
 ) -> dict[str, pd.DataFrame]:
     """The three splits of the paper: train and test at 12 angles, validation at one random extra angle."""
     rng = np.random.default_rng(seed)
-    val_angle = float(np.round(rng.uniform(g.ANGLE_MIN_DEG + 2.0, g.ANGLE_MAX_DEG - 1.5), 2))
-    while min(abs(val_angle - a) for a in TRAIN_ANGLES_DEG) < 0.5:
-        val_angle = float(np.round(rng.uniform(g.ANGLE_MIN_DEG + 2.0, g.ANGLE_MAX_DEG - 1.5), 2))
+    geo = geometry(cfg.actuator)
+    lo, hi = geo.angle_min_deg + 2.0, geo.angle_max_deg - 1.5
+    angles = train_angles(geo)
+    val_angle = float(np.round(rng.uniform(lo, hi), 2))
+    while min(abs(val_angle - a) for a in angles) < 0.5:
+        val_angle = float(np.round(rng.uniform(lo, hi), 2))
     plan = (
-        ("train", TRAIN_ANGLES_DEG, TRAIN_MOVES, 1),
-        ("test", TRAIN_ANGLES_DEG, TEST_MOVES, 2),
+        ("train", angles, TRAIN_MOVES, 1),
+        ("test", angles, TEST_MOVES, 2),
         ("validation", (val_angle,), VALIDATION_MOVES, 3),
     )
     out = {}
-    for split, angles, moves, k in plan:
+    for split, at, moves, k in plan:
         if progress:
             progress(split)
-        out[split] = collect(cfg, angles, moves, ROWS[split], seed=seed * 10 + k)
+        out[split] = collect(cfg, at, moves, rows(split, cfg.actuator.loop_hz), seed=seed * 10 + k)
     return out

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from seagen.actuator import Actuator, ActuatorError, default_actuator, load_actuator
 from seagen.atomic import write_with
 from seagen.errors import UserError
 
@@ -17,11 +18,12 @@ RAW_COLUMNS: dict[str, str] = {
     "angle_set_deg": "float",  # contact angle of the set-up (deg)
     "motor_v": "float",  # motor command (V)
     "enc": "int",  # encoder counts
-    "pot": "int",  # pot ADC counts (12 bit)
+    "pot": "int",  # pot ADC counts (0 .. 2^pot.adc_bits - 1 of the actuator description)
     "load_cell_n": "float",  # measured tip force (N)
     "force_n": "float",  # reference force at the SEA output shaft (N)
 }
 SPLITS = ("train", "test", "validation")
+ACTUATOR_FILE = "actuator.toml"  # the description the data came from (written by data generate / import)
 
 
 class DataError(UserError):
@@ -98,3 +100,18 @@ def save_csv(df: pd.DataFrame, path: str | os.PathLike[str]) -> None:
     """Write a split atomically, raw columns first, with fixed float formatting."""
     cols = list(RAW_COLUMNS) + [c for c in df.columns if c not in RAW_COLUMNS]
     write_with(path, lambda tmp: df[cols].to_csv(tmp, index=False, float_format="%.6g"))
+
+
+def data_actuator(data_dir: str | os.PathLike[str], given: Actuator | None = None) -> Actuator:
+    """The actuator a data folder was recorded on (its actuator.toml; the paper's in folders written before
+    it existed). A `given` description that disagrees is refused (ActuatorError, exit 2)."""
+    path = Path(data_dir) / ACTUATOR_FILE
+    act = load_actuator(path) if path.is_file() else default_actuator()
+    if given is not None and given.digest() != act.digest():
+        shown = path if path.is_file() else f"{data_dir} (no {ACTUATOR_FILE}: the paper's actuator)"
+        raise ActuatorError(
+            f"{shown}: the data were recorded on actuator '{act.name}' (sha256 {act.digest()[:12]}), but "
+            f"--actuator gives '{given.name}' (sha256 {given.digest()[:12]}); drop --actuator or use "
+            f"data of that actuator"
+        )
+    return act

@@ -58,6 +58,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--out", default="demo_out", help="working directory (default demo_out)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument(
+        "--actuator", metavar="FILE", help="actuator description TOML (default: the paper's actuator)"
+    )
     p.add_argument("--regenerate", metavar="DIR", help="only re-export DIR (generated/) from DIR/models/*.pt")
     p.add_argument(
         "--rebuild", metavar="DIR", help="only rebuild DIR (generated/) from scratch: data, training"
@@ -75,7 +78,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if args.rebuild:
         build_defaults(Path(args.rebuild), args.seed)
         return 0
+    from seagen.actuator import load_actuator
     from seagen.demo.steps import run_demo
 
-    run_demo(Path(args.out), args.seed)
+    run_demo(Path(args.out), args.seed, load_actuator(args.actuator) if args.actuator else None)
     return 0

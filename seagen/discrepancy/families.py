@@ -13,7 +13,6 @@ from typing import Any
 
 import numpy as np
 
-from seagen import geometry as g
 from seagen.plant import Plant, PlantConfig, pick
 
 
@@ -75,10 +74,10 @@ class LaggedCell(Plant):
     tau = 0.02
 
     def read(self):
-        """The reading, low-passed at the 100 Hz sample rate."""
+        """The reading, low-passed at the sample rate (the actuator's loop rate)."""
         s = super().read()
         prev = getattr(self, "_lc", s.load_cell_n)
-        a = 1 - np.exp(-0.01 / self.tau)
+        a = 1 - np.exp(-1.0 / self.cfg.actuator.loop_hz / self.tau)
         self._lc = prev + a * (s.load_cell_n - prev)
         s.load_cell_n, s.force_n = self._lc.copy(), self._lc / self.ratio
         return s
@@ -106,12 +105,12 @@ class LaggedPotBias(Plant):
     def read(self):
         """The reading plus the doubly lagged bias (updated per sample)."""
         s = super().read()
-        a = 1 - np.exp(-0.01 / self.tau)
+        a = 1 - np.exp(-1.0 / self.cfg.actuator.loop_hz / self.tau)
         b1 = getattr(self, "_b1", np.zeros_like(self.current))
         b2 = getattr(self, "_b2", np.zeros_like(self.current))
         self._b1 = b1 + a * (self.gain * np.abs(self.current) - b1)
         self._b2 = b2 + a * (self._b1 - b2)
-        s.pot = np.clip(np.rint(s.pot + self._b2), 0, g.ADC_MAX).astype(np.int64)
+        s.pot = np.clip(np.rint(s.pot + self._b2), 0, self.geo.adc_max).astype(np.int64)
         return s
 
 

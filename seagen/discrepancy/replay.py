@@ -10,7 +10,6 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from seagen import geometry as g
 from seagen.data.logimport import clock_resolution
 from seagen.plant import Plant, PlantConfig
 from seagen.plant.config import CATALOGUE, LEARNED_INPUTS
@@ -276,9 +275,9 @@ def simulate(
             f = (1 - frac[rows]) * ring[(ptr - i0[rows]) % size, rows] + frac[rows] * ring[
                 (ptr - i0[rows] - 1) % size, rows
             ]
-            angle = g.angle_from_shaft(np.minimum(plant.shaft_mm[rows], plant.y_contact[rows]))
-            out["enc"][sl] += wr * (plant.motor_mm[rows] / g.MM_PER_COUNT - 0.5)  # E[floored count]
-            out["pot"][sl] += wr * np.clip(g.pot_from_angle(angle) + drop[rows], 0, g.ADC_MAX)
+            angle = plant.geo.angle_from_shaft(np.minimum(plant.shaft_mm[rows], plant.y_contact[rows]))
+            out["enc"][sl] += wr * (plant.motor_mm[rows] / plant.geo.mm_per_count - 0.5)  # E[floored count]
+            out["pot"][sl] += wr * np.clip(plant.geo.pot_from_angle(angle) + drop[rows], 0, plant.geo.adc_max)
             out["load_cell_n"][sl] += wr * (f * plant.ratio[rows] + offset[rows])
             for key, v in plant.learned_inputs().items() if rec else ():
                 rec[key][sl] += wr * np.broadcast_to(v, (e_n,))[rows]
@@ -289,7 +288,7 @@ def simulate(
             drop += (kappa * np.abs(plant.current) - drop) * alpha
         ptr = (ptr + 1) % size
         ring[ptr] = plant.shaft_force
-    ratio = g.linkage_ratio(runs.angle)[None, :, None]
+    ratio = plant.geo.linkage_ratio(runs.angle)[None, :, None]
     if lr.enabled:
         flat = {k: v.reshape(e_n, t) for k, v in rec.items()}
         out[lr.channel] += learned_correction(lr, flat).reshape(shape)

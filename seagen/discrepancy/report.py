@@ -99,6 +99,8 @@ def markdown(res: Result, source: str, before: pd.DataFrame, after: pd.DataFrame
     sig = before[before["significant"]].head(10)
     parts = [
         f"# Discrepancy report: {source}",
+        f"Actuator: {res.config.actuator.name} (sha256 {res.config.actuator.digest()[:12]}; its description "
+        "is not changed: plant.toml holds only the effects).",
         f"**Verdict: {res.verdict}.** Added: {', '.join(n.name for n in res.effects) or 'nothing'}. "
         f"Recalibrated: {', '.join(n.name for n in res.recalibrated) or 'nothing'}.",
         f"Held-out residual RMS {res.rms_before:.3g} -> {res.rms_after:.3g} noise sigmas "

@@ -6,7 +6,6 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from seagen import geometry as g
 from seagen.discrepancy.replay import CHANNELS, Runs
 from seagen.plant.config import Motor
 
@@ -78,7 +77,7 @@ def _bins(x: np.ndarray, edges: list[float], names: list[str]) -> np.ndarray:
 def region_labels(runs: Runs, motor: Motor) -> dict[str, np.ndarray]:
     """Region of every sample by contact angle, force level, direction, speed and estimated current."""
     enc = runs.meas["enc"]
-    v = runs.speed("enc") * g.MM_PER_COUNT  # nut speed, mm/s
+    v = runs.speed("enc") * motor.mm_per_count  # nut speed, mm/s
     m = runs.mask
     cur = np.abs(motor.current(np.nan_to_num(runs.applied), v))  # the plant's own estimate (base config)
     speed = np.abs(v)

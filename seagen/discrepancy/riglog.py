@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from seagen.actuator import Actuator, default_actuator
 from seagen.data.protocol import Move, _stairs
 from seagen.plant import Plant, PlantConfig
 
@@ -30,7 +31,8 @@ def rig_trials(
     n = len(moves)
     peak = np.array([m.peak_n for m in moves])
     back = np.array([m.retract_v for m in moves])
-    pushing = _stairs(moves, cfg.dt_s)
+    pushing = _stairs(moves, cfg)
+    period_ms = int(round(1000.0 / cfg.actuator.loop_hz))  # the protocol's sample period
     step_ms = cfg.dt_s * 1000.0
     phase, quiet = np.zeros(n, dtype=int), np.zeros(n, dtype=int)
     nxt = np.zeros(n, dtype=int)  # plant step of each trial's next sample
@@ -43,7 +45,7 @@ def rig_trials(
             phase = np.where(due & (phase == 0) & (s.force_n >= peak), 1, phase)
             quiet = np.where(due, np.where((phase == 1) & (s.force_n < 0.4), quiet + 1, 0), quiet)
             done = due & (phase == 1) & ((quiet >= 25) | (s.enc <= 0))
-            push_now = pushing(int(k * step_ms) // 10, s.enc, s.force_n)
+            push_now = pushing(int(k * step_ms) // period_ms, s.enc, s.force_n)
             new = np.where(phase == 0, push_now, np.where(phase == 1, back, 0.0))
             for i in np.flatnonzero(due):
                 logged = new[i] if convention == "from_row" else volts[i]
@@ -64,9 +66,13 @@ def rig_trials(
     return out
 
 
-def rig_csv(frames: list[pd.DataFrame], start_ms: int = 12_345, gap_ms: int = 2_000) -> str:
-    """The trials as one log a rig writes: integer-ms clock from power-on, gaps between trials, PWM in %,
-    pot in mV, forces in kgf, angle in rad, an extra column, CRLF line ends, no trial column."""
+def rig_csv(
+    frames: list[pd.DataFrame], start_ms: int = 12_345, gap_ms: int = 2_000, act: Actuator | None = None
+) -> str:
+    """The trials as one log a rig writes: integer-ms clock from power-on, gaps between trials, PWM in % of
+    the supply of `act` (the paper's when None), pot in mV of its ADC, forces in kgf, angle in rad, an extra
+    column, CRLF line ends, no trial column."""
+    act = act or default_actuator()
     parts, t0 = [], start_ms
     for df in frames:
         ms = t0 + np.rint(df["t_s"].to_numpy() * 1000.0).astype(np.int64)
@@ -75,9 +81,9 @@ def rig_csv(frames: list[pd.DataFrame], start_ms: int = 12_345, gap_ms: int = 2_
                 {
                     "millis": ms,
                     "contact_rad": np.radians(df["angle_set_deg"].to_numpy(float)),
-                    "pwm_pct": df["motor_v"].to_numpy(float) / 12.0 * 100.0,
+                    "pwm_pct": df["motor_v"].to_numpy(float) / act.motor.supply_v * 100.0,
                     "enc": df["enc"].to_numpy(),
-                    "pot_mV": df["pot"].to_numpy(float) * 3300.0 / 4095.0,
+                    "pot_mV": df["pot"].to_numpy(float) * 3300.0 / float(act.adc_max),
                     "tip_kgf": df["load_cell_n"].to_numpy(float) / 9.80665,
                     "shaft_kgf": df["force_n"].to_numpy(float) / 9.80665,
                     "temp_C": 24.5,

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from seagen import geometry as g
 from seagen.discrepancy.replay import Runs, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS
 from seagen.plant import PlantConfig
@@ -37,7 +36,7 @@ def _since(event: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 def features(runs: Runs, motor: Motor) -> dict[str, np.ndarray]:
     """Per sample basis columns of each dependence group, shape (n, T, k); padding masked by runs.mask."""
-    v = runs.speed("enc") * g.MM_PER_COUNT
+    v = runs.speed("enc") * motor.mm_per_count
     moving = np.abs(v) > MOVING_MM_S
     cmd = np.sign(runs.applied)
     flip = np.zeros_like(moving)

@@ -10,8 +10,9 @@ import numpy as np
 
 from seagen.data.features import derive
 from seagen.data.friction import friction_from_trial
-from seagen.data.schema import SPLITS, DataError, load_split
+from seagen.data.schema import SPLITS, DataError, data_actuator, load_split
 from seagen.fit.kinematics import ERROR_THRESHOLD_N, kinematics_errors
+from seagen.geometry import geometry
 
 
 def summarize(data_dir: str | os.PathLike[str]) -> dict[str, Any]:
@@ -23,11 +24,12 @@ def summarize(data_dir: str | os.PathLike[str]) -> dict[str, Any]:
     if not frames:
         raise DataError(f"{d}: no {', '.join(s + '.csv' for s in SPLITS)} found")
     split = "test" if "test" in frames else next(iter(frames))
-    derived = derive(frames[split])
-    errs = kinematics_errors(derived)
+    geo = geometry(data_actuator(d))
+    derived = derive(frames[split], geo)
+    errs = kinematics_errors(derived, geo)
     friction: dict[str, float] = {}
-    for angle, rows in derive(frames.get("train", frames[split])).groupby("angle_set_deg"):
-        vals = [friction_from_trial(t) for _, t in rows.groupby("trial")]
+    for angle, rows in derive(frames.get("train", frames[split]), geo).groupby("angle_set_deg"):
+        vals = [friction_from_trial(t, geo.spring_n_per_mm) for _, t in rows.groupby("trial")]
         vals = [v for v in vals if np.isfinite(v)]
         if vals:
             friction[f"{angle:.2f}"] = float(np.median(vals))

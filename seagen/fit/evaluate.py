@@ -8,10 +8,12 @@ from typing import Any
 
 import pandas as pd
 
+from seagen.data.schema import data_actuator
 from seagen.errors import UserError
 from seagen.fit.predict import TASKS, UNIT, kinematics_predict, predict, task_errors
 from seagen.fit.train import load_derived
-from seagen.modelfile import load_model
+from seagen.geometry import geometry
+from seagen.modelfile import load_model, model_actuator
 
 SCORED_SPLITS = ("test", "validation")
 REQUIRED_KEYS = ("kind", "task", "features", "output_name")
@@ -73,10 +75,14 @@ def evaluate(
         raise UserError("evaluate: name at least one model file")
     models = [load_checked(p, allow_pickle) for p in paths]
     frames = load_derived(data_dir, need=("test",))
+    act = data_actuator(data_dir)
+    for p, m in zip(paths, models, strict=True):
+        model_actuator(m, str(p), act)  # a model of another actuator is refused
+    geo = geometry(act)
     result: dict[str, dict[str, Any]] = {}
     for task in TASKS:
         if any(m["task"] == task for m in models):
-            base = _scores(task, lambda df, t=task: kinematics_predict(t, df), frames)
+            base = _scores(task, lambda df, t=task: kinematics_predict(t, df, geo), frames)
             result[f"kinematics_{task}"] = {"task": task, "kind": "kinematics", "unit": UNIT[task], **base}
     for name, m in zip(model_names(paths), models, strict=True):
         scores = _scores(m["task"], lambda df, m=m: predict(m, df), frames)

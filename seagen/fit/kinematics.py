@@ -5,15 +5,25 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from seagen import geometry as g
+from seagen.geometry import Geometry, geometry
 
-FRICTION_COMPENSATION_N = 2.7  # the paper's measured actuator friction (Fig. 7), at the shaft
 ERROR_THRESHOLD_N = 5.0  # relative errors are taken over rows whose reference force exceeds this
 
 
-def shaft_force(compression_mm: np.ndarray, compensation_n: float = FRICTION_COMPENSATION_N) -> np.ndarray:
-    """Eq. 1 at the SEA output shaft: k_s * compression - F_fa (tip force divided by R_l)."""
-    return g.SPRING_N_PER_MM * np.asarray(compression_mm, dtype=float) - compensation_n
+def shaft_force(
+    compression_mm: np.ndarray, compensation_n: float | None = None, geo: Geometry | None = None
+) -> np.ndarray:
+    """Eq. 1 at the SEA output shaft: k_s * compression - F_fa (tip force divided by R_l), with k_s and
+    F_fa (unless given) from the actuator description (the paper's when `geo` is None)."""
+    geo = geo or geometry()
+    comp = geo.friction_n if compensation_n is None else compensation_n
+    return geo.spring_n_per_mm * np.asarray(compression_mm, dtype=float) - comp
+
+
+def compression_for(force_n: np.ndarray, geo: Geometry | None = None) -> np.ndarray:
+    """The inverse of shaft_force: the compression that gives `force_n` at the shaft (control task)."""
+    geo = geo or geometry()
+    return (np.asarray(force_n, dtype=float) + geo.friction_n) / geo.spring_n_per_mm
 
 
 def relative_errors(
@@ -37,7 +47,7 @@ def relative_errors(
     }
 
 
-def kinematics_errors(df: pd.DataFrame) -> dict[str, float]:
+def kinematics_errors(df: pd.DataFrame, geo: Geometry | None = None) -> dict[str, float]:
     """Errors of the naive kinematics estimate on a derived data frame (needs compression_mm)."""
-    pred = shaft_force(df["compression_mm"].to_numpy())
+    pred = shaft_force(df["compression_mm"].to_numpy(), geo=geo)
     return relative_errors(pred, df["force_n"].to_numpy(), df["angle_set_deg"].to_numpy())

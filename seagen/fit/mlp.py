@@ -12,7 +12,7 @@ import pandas as pd
 import torch
 from torch import nn
 
-from seagen.data.features import MLP_FEATURES, SAMPLE_RATE_HZ
+from seagen.data.features import MLP_FEATURES
 from seagen.modelfile import FeatureSpec
 
 CONTROL_FEATURES = ("force_n", "pot", "d_pot", "dd_pot", "d_enc", "dd_enc", "d_compression_mm")
@@ -58,7 +58,8 @@ class MlpConfig:
 
 
 def make_spec(df: pd.DataFrame, task: str, weights: Sequence[float] = ()) -> FeatureSpec:
-    """Feature spec with normalization statistics of `df` (the training rows)."""
+    """Feature spec with normalization statistics of `df` (the training rows); `train` sets its sample
+    rate to the actuator's control-loop rate."""
     inputs = MLP_INPUTS[task]
     x = df[list(inputs)].to_numpy(dtype=float)
     y = df[MLP_OUTPUT[task]].to_numpy(dtype=float)
@@ -72,7 +73,6 @@ def make_spec(df: pd.DataFrame, task: str, weights: Sequence[float] = ()) -> Fea
         output_mean=float(y.mean()),
         output_std=float(y.std() or 1.0),
         raw=RAW_SIGNALS[task],
-        sample_rate_hz=SAMPLE_RATE_HZ,
     )
 
 

@@ -11,6 +11,7 @@ import pandas as pd
 
 from seagen.fit.predict import TARGET, TASKS, UNIT, kinematics_predict, predict
 from seagen.fit.sf import eval_sf
+from seagen.geometry import Geometry
 from seagen.plotting import figure, save_png
 
 MAX_SCATTER = 3000
@@ -38,13 +39,16 @@ def plot_surface(model: dict[str, Any], train: pd.DataFrame, path: Path, title: 
     save_png(fig, path, bbox_inches="tight")
 
 
-def plot_validation(task: str, named: dict[str, dict[str, Any]], val: pd.DataFrame, path: Path) -> None:
-    """Measured vs predicted output per validation sample: kinematics and every model of the task."""
+def plot_validation(
+    task: str, named: dict[str, dict[str, Any]], val: pd.DataFrame, path: Path, geo: Geometry | None = None
+) -> None:
+    """Measured vs predicted output per validation sample: kinematics (of the actuator `geo`, the paper's
+    when None) and every model of the task."""
     fig = figure(figsize=(7, 5), dpi=100)
     ax = fig.add_subplot()
     x = validation_time(val)
     ax.plot(x, val[TARGET[task]], "k-", lw=2, label="measured")
-    ax.plot(x, kinematics_predict(task, val), ":", label="kinematics")
+    ax.plot(x, kinematics_predict(task, val, geo), ":", label="kinematics")
     for name, m in named.items():
         ax.plot(x, predict(m, val), "--", label=name)
     ax.set_xlabel("time (s)")
@@ -68,7 +72,10 @@ def validation_time(val: pd.DataFrame) -> np.ndarray:
 
 
 def write_plots(
-    named: dict[str, dict[str, Any]], frames: dict[str, pd.DataFrame], out_dir: str | os.PathLike[str]
+    named: dict[str, dict[str, Any]],
+    frames: dict[str, pd.DataFrame],
+    out_dir: str | os.PathLike[str],
+    geo: Geometry | None = None,
 ) -> list[Path]:
     """All figures for the named models; returns the files written."""
     out = Path(out_dir)
@@ -82,6 +89,6 @@ def write_plots(
         of_task = {n: m for n, m in named.items() if m["task"] == task}
         if of_task and "validation" in frames:
             path = out / f"validation_{task}.png"
-            plot_validation(task, of_task, frames["validation"], path)
+            plot_validation(task, of_task, frames["validation"], path, geo)
             written.append(path)
     return written

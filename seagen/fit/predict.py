@@ -7,9 +7,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from seagen import geometry as g
 from seagen.errors import UserError
 from seagen.fit import kinematics
+from seagen.geometry import Geometry
 from seagen.modelfile import FeatureSpec
 
 TASKS = ("calibration", "control")
@@ -33,12 +33,12 @@ def predict(model: dict[str, Any], df: pd.DataFrame) -> np.ndarray:
     raise UserError(f"model kind {kind!r} is not 'sf' or 'mlp'")
 
 
-def kinematics_predict(task: str, df: pd.DataFrame) -> np.ndarray:
-    """Naive kinematics (Eq. 1-2, constant friction): force from compression, or its inverse for control."""
+def kinematics_predict(task: str, df: pd.DataFrame, geo: Geometry | None = None) -> np.ndarray:
+    """Naive kinematics (Eq. 1-2, constant friction) of the actuator `geo` (the paper's when None): force
+    from compression, or its inverse for control."""
     if task == "calibration":
-        return kinematics.shaft_force(df["compression_mm"].to_numpy())
-    force = df["force_n"].to_numpy(dtype=float)
-    return (force + kinematics.FRICTION_COMPENSATION_N) / g.SPRING_N_PER_MM
+        return kinematics.shaft_force(df["compression_mm"].to_numpy(), geo=geo)
+    return kinematics.compression_for(df["force_n"].to_numpy(dtype=float), geo)
 
 
 def task_errors(task: str, pred: np.ndarray, df: pd.DataFrame) -> dict[str, float]:

@@ -11,12 +11,14 @@ from typing import Any
 import pandas as pd
 
 from seagen import __version__
-from seagen.data.features import SAMPLE_RATE_HZ, derive
-from seagen.data.schema import SPLITS, load_split
+from seagen.actuator import Actuator
+from seagen.data.features import derive
+from seagen.data.schema import SPLITS, data_actuator, load_split
 from seagen.errors import UserError
 from seagen.fit.mlp import MLP_OUTPUT, RAW_SIGNALS, MlpConfig, fit_mlp, unit_of
 from seagen.fit.predict import TASKS, predict, task_errors
 from seagen.fit.sf import SF_INPUTS, SF_OUTPUT, fit_sf
+from seagen.geometry import geometry
 from seagen.modelfile import FeatureSpec, save_model
 
 KINDS = ("sf", "mlp")
@@ -32,16 +34,18 @@ DEFAULTS: dict[str, dict[str, Any]] = {
 
 
 def load_derived(
-    data_dir: str | os.PathLike[str], need: tuple[str, ...] = ("train",)
+    data_dir: str | os.PathLike[str], need: tuple[str, ...] = ("train",), actuator: Actuator | None = None
 ) -> dict[str, pd.DataFrame]:
-    """Derived frames of every split present; the splits in `need` must exist."""
+    """Derived frames of every split present, with the geometry of the folder's actuator (data_actuator;
+    a disagreeing `actuator` is refused); the splits in `need` must exist."""
     d = Path(data_dir)
     if not d.is_dir():
         raise UserError(f"{d}: no such data directory")
     for s in need:
         if not (d / f"{s}.csv").is_file():
             raise UserError(f"{d / (s + '.csv')}: no such file (run `seagen data generate --out {d}`)")
-    return {s: derive(load_split(d, s)) for s in SPLITS if (d / f"{s}.csv").is_file()}
+    geo = geometry(data_actuator(d, actuator))
+    return {s: derive(load_split(d, s), geo) for s in SPLITS if (d / f"{s}.csv").is_file()}
 
 
 def _check_args(model: str, loss: str, task: str, hidden: tuple[int, ...] | None, trials: int) -> None:
@@ -77,7 +81,6 @@ def _fit_sf_model(train_df: pd.DataFrame, task: str, loss: str) -> dict[str, Any
         mean=(0.0, 0.0),
         std=(1.0, 1.0),
         raw=RAW_SIGNALS[task],
-        sample_rate_hz=SAMPLE_RATE_HZ,
         extra={"note": "SF evaluates the polynomial on raw inputs; mean/std unused"},
     )
     return {"sf": {"inputs": [a, b], **sf}, "features": spec.to_dict(), "output_name": SF_OUTPUT[task]}
@@ -120,14 +123,18 @@ def train(
     trials: int = 0,
     seed: int = 0,
     out: str | os.PathLike[str] | None = None,
+    actuator: Actuator | None = None,
     **options: Any,
 ) -> dict[str, Any]:
     """Fit one model, add ranges, units and metrics (test and validation), save it atomically to `out`.
 
+    The actuator is the data folder's (data_actuator; an `actuator` that disagrees is refused); the model
+    file records it (Actuator.record()) and its feature spec runs at its control-loop rate.
     options: storage, study_name (search); activation, lr, epochs, weights (MLP config).
     """
     _check_args(model, loss, task, hidden, trials)
-    frames = load_derived(data_dir)
+    frames = load_derived(data_dir, actuator=actuator)
+    act = data_actuator(data_dir, actuator)
     tr = frames["train"]
     t0 = time.perf_counter()
     if model == "sf":
@@ -139,8 +146,9 @@ def train(
         cfg = replace(MlpConfig(seed=seed, loss=loss), hidden=hidden or DEFAULT_HIDDEN[task], **fields)
         search = {"trials": trials, **{k: options.get(k) for k in ("storage", "study_name")}}
         body = _fit_mlp_model(tr, task, cfg, search)
+    body["features"]["sample_rate_hz"] = act.loop_hz
     inputs = tuple(body["features"]["inputs"])
-    obj: dict[str, Any] = {"kind": model, "task": task, **body, "seed": seed}
+    obj: dict[str, Any] = {"kind": model, "task": task, **body, "seed": seed, "actuator": act.record()}
     obj["input_units"] = [unit_of(n) for n in inputs]
     obj["output_units"] = "N" if task == "calibration" else "mm"
     obj["input_range"], obj["output_range"] = _ranges(tr, inputs, obj["output_name"])

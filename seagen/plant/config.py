@@ -9,8 +9,7 @@ from typing import Any
 
 import tomli_w
 
-from seagen import geometry as g
-from seagen.actuator import default_actuator
+from seagen.actuator import Actuator, default_actuator
 from seagen.atomic import write_text
 from seagen.errors import UserError
 from seagen.fields import read_toml
@@ -20,23 +19,37 @@ class ConfigError(UserError):
     """A plant config file that cannot be used (names the file and the key)."""
 
 
-_ACT = default_actuator()
-
-
-@dataclass
+@dataclass(frozen=True)
 class Motor:
-    """12 V micro-gear motor, 380:1 gearbox, lead screw, seen at the nut (back-drivable)."""
+    """The drive seen at the nut (back-drivable lead screw), read from the actuator description's [motor].
 
-    supply_v: float = _ACT.motor.supply_v  # the actuator description's (seagen/actuators/paper.toml)
-    no_load_rpm: float = _ACT.motor.no_load_rpm
-    counts_per_rev: int = _ACT.motor.counts_per_rev
-    time_constant_s: float = 0.015  # chosen: electrical + rotor lag seen at the nut
-    stall_force_n: float = 150.0  # chosen: nut force that stalls the motor at 12 V
+    Every number is the actuator's, stall force and time constant included: they come from the motor's
+    datasheet and the gearbox and screw, not from what is non-ideal about one build (plant.toml)."""
+
+    supply_v: float
+    no_load_rpm: float
+    counts_per_rev: int
+    mm_per_count: float
+    time_constant_s: float
+    stall_force_n: float
+
+    @classmethod
+    def of(cls, act: Actuator) -> Motor:
+        """The motor of an actuator description."""
+        m = act.motor
+        return cls(
+            supply_v=m.supply_v,
+            no_load_rpm=m.no_load_rpm,
+            counts_per_rev=m.counts_per_rev,
+            mm_per_count=act.mm_per_count,
+            time_constant_s=m.time_constant_s,
+            stall_force_n=m.stall_force_n,
+        )
 
     @property
     def v_max_mm_s(self) -> float:
         """No-load speed seen at the nut (mm/s): motor counts per second times the nut travel per count."""
-        return self.no_load_rpm / 60.0 * self.counts_per_rev * g.MM_PER_COUNT
+        return self.no_load_rpm / 60.0 * self.counts_per_rev * self.mm_per_count
 
     def current(self, volts: Any, v_mm_s: Any) -> Any:
         """Motor current normalised to stall at the supply voltage, from the command and the nut speed: the
@@ -46,7 +59,8 @@ class Motor:
 
 @dataclass
 class LoadCells:
-    """Horizontal mount up to 16 deg contact, vertical above; each with its own noise (N at the tip)."""
+    """Horizontal mount up to the description's split angle, vertical above; each with its own noise (N at
+    the tip)."""
 
     horizontal_sigma_n: float = 0.05
     vertical_sigma_n: float = 0.08
@@ -70,7 +84,8 @@ class ActuatorFriction(Effect):
 
 @dataclass
 class LinkageFriction(Effect):
-    """Friction added (or relieved) by the linkage, at the shaft: c0 + c1 x + c2 x^2, x = (angle-16)/12."""
+    """Friction added (or relieved) by the linkage, at the shaft: c0 + c1 x + c2 x^2, with x the contact
+    angle above the description's split, over the range above it: (angle - split) / (max - split)."""
 
     enabled: bool = True
     # chosen so that the combined friction measured the paper's way is ~2.1, 2.4, 4.45 N (Fig. 8)
@@ -126,7 +141,7 @@ class SpringNonlinearity(Effect):
 
 @dataclass
 class PotVoltageDrop(Effect):
-    """Pot reads high while the motor draws current (|i| normalised to stall at 12 V), decays after."""
+    """Pot reads high while the motor draws current (|i| normalised to stall at the supply), decays after."""
 
     enabled: bool = True
     counts_per_unit_current: float = 120.0
@@ -212,12 +227,23 @@ CATALOGUE: tuple[str, ...] = tuple(e for e in EFFECT_NAMES if e not in ("pot_noi
 
 @dataclass
 class PlantConfig:
-    """Everything the simulated SEA needs; the defaults reproduce the paper's actuator."""
+    """Everything the simulated SEA needs: the actuator description (its geometry and motor; not part of
+    plant.toml, which says what is non-ideal about it) and the effect catalogue. The defaults reproduce
+    the paper's actuator."""
 
-    motor: Motor = field(default_factory=Motor)
+    actuator: Actuator = field(default_factory=default_actuator)
     load_cells: LoadCells = field(default_factory=LoadCells)
     effects: Effects = field(default_factory=Effects)
     dt_s: float = 0.001  # internal step (1 kHz)
+
+    @property
+    def motor(self) -> Motor:
+        """The motor of the actuator description."""
+        return Motor.of(self.actuator)
+
+    def with_actuator(self, act: Actuator) -> PlantConfig:
+        """A copy simulating another actuator description (same effects)."""
+        return dataclasses.replace(self, actuator=act)
 
     def effect(self, name: str) -> Effect:
         """The effect called `name` (one of EFFECT_NAMES)."""
@@ -237,13 +263,17 @@ class PlantConfig:
         return new
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain nested dict (TOML-ready)."""
-        return dataclasses.asdict(self)
+        """Plain nested dict (TOML-ready): what plant.toml holds, without the actuator description."""
+        return {f.name: dataclasses.asdict(self)[f.name] for f in fields(self) if f.name != "actuator"}
+
+
+# plant.toml before the actuator description: [motor] keys -> the description's [motor] keys
+MOVED_MOTOR_KEYS = ("supply_v", "no_load_rpm", "counts_per_rev", "time_constant_s", "stall_force_n")
 
 
 def _fill(cls: type, data: dict[str, Any], where: str, path: str) -> Any:
     """Build dataclass `cls` from `data`, rejecting unknown keys and wrong types with their location."""
-    known = {f.name: f for f in fields(cls)}
+    known = {f.name: f for f in fields(cls) if f.name != "actuator"}  # the description is its own file
     kwargs: dict[str, Any] = {}
     for key, value in data.items():
         if key not in known:
@@ -285,14 +315,27 @@ def _list(value: Any, strings: bool, where: str, key: str) -> list:
     return [v if strings else float(v) for v in value]
 
 
-def config_from_dict(data: dict[str, Any], where: str = "<dict>") -> PlantConfig:
-    """PlantConfig from a nested dict; missing keys take their defaults."""
-    return _fill(PlantConfig, data, where, "")
+def config_from_dict(
+    data: dict[str, Any], where: str = "<dict>", actuator: Actuator | None = None
+) -> PlantConfig:
+    """PlantConfig of `actuator` (the paper's when None) from a nested dict; missing keys take their
+    defaults. A [motor] table (plant.toml before the actuator description) is refused with how to move it."""
+    if "motor" in data:
+        moved = ", ".join(f"motor.{k}" for k in MOVED_MOTOR_KEYS)
+        raise ConfigError(
+            f"{where}: [motor] moved to the actuator description (--actuator FILE, see "
+            f"seagen/actuators/paper.toml): put {moved} under the same names in its [motor] table "
+            f"and delete [motor] here"
+        )
+    if "actuator" in data:
+        raise ConfigError(f"{where}: unknown key 'actuator' (the description is its own file: --actuator)")
+    cfg = _fill(PlantConfig, data, where, "")
+    return cfg if actuator is None else cfg.with_actuator(actuator)
 
 
-def load_config(path: str | os.PathLike[str]) -> PlantConfig:
-    """Read a plant config from TOML; errors name the file and key."""
-    return config_from_dict(read_toml(path, ConfigError), str(path))
+def load_config(path: str | os.PathLike[str], actuator: Actuator | None = None) -> PlantConfig:
+    """Read a plant config from TOML for `actuator` (the paper's when None); errors name the file and key."""
+    return config_from_dict(read_toml(path, ConfigError), str(path), actuator)
 
 
 def save_config(cfg: PlantConfig, path: str | os.PathLike[str]) -> None:

@@ -6,11 +6,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from seagen import geometry as g
+from seagen.geometry import geometry
 from seagen.plant.config import PlantConfig
 
-_STOP_N_PER_MM = 400.0  # hard stop when the nut pulls the shaft back (negative compression)
-_RIGID_N_PER_MM = 5000.0  # structure stiffness when series_compliance is off
+# Stiffnesses of the plant relative to the description's spring (exact for the paper's 4.2 N/mm: 400, 5000):
+STOP_PER_SPRING = 95.23809523809524  # hard stop when the nut pulls the shaft back (negative compression)
+RIGID_PER_SPRING = 1190.4761904761904  # structure stiffness when series_compliance is off
 
 
 def pick(x, idx: np.ndarray | None):
@@ -26,7 +27,7 @@ class Sensors:
     """One sample of every signal, each an array over the batch of trials."""
 
     enc: np.ndarray  # encoder counts (int64)
-    pot: np.ndarray  # pot ADC counts (int64, 0..4095)
+    pot: np.ndarray  # pot ADC counts (int64, 0..the description's ADC maximum)
     load_cell_n: np.ndarray  # measured tip force (N)
     force_n: np.ndarray  # reference force at the SEA output shaft: load cell / R_l(contact angle)
     true_force_n: np.ndarray  # noise-free force the linkage carries at the shaft (N)
@@ -52,15 +53,20 @@ def learned_correction(eff, values: dict[str, np.ndarray]) -> np.ndarray:
 
 
 class Plant:
-    """A batch of simulated SEAs, one per contact angle, stepped at cfg.dt_s; deterministic for a seed."""
+    """A batch of simulated SEAs, one per contact angle, stepped at cfg.dt_s; deterministic for a seed.
+    Every actuator number comes from cfg.actuator (its Geometry is `self.geo`)."""
 
     def __init__(self, cfg: PlantConfig, contact_deg: np.ndarray | float, seed: int = 0) -> None:
         self.cfg = cfg
         self.contact_deg = np.atleast_1d(np.asarray(contact_deg, dtype=float))
         n = self.contact_deg.size
         self.rng = np.random.default_rng(seed)
-        self.y_contact = g.shaft_advance_mm(self.contact_deg)
-        self.ratio = g.linkage_ratio(self.contact_deg)
+        self.geo = geo = geometry(cfg.actuator)
+        self.k_spring = geo.spring_n_per_mm
+        self.k_stop = geo.spring_n_per_mm * STOP_PER_SPRING
+        self.k_rigid = geo.spring_n_per_mm * RIGID_PER_SPRING
+        self.y_contact = geo.shaft_advance_mm(self.contact_deg)
+        self.ratio = geo.linkage_ratio(self.contact_deg)
         self.motor_mm = np.zeros(n)  # motor position in nut millimetres (what the encoder sees)
         self.v_motor = np.zeros(n)  # mm/s at the nut
         self.nut_mm = np.zeros(n)  # nut advance u (after backlash)
@@ -69,8 +75,8 @@ class Plant:
         self.current = np.zeros(n)
         self.pot_drop = np.zeros(n)
         self.t = 0.0
-        m = cfg.motor
-        self.v_max = m.v_max_mm_s  # mm/s at the nut
+        self.motor = cfg.motor  # the description's
+        self.v_max = self.motor.v_max_mm_s  # mm/s at the nut
         td = cfg.effects.transport_delay
         self._delay_n = int(round(td.delay_s / cfg.dt_s)) if td.enabled else 0
         self._history = np.zeros((self._delay_n + 1, n))
@@ -80,7 +86,7 @@ class Plant:
         """Spring force for compression d (with preload and nonlinearity when enabled); d is over the
         batch elements idx (all when None), per-element parameters are taken at idx."""
         e = self.cfg.effects
-        f = np.where(d >= 0, g.SPRING_N_PER_MM * d, _STOP_N_PER_MM * d)
+        f = np.where(d >= 0, self.k_spring * d, self.k_stop * d)
         if e.spring_nonlinearity.enabled:
             f = f + pick(e.spring_nonlinearity.k3_n_per_mm3, idx) * np.maximum(d, 0.0) ** 3
         if e.spring_preload.enabled:
@@ -90,7 +96,7 @@ class Plant:
     def _spring_slope(self, d: np.ndarray, idx: np.ndarray | None = None) -> np.ndarray:
         """dF/dd of spring_force at compression d over the batch elements idx (all when None)."""
         e = self.cfg.effects
-        s = np.where(d >= 0, g.SPRING_N_PER_MM, _STOP_N_PER_MM)
+        s = np.where(d >= 0, self.k_spring, self.k_stop)
         if e.spring_nonlinearity.enabled:
             s = s + 3 * pick(e.spring_nonlinearity.k3_n_per_mm3, idx) * np.maximum(d, 0.0) ** 2
         return s
@@ -107,7 +113,7 @@ class Plant:
         d = np.maximum(y - yc, 0.0)
         sc = self.cfg.effects.series_compliance
         if not sc.enabled:
-            return _RIGID_N_PER_MM * d, np.where(y > yc, _RIGID_N_PER_MM, 0.0)
+            return self.k_rigid * d, np.where(y > yc, self.k_rigid, 0.0)
         a = 1.0 / np.asarray(pick(sc.k_n_per_mm, idx), float)
         b = np.asarray(pick(sc.beta_mm_per_n2, idx), float)
         inside = y > yc
@@ -131,7 +137,8 @@ class Plant:
             fwd = fwd + e.actuator_friction.force_n
         if e.linkage_friction.enabled:
             lf = e.linkage_friction
-            x = (angle_deg - g.R_L_SPLIT_DEG) / 12.0
+            geo = self.geo
+            x = (angle_deg - geo.split_deg) / (geo.angle_max_deg - geo.split_deg)
             fwd = np.maximum(fwd + lf.c0_n + lf.c1_n * x + lf.c2_n * x * x, 0.0)
         ratio = e.actuator_friction.reverse_ratio if e.actuator_friction.enabled else 1.0
         return fwd, fwd * ratio
@@ -140,7 +147,7 @@ class Plant:
     def step(self, motor_v: np.ndarray | float) -> None:
         """Advance one internal step with motor command `motor_v` (V, clipped to the supply)."""
         cfg, dt = self.cfg, self.cfg.dt_s
-        m = cfg.motor
+        m = self.motor
         volts = np.clip(
             np.broadcast_to(np.asarray(motor_v, dtype=float), self.nut_mm.shape), -m.supply_v, m.supply_v
         )
@@ -184,7 +191,7 @@ class Plant:
         """Quasi-static massless shaft: stick inside the friction band, else slide to its edge."""
         e = self.cfg.effects
         y0 = self.shaft_mm
-        angle = g.angle_from_shaft(np.minimum(y0, self.y_contact))
+        angle = self.geo.angle_from_shaft(np.minimum(y0, self.y_contact))
         fwd, rev = self.friction_limits(angle)
         if e.stribeck_friction.enabled:
             sf = e.stribeck_friction
@@ -221,7 +228,7 @@ class Plant:
         f, s = net0[0][idx], net0[1][idx]
         y, y0a, ta, ba = y0.copy(), y0[idx], target[idx], pick(b, idx)
         # net falls at least as fast as the bare spring (slope >= k), which bounds the step.
-        span = np.abs(f - ta) / g.SPRING_N_PER_MM
+        span = np.abs(f - ta) / self.k_spring
         up = f > ta
         lo, hi, ya = np.where(up, y0a, y0a - span), np.where(up, y0a + span, y0a), y0a
         last = np.full(idx.size, np.inf)  # the previous step's size
@@ -262,10 +269,10 @@ class Plant:
     def read(self) -> Sensors:
         """Sample every sensor now (draws the noise of this sample)."""
         cfg, e, n = self.cfg, self.cfg.effects, self.nut_mm.size
-        enc = np.floor(self.motor_mm / g.MM_PER_COUNT + 1e-9).astype(np.int64)
+        enc = np.floor(self.motor_mm / self.geo.mm_per_count + 1e-9).astype(np.int64)
         y_seen = np.minimum(self.shaft_mm, self.y_contact)  # the structure deforms beyond the pot
-        angle = g.angle_from_shaft(y_seen)
-        pot = g.pot_from_angle(angle)
+        angle = self.geo.angle_from_shaft(y_seen)
+        pot = self.geo.pot_from_angle(angle)
         if e.pot_voltage_drop.enabled:
             pot = pot + self.pot_drop
         if e.pot_noise.enabled:
@@ -274,11 +281,11 @@ class Plant:
         extra = learned_correction(lr, self.learned_inputs()) if lr.enabled else 0.0
         if lr.enabled and lr.channel == "pot":
             pot = pot + extra
-        pot_i = np.clip(np.rint(pot), 0, g.ADC_MAX).astype(np.int64)
+        pot_i = np.clip(np.rint(pot), 0, self.geo.adc_max).astype(np.int64)
         shaft_force = self._history[self._delay_n]
         tip = shaft_force * self.ratio
         sigma = np.where(
-            self.contact_deg <= g.R_L_SPLIT_DEG,
+            self.contact_deg <= self.geo.split_deg,
             cfg.load_cells.horizontal_sigma_n,
             cfg.load_cells.vertical_sigma_n,
         )
@@ -294,7 +301,7 @@ class Plant:
             load_cell_n=load_cell,
             force_n=load_cell / self.ratio,
             true_force_n=true_force,
-            angle_deg=g.angle_from_shaft(self.shaft_mm),
+            angle_deg=self.geo.angle_from_shaft(self.shaft_mm),
             compression_mm=self.nut_mm - self.shaft_mm,
             motor_current=self.current.copy(),
         )

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from seagen.actuator import Actuator, default_actuator
 from seagen.c_runtime import defines
 from seagen.runtime.actq import ActQ, act_q_of
 from seagen.runtime.fixed import FORCE_FRAC_BITS, compression_q16, div_rne, rshift_rne, sat32
@@ -43,10 +44,15 @@ def q16(x: float) -> int:
 
 @dataclass(frozen=True)
 class KinParams:
-    """sea_kin_params: actuator friction Q16 N, 1/spring rate Q16 mm per N."""
+    """sea_kin_params: actuator friction Q16 N, 1/spring rate Q16 mm per N (the paper's by default)."""
 
-    friction_q16: int = q16(2.7)
-    inv_k_q16: int = q16(1 / 4.2)
+    friction_q16: int = q16(default_actuator().friction_n)
+    inv_k_q16: int = q16(1 / default_actuator().stiffness_n_per_mm)
+
+    @classmethod
+    def of(cls, act: Actuator) -> KinParams:
+        """The kinematic predictor's constants of actuator `act` (its friction and spring)."""
+        return cls(q16(act.friction_n), q16(1 / act.stiffness_n_per_mm))
 
 
 def predict_kinematic(k: KinParams) -> Predictor:

@@ -82,6 +82,7 @@ RECORD: tuple[Deviation, ...] = (
         "sea_dsp.h",
         r"const int32_t rh = r >> 16;",
         r"int(32|64)_t q = v >> s;",
+        r"const uint(32|64)_t bit = \(\(uint(32|64)_t\)u >> s\) & 1u;",
         r"if \(\(\(uint(32|64)_t\)v << \((32|64) - s\)\) == 0u\)",
         r"return \(\(x \* rh\) \+ \(\(x \* rl\) >> 16\)\)",
         r"return \(int32_t\)\(\(\(int64_t\)\(x \* \(1 << \(32 - s\)\)\) \* r\) >> 32\);",
@@ -191,4 +192,6 @@ RECORD: tuple[Deviation, ...] = (
     *_d("D1", "10.1", MODEL_C, r"^    r\d+ = sea_mulshr_s32\(x\d+, r\d+, \d+\) \+ \(r\d+ >> \d+\);$"),
     # D15 (cppcheck variableScope, style): a one-layer network's kernel declares at function scope.
     *_d("D15", "variableScope", MODEL_C, r"^    int j;$", r"^    int32_t h\d+\[\d+\];$"),
+    # D16 (2.7, advisory): the grouped loads' pointer is an operand of their inline assembly on the M4.
+    *_d("D16", "2.7", "sea_dsp.h", r"^static inline void sea_ld[24]\(const int32_t \*p, int32_t \*v0, "),
 )

@@ -1,0 +1,261 @@
+"""Every consumer reads the actuator description: each field scaled in turn moves the consumers that use it;
+the old plant.toml [motor] and disagreeing --actuator files are refused; the second design round-trips."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from seagen.actuator import ActuatorError, actuator_from_dict, default_actuator, load_actuator
+from seagen.cli import main
+from seagen.data import protocol
+from seagen.data.features import derive
+from seagen.data.logimport import import_log, load_map
+from seagen.data.protocol import Move, run_trials
+from seagen.discrepancy.replay import runs_from_frames, simulate
+from seagen.fit.kinematics import compression_for, shaft_force
+from seagen.geometry import geometry
+from seagen.modelfile import load_model
+from seagen.plant import Plant, PlantConfig, load_config
+from seagen.plant.config import ConfigError
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml"
+FACTORS = (1.1, 0.9, 2.0, 0.5)  # the first that gives a valid description (loop_hz must divide 1 kHz)
+
+
+def _numeric_fields(d: dict, prefix: str = "") -> list[str]:
+    """Dotted names of every numeric field (arrays count as one field) of a description dict."""
+    out = []
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out += _numeric_fields(v, f"{prefix}{k}.")
+        elif isinstance(v, list) or (isinstance(v, int | float) and not isinstance(v, bool)):
+            out.append(f"{prefix}{k}")
+    return out
+
+
+def _scaled(field: str):
+    """The paper's description with `field` scaled by the first factor that keeps it valid."""
+    *tables, key = field.split(".")
+    for f in FACTORS:
+        d = copy.deepcopy(default_actuator().to_dict())
+        t = d
+        for name in tables:
+            t = t[name]
+        v = t[key]
+        if isinstance(v, list):
+            t[key] = [x * f for x in v]
+        elif isinstance(v, int):
+            t[key] = max(int(round(v * f)), v + 1)
+        else:
+            t[key] = v * f
+        try:
+            act = actuator_from_dict(d, field)
+            protocol.sample_every(PlantConfig(actuator=act))
+        except Exception:
+            continue
+        return act
+    raise AssertionError(f"no factor of {FACTORS} keeps {field} valid")
+
+
+RAW = pd.DataFrame(
+    {
+        "trial": 0,
+        "t_s": np.arange(12) / 100.0,
+        "angle_set_deg": 12.0,
+        "motor_v": 3.0,
+        "enc": np.array([0, 3, 9, 18, 30, 45, 60, 75, 88, 99, 108, 115]),
+        "pot": np.array([1000, 1001, 1003, 1006, 1010, 1013, 1015, 1016, 1017, 1017, 1018, 1018]),
+        "load_cell_n": 0.0,
+        "force_n": np.linspace(0.0, 6.0, 12),
+    }
+)
+LOG_MAP = """
+[columns.t_s]
+column = "ms"
+unit = "ms"
+[columns.angle_set_deg]
+value = 12.0
+[columns.motor_v]
+column = "pwm"
+unit = "%"
+[columns.enc]
+column = "enc"
+[columns.pot]
+column = "pot_mV"
+unit = "mV"
+full_scale = 3300.0
+[columns.load_cell_n]
+column = "f"
+[columns.force_n]
+column = "f"
+"""
+LOG = "ms,pwm,enc,pot_mV,f\n0,0,0,800,0\n10,20,0,801,0\n20,20,2,802,0.1\n30,20,5,803,0.2\n"
+
+
+def _consumers(act, tmp: Path) -> dict[str, object]:
+    """What each threaded consumer computes for one description (exceptions count as an output)."""
+    cfg = PlantConfig(actuator=act)
+    geo = geometry(act)
+    out: dict[str, object] = {}
+    plant = Plant(cfg, np.array([8.0, 18.0]), seed=1)
+    reads = []
+    for k in range(320):
+        plant.step(5.0 if k < 280 else -5.0)
+        if k % 20 == 0:
+            s = plant.read()
+            reads.append(np.concatenate([s.enc, s.pot, s.load_cell_n, s.motor_current]))
+    out["plant"] = np.concatenate(reads)
+    frame = run_trials(cfg, [Move(12.0, 3.0, 4.0, -6.0, 0.5)], seed=2, max_s=0.4)[0]
+    out["protocol"] = (
+        frame.to_numpy(float),
+        protocol.train_angles(geo),
+        protocol.rows("train", act.loop_hz),
+    )
+    try:
+        out["features"] = derive(RAW, geo).to_numpy(float)
+    except Exception as e:  # another loop rate: rows 10 ms apart are refused
+        out["features"] = str(e)
+    comp = np.linspace(0.0, 4.0, 9)
+    out["kinematics"] = np.concatenate([shaft_force(comp, geo=geo), compression_for(comp * 4, geo)])
+    runs = runs_from_frames([("x", frame.assign(trial=0))])
+    out["replay"] = np.concatenate([v.ravel() for v in simulate(cfg, [{}], runs).values()])
+    (tmp / "log.csv").write_text(LOG)
+    (tmp / "map.toml").write_text(LOG_MAP)
+    out["logimport"] = import_log(tmp / "log.csv", load_map(tmp / "map.toml"), act).to_numpy(float)
+    return out
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, tuple):
+        return all(_same(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, np.ndarray) and isinstance(b, np.ndarray):
+        return a.shape == b.shape and np.array_equal(a, b, equal_nan=True)
+    return type(a) is type(b) and a == b
+
+
+# CE cancels out of Eq. 2 once the spring is unloaded at home_deg (DE_home = cos(home) CB + CE), so no
+# output can move with it; listed here so that it is the only such field and stays that way.
+CANCELS = {"linkage.ce_mm"}
+GEOMETRY = {"plant", "protocol", "features", "replay"}  # what Eq. 2-6 moves (features: angle, compression)
+MOTOR = {"plant", "protocol", "replay"}  # the simulated motor
+# Which consumers each field of the description must move (a consumer that ignores one fails the test).
+EXPECTED = {
+    "motor.supply_v": MOTOR | {"logimport"},  # PWM % of the supply, volts within +-supply
+    "motor.no_load_rpm": MOTOR,
+    "motor.gear_ratio": GEOMETRY,  # nut travel per count: encoder, stairs, compression
+    "motor.counts_per_rev": GEOMETRY,
+    "motor.stall_force_n": MOTOR,
+    "motor.time_constant_s": MOTOR,
+    "transmission.lead_mm": GEOMETRY,
+    "transmission.friction_n": {"kinematics"},
+    "spring.stiffness_n_per_mm": MOTOR | {"kinematics"},
+    "linkage.cb_mm": GEOMETRY,
+    "linkage.ce_mm": set(),  # CANCELS
+    "linkage.home_deg": GEOMETRY,
+    "linkage.angle_min_deg": MOTOR,  # R_l's origin (load cell) and the angles; not Eq. 2 or 5
+    "linkage.angle_max_deg": {"plant", "protocol", "replay"},  # linkage friction's range, train angles
+    "linkage.split_deg": {"plant", "protocol", "replay"},
+    "linkage.h_fit": {"plant", "protocol", "replay"},  # R_l: the load cell reads tip force
+    "linkage.v_fit_higher": {"plant"},  # R_l above the split: only the plant's 18 deg element is there
+    "pot.full_scale_deg": GEOMETRY,
+    "pot.offset_deg": GEOMETRY,
+    "pot.adc_bits": {"plant", "protocol", "features", "replay", "logimport"},
+    "control.loop_hz": {"protocol", "features", "replay"},  # replay: of the protocol's rows
+}
+
+
+def test_every_field_moves_the_consumers_that_read_it(tmp_path):
+    """Each numeric field scaled in turn (x1.1, or the first of 0.9, 2, 0.5 that stays valid) changes the
+    output of exactly the consumers listed in EXPECTED; a field nobody reads fails (~8 s)."""
+    fields = _numeric_fields(default_actuator().to_dict())
+    assert set(fields) == set(EXPECTED), "a description field without an expected reader (or a stale one)"
+    base = _consumers(default_actuator(), tmp_path)
+    moved = {}
+    for field in fields:
+        got = _consumers(_scaled(field), tmp_path)
+        moved[field] = {c for c in base if not _same(base[c], got[c])}
+    assert all(moved[f] for f in fields if f not in CANCELS), (
+        f"fields nobody reads: {[f for f in fields if not moved[f]]}"
+    )
+    wrong = {f: (sorted(moved[f]), sorted(EXPECTED[f])) for f in fields if moved[f] != EXPECTED[f]}
+    assert not wrong, f"field: (consumers moved, expected): {wrong}"
+    assert set().union(*moved.values()) == set(base), "a threaded consumer no field moves"
+
+
+def test_old_plant_toml_with_motor_is_refused(tmp_path):
+    """A plant.toml that still has [motor] is refused with one line saying where each key goes."""
+    p = tmp_path / "plant.toml"
+    p.write_text("[motor]\nsupply_v = 24.0\n\n[effects.backlash]\nenabled = true\n")
+    with pytest.raises(ConfigError) as e:
+        load_config(p)
+    msg = str(e.value)
+    assert str(p) in msg and "\n" not in msg and "--actuator" in msg
+    assert all(f"motor.{k}" in msg for k in ("supply_v", "no_load_rpm", "counts_per_rev", "stall_force_n"))
+
+
+def test_cli_refuses_old_plant_toml(tmp_path, capsys):
+    """`data generate --config` with the old [motor] table: exit 2, one line, nothing written."""
+    p = tmp_path / "plant.toml"
+    p.write_text("[motor]\nstall_force_n = 150.0\n")
+    out = tmp_path / "data"
+    assert main(["data", "generate", "--out", str(out), "--config", str(p)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "plant.toml" in err and "motor.stall_force_n" in err
+    assert not out.exists()
+
+
+def test_generate_and_train_on_the_second_design(tmp_path, monkeypatch, capsys):
+    """`data generate --actuator` keeps the description in the data folder; `train` records it in the model
+    file (values + sha256), its loop rate in the feature spec; a disagreeing --actuator is refused (~10 s)."""
+    act = load_actuator(EXAMPLE)
+    assert act.digest() != default_actuator().digest()
+    monkeypatch.setattr(protocol, "SECONDS", {"train": 4.0, "test": 2.5, "validation": 2.5})
+    data = tmp_path / "data"
+    assert main(["data", "generate", "--out", str(data), "--actuator", str(EXAMPLE)]) == 0
+    assert load_actuator(data / "actuator.toml") == act
+    assert len(pd.read_csv(data / "train.csv")) == 800  # 4 s at the example's 200 Hz
+    model = tmp_path / "sf.pt"
+    assert main(["train", "--data", str(data), "--model", "sf", "--loss", "mae", "--out", str(model)]) == 0
+    saved = load_model(model)
+    assert saved["actuator"] == act.record() and saved["features"]["sample_rate_hz"] == act.loop_hz
+    capsys.readouterr()
+    paper = str(Path(__file__).resolve().parents[1] / "seagen" / "actuators" / "paper.toml")
+    other = tmp_path / "x.pt"
+    cmd = ["train", "--data", str(data), "--model", "sf", "--out", str(other), "--actuator"]
+    assert main([*cmd, paper]) == 2
+    err = capsys.readouterr().err
+    assert "actuator.toml" in err and "--actuator" in err and not other.exists()
+    assert main([*cmd, str(EXAMPLE)]) == 0
+    ctl = tmp_path / "ctl.pt"
+    assert main(["train", "--data", str(data), "--model", "sf", "--task", "control", "--out", str(ctl)]) == 0
+    capsys.readouterr()
+    assert main(["simulate", "--model", str(ctl)]) == 2  # the C side has the paper's geometry compiled in
+    assert "paper's geometry" in capsys.readouterr().err
+
+
+def test_simulate_and_evaluate_refuse_another_actuator(tmp_path, capsys):
+    """simulate's default configurations run the shipped (paper) models: another --actuator is refused;
+    a bad description names the file and field; both exit 2."""
+    assert main(["simulate", "--actuator", str(EXAMPLE)]) == 2
+    assert "--model" in capsys.readouterr().err
+    bad = tmp_path / "bad.toml"
+    bad.write_text(EXAMPLE.read_text().replace("stiffness_n_per_mm = 8.4", "stiffness_n_per_mm = -1.0"))
+    assert main(["simulate", "--actuator", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert str(bad) in err and "spring.stiffness_n_per_mm" in err
+
+
+def test_data_folder_actuator_mismatch_is_refused(tmp_path):
+    """A data folder's actuator.toml and a disagreeing description: ActuatorError naming the file."""
+    from seagen.data.schema import data_actuator
+
+    (tmp_path / "actuator.toml").write_text(EXAMPLE.read_text())
+    assert data_actuator(tmp_path) == load_actuator(EXAMPLE)
+    with pytest.raises(ActuatorError, match="actuator.toml"):
+        data_actuator(tmp_path, default_actuator())
+    assert data_actuator(tmp_path / "none") == default_actuator()  # folders written before the file
