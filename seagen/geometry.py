@@ -73,10 +73,3 @@ class Geometry:
 def geometry(act: Actuator | None = None) -> Geometry:
     """The geometry of `act` (the paper's actuator when None), built once per description."""
     return Geometry(default_actuator() if act is None else act)
-
-
-# The default actuator's numbers that seagen/runtime/fixed.py (the C side, not yet threaded) still reads;
-# nothing else in seagen uses module-level geometry: remove these with that file's last use.
-_DEFAULT = geometry()
-POT_DEG_PER_COUNT, POT_OFFSET_DEG = _DEFAULT.pot_deg_per_count, _DEFAULT.pot_offset_deg
-CB_MM, CE_MM, DE_HOME_MM = _DEFAULT.cb_mm, _DEFAULT.ce_mm, _DEFAULT.de_home_mm

@@ -144,8 +144,8 @@ def plant_actuator(args: argparse.Namespace) -> Actuator:
         try:
             model = load_model(args.model, args.allow_pickle)
         except UserError:  # a bare network: it records no actuator
-            return _c_side_ready(given or default_actuator(), args.model)
-        return _c_side_ready(model_actuator(model, args.model, given), args.model)
+            return given or default_actuator()
+        return model_actuator(model, args.model, given)
     for name, path in sorted(shipped().items()):  # the default configurations run the shipped models
         try:
             model_actuator(load_model(path), f"{path} (the default configurations' model {name})", given)
@@ -154,16 +154,3 @@ def plant_actuator(args: argparse.Namespace) -> Actuator:
                 f"{e}; train a control model on your actuator's data and pass --model"
             ) from None
     return given or default_actuator()
-
-
-def _c_side_ready(act: Actuator, where: str) -> Actuator:
-    """The actuator, if the controller's C can run it: the C runtime of this build has the paper's geometry
-    compiled in, so a model of another actuator would read its sensors with the wrong one (exit 2)."""
-    from seagen.actuator import ActuatorError, default_actuator
-
-    if act.digest() != default_actuator().digest():
-        raise ActuatorError(
-            f"{where}: actuator '{act.name}': the controller's C in this build carries the paper's geometry, "
-            "so the closed loop runs only the paper's actuator for now"
-        )
-    return act

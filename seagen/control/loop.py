@@ -1,4 +1,5 @@
-"""The closed loop: the simulated SEA at 1 kHz, the controller (C or its Python twin) ticking at 100 Hz."""
+"""The closed loop: the simulated SEA at 1 kHz, the controller (C or its Python twin) ticking at the
+actuator's loop rate (the description's control.loop_hz: 100 Hz for the paper's)."""
 
 from __future__ import annotations
 
@@ -9,12 +10,12 @@ from typing import Any
 
 import numpy as np
 
+from seagen.errors import UserError
 from seagen.plant import Plant, PlantConfig
+from seagen.runtime.actq import act_q
 from seagen.runtime.control import ControlConfig, ControlState, Predictor, control_reset, control_step, q16
 from seagen.runtime.control import set_desired as py_set_desired
 
-PLANT_STEPS_PER_TICK = 10  # 1 kHz plant, 100 Hz controller
-TICK_S = 0.01
 PLANT_FIELDS = ("motor_mm", "v_motor", "nut_mm", "shaft_mm", "v_shaft", "current", "pot_drop")
 SENSOR_FIELDS = ("enc", "pot", "force_n", "true_force_n", "compression_mm", "angle_deg")
 CTRL_FIELDS = ("desired", "comp", "pot_avg", "fault")
@@ -118,7 +119,13 @@ def run_closed_loop(
 ) -> dict[str, np.ndarray]:
     """Run the experiment; returns per-tick records (ticks x actuators) of sensors, controller and plant."""
     plant = Plant(plant_cfg or PlantConfig(), contact_deg, seed=seed)
-    ctrl = make_controller(impl, pred, control_cfg or ControlConfig())
+    control_cfg = control_cfg or ControlConfig.for_act(act_q(plant.cfg.actuator))
+    if control_cfg.act.digest != plant.cfg.actuator.digest():
+        raise UserError(
+            f"the controller was made for actuator '{control_cfg.act.name}', the plant simulates "
+            f"'{plant.cfg.actuator.name}'"
+        )
+    ctrl = make_controller(impl, pred, control_cfg)
     try:
         return _run(plant, ctrl, pred, target_n, duration_s, sensor_hook)
     finally:
@@ -126,33 +133,40 @@ def run_closed_loop(
             ctrl.close()
 
 
+def plant_steps_per_tick(cfg: PlantConfig) -> int:
+    """Plant steps per controller tick: the loop period in plant steps (protocol.py holds it whole)."""
+    return int(round(1.0 / (cfg.actuator.loop_hz * cfg.dt_s)))
+
+
 def _run(plant: Plant, ctrl, pred, target_n, duration_s: float, sensor_hook) -> dict[str, np.ndarray]:
     """The loop of run_closed_loop with its plant and controller."""
+    steps = plant_steps_per_tick(plant.cfg)
+    tick_s = 1.0 / plant.cfg.actuator.loop_hz
     s = plant.read()
     ctrl.reset(s.enc, s.pot)
     target = target_n if callable(target_n) else (lambda _k: float(target_n))
-    cloud = _Link(pred) if isinstance(pred, CloudPredictor) else None
+    cloud = _Link(pred, tick_s) if isinstance(pred, CloudPredictor) else None
     rec: dict[str, list[np.ndarray]] = {}
-    for k in range(int(round(duration_s / TICK_S))):
+    for k in range(int(round(duration_s / tick_s))):
         s = plant.read()
         enc, pot = sensor_hook(k, s.enc, s.pot) if sensor_hook else (s.enc, s.pot)
         f_n = target(k)
         if cloud is not None:
             cloud.tick(ctrl, k, enc, pot, f_n)
         out = ctrl.step(enc, pot, np.full(enc.shape, q16(f_n), dtype=np.int64))
-        _record(rec, k, s, plant, ctrl, out, enc, pot, f_n)
-        for _ in range(PLANT_STEPS_PER_TICK):
+        _record(rec, k * tick_s, s, plant, ctrl, out, enc, pot, f_n)
+        for _ in range(steps):
             plant.step(out / 1000.0)
     return {k: np.array(v) for k, v in rec.items()}
 
 
 class _Link:
-    """The Bluetooth link to a CloudPredictor: 100 Hz sample history, one request in flight."""
+    """The Bluetooth link to a CloudPredictor: the tick's sample history, one request in flight."""
 
-    def __init__(self, cloud: CloudPredictor) -> None:
+    def __init__(self, cloud: CloudPredictor, tick_s: float) -> None:
         self.cloud = cloud
-        self.period = max(int(round(1.0 / (cloud.refresh_hz * TICK_S))), 1)
-        self.delay = int(round(cloud.latency_s / TICK_S))
+        self.period = max(int(round(1.0 / (cloud.refresh_hz * tick_s))), 1)
+        self.delay = int(round(cloud.latency_s / tick_s))
         self.hist: np.ndarray | None = None  # (3, 2, n): rows k-2, k-1, k of (enc, pot)
         self.reply: tuple[int, np.ndarray] | None = None
 
@@ -171,12 +185,10 @@ class _Link:
                 self.reply = None
 
 
-def _record(rec, k: int, s, plant: Plant, ctrl, out: np.ndarray, enc, pot, f_n: float) -> None:
+def _record(rec, t_s: float, s, plant: Plant, ctrl, out: np.ndarray, enc, pot, f_n: float) -> None:
     """Append this tick's sensors (as seen by the controller), controller fields and plant state."""
     row = {f: getattr(s, f) for f in SENSOR_FIELDS}
-    row.update(
-        enc=enc, pot=pot, out_mv=out, target_n=np.full(enc.shape, f_n), t_s=np.full(enc.shape, k * TICK_S)
-    )
+    row.update(enc=enc, pot=pot, out_mv=out, target_n=np.full(enc.shape, f_n), t_s=np.full(enc.shape, t_s))
     row.update({f: ctrl.field(f) for f in CTRL_FIELDS})
     row.update({f: getattr(plant, f) for f in PLANT_FIELDS})
     for name, v in row.items():

@@ -100,7 +100,7 @@ def control_setups(
         return float_ref.predict(fm, float_features(names, enc, pot, force_n))
 
     def cloud(latency_s: float) -> Setup:
-        return CloudPredictor(cloud_fn, latency_s, 10.0), ControlConfig()
+        return CloudPredictor(cloud_fn, latency_s, 10.0), ControlConfig.for_act(ex.act)
 
     return {f"{p}_mcu": mcu, f"{p}_cloud": cloud}, "MLP" if isinstance(qm, QMLP) else "SF"
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from seagen.control.loop import PLANT_STEPS_PER_TICK, PyController
+from seagen.control.loop import PyController, plant_steps_per_tick
 from seagen.errors import UserError
 from seagen.pil.controller import MAX_ACTUATORS, PilController
 from seagen.runtime.control import q16
@@ -81,11 +81,13 @@ def closed_loop(
     target_n: float,
     ticks: int,
     seed: int,
+    plant_cfg=None,
 ) -> tuple[str | None, int]:
-    """One run of the experiment in lock step with the twins; (first mismatch or None, ticks run)."""
+    """One run of the experiment in lock step with the twins on the plant `plant_cfg` (the paper's actuator
+    when None); (first mismatch or None, ticks run)."""
     from seagen.plant import Plant, PlantConfig
 
-    plant = Plant(PlantConfig(), contact_deg, seed=seed)
+    plant = Plant(plant_cfg or PlantConfig(), contact_deg, seed=seed)
     twin, cal = PyController(twin_cfg), CalTwin(cal_qm, twin_cfg.act) if cal_qm is not None else None
     s = plant.read()
     board.reset(s.enc, s.pot)
@@ -101,7 +103,7 @@ def closed_loop(
         got = {f: board.field(f) for f in want}
         if problem := _mismatch(k, s.enc, s.pot, force, got, want):
             return problem, k + 1
-        for _ in range(PLANT_STEPS_PER_TICK):
+        for _ in range(plant_steps_per_tick(plant.cfg)):
             plant.step(out / 1000.0)
     return None, ticks
 
@@ -142,9 +144,11 @@ def run_pil(
     actuator=None,
 ) -> PilResult:
     """The experiment (targets 5/10/15 N, `actuators` contact angles, `ticks` per run) on the board."""
+    from seagen.codegen.actfile import export_actuator
     from seagen.codegen.controller import shipped_config
     from seagen.control.experiment import TARGETS_N
     from seagen.control.gentwin import StepTwin
+    from seagen.plant import PlantConfig
 
     if ticks < 1 or not 1 <= actuators <= MAX_ACTUATORS:
         raise UserError(f"--ticks must be >= 1 and --actuators 1..{MAX_ACTUATORS} (got {ticks}, {actuators})")
@@ -164,11 +168,14 @@ def run_pil(
     board = PilController(files, ex.prefix, core, cal)
     res = PilResult(v, core, board.board.machine, actuators)
     cfg = shipped_config(ex.qmodel, ex.act)  # the configuration export --controller renders
+    plant_cfg = PlantConfig().with_actuator(export_actuator(model, actuator, allow_pickle))
     angles = np.linspace(7.0, 25.0, actuators)
     try:
         for i, target in enumerate(TARGETS_N):
             twin_cfg = replace(cfg, predictor=StepTwin(ex.prefix, ex.qmodel, ex.act))
-            problem, done = closed_loop(board, twin_cfg, cal_qm, angles, target, ticks, seed=i)
+            problem, done = closed_loop(
+                board, twin_cfg, cal_qm, angles, target, ticks, seed=i, plant_cfg=plant_cfg
+            )
             what = "commands, desired, comp, pot_avg, fault" + (f" and {cal} force estimates" if cal else "")
             v.add(
                 f"{target:g} N closed loop on {board.board.machine}: {what} == twins",
