@@ -97,7 +97,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
 
 ACTUATOR_FILE = "actuator.toml"  # seagen.data.schema.ACTUATOR_FILE (cli imports data lazily)
-LOGGED = "logged"  # `data import`: the rows as logged, beside the 100 Hz copy
+LOGGED = "logged"  # `data import`: the rows as logged, beside the copy on the loop-rate grid
 
 
 def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None, what: str = "") -> None:

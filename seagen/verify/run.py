@@ -61,11 +61,12 @@ def disk_files(folder: Path, man: Manifest) -> dict[str, str]:
     return {n: (folder / n).read_text() for n in man.files if n.endswith((".c", ".h"))}
 
 
-def synthetic_trials(qm, n_trials: int = 4, n: int = 400, seed: int = 0):
-    """enc, pot, trial ids: bounded random walks inside the calibrated pot/enc ranges (or the sensors')."""
+def synthetic_trials(qm, pot_max: int, n_trials: int = 4, n: int = 400, seed: int = 0):
+    """enc, pot, trial ids: bounded random walks inside the calibrated pot/enc ranges (or the sensors':
+    the pot's ADC range 0..pot_max)."""
     rng = np.random.default_rng(seed)
     rng_of = {i.signal.name: (i.signal.lo, i.signal.hi) for i in qm.inputs}
-    plo, phi = rng_of.get("pot", (0.0, 4095.0))
+    plo, phi = rng_of.get("pot", (0.0, float(pot_max)))
     elo, ehi = rng_of.get("enc", (-100.0, 2700.0))
     enc, pot = [], []
     for _ in range(n_trials):
@@ -84,7 +85,7 @@ def check_steps(v: Verdict, ex, target, data: str | None, onnx_model) -> None:
     qm, p = ex.qmodel, ex.prefix
     ext_names = external_inputs(qm)
     if data is None:
-        enc, pot, trial = synthetic_trials(qm)
+        enc, pot, trial = synthetic_trials(qm, ex.act.pot_max)
         rng = np.random.default_rng(1)
         ext = np.column_stack(
             [rng.integers(qi.lo_q, qi.hi_q + 1, len(enc)) for qi in qm.inputs if qi.signal.name in ext_names]
