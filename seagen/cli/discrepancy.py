@@ -51,7 +51,7 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
         raise UserError("discrepancy: --measured and --out are required (or use `discrepancy bench`)")
     from seagen.atomic import locked_folder
     from seagen.discrepancy.replay import load_measured, load_timing, runs_from_frames
-    from seagen.discrepancy.report import summary, write_report
+    from seagen.discrepancy.report import summary, unpinned_words, write_report
     from seagen.discrepancy.workflow import identify
     from seagen.plant import PlantConfig, load_config
 
@@ -76,6 +76,8 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
             f"{r['effect']}.{r['param']} {r['before']:.4g} -> {r['after']:.4g}" for r in s["recalibrated"]
         )
         print(f"verdict: {s['verdict']}; added: {named}; recalibrated: {recal or 'nothing'}")
+        if unpinned_words(res):
+            print(f"note: {unpinned_words(res)}")
         if res.timing is not None:
             print(res.timing.words())
             if res.timing.warning:
