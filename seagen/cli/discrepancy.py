@@ -169,5 +169,7 @@ def _print_rig(args: argparse.Namespace) -> int:
             f"hidden={r['hidden']:20s} lag={r['lag']:.2f} {r['verdict']:11s} named={r['named']:25s} "
             f"recal={r['recalibrated']:25s} rms {r['rms_before']:6.2f} -> {r['rms_after']:5.2f} "
             f"({r['seconds']:.0f} s)"
+            + (f" mis-set {r['misset']} (worst {r['misset_error']:.1%} off)" if r["kind"] == "misset" else "")
+            + (f" not pinned: {r['unpinned']}" if r["unpinned"] else "")
         ),
     )
