@@ -21,6 +21,11 @@ def pick(x, idx: np.ndarray | None):
     return x[idx]
 
 
+def _scalar(x) -> bool:
+    """Whether a parameter is one value for the whole batch (a number or a 0-d array)."""
+    return not isinstance(x, np.ndarray) or x.ndim == 0
+
+
 @dataclass
 class Sensors:
     """One sample of every signal, each an array over the batch of trials."""
@@ -110,8 +115,8 @@ class Plant:
             return _RIGID_N_PER_MM * d, np.where(y > yc, _RIGID_N_PER_MM, 0.0)
         inside = y > yc
         k, beta = sc.k_n_per_mm, sc.beta_mm_per_n2
-        a = 1.0 / float(k) if np.ndim(k) == 0 else 1.0 / np.asarray(pick(k, idx), float)
-        if np.ndim(beta) == 0:  # one law for every element (the usual case): the same values in fewer
+        a = 1.0 / float(k) if _scalar(k) else 1.0 / np.asarray(pick(k, idx), float)
+        if _scalar(beta):  # one law for every element (the usual case): the same values in fewer
             b1 = float(beta)  # operations (Python floats: no per-call array overhead)
             if b1 <= 0:
                 return d / a, np.where(inside, 1.0 / a, 0.0)
