@@ -112,3 +112,27 @@ def test_only_the_closest_name_is_claimed_when_the_form_differs() -> None:
     done = changes()
     _claims(done, "explained")
     assert all(n.claimed for n in done)
+
+
+def test_base_check_sees_a_thin_mis_set_and_names_what_the_data_cannot_pin() -> None:
+    """A pot-drop gain 21 % off moves every pot sample by ~0.1 noise sigma (no region test fires), yet the
+    score test of the base's values rejects it; on the right base it does not. The pot-drop time constant
+    is not pinned to 5 % by this data and is reported as such (quick data, ~4 s)."""
+    import numpy as np
+
+    from seagen.discrepancy.bench import measure
+    from seagen.discrepancy.recalibrate import base_check
+    from seagen.discrepancy.residuals import noise_sigma
+    from seagen.discrepancy.workflow import split_trials
+
+    truth = PlantConfig()
+    runs = measure(truth, seed=4, fast=True)
+    fit_i, _ = split_trials(runs)
+    sig = {c: s[fit_i] for c, s in noise_sigma(runs).items()}
+    fit = runs.take(fit_i)
+    right = base_check(truth, fit, sig)
+    wrong = base_check(truth.with_effect("pot_voltage_drop", True, counts_per_unit_current=94.6), fit, sig)
+    assert not right.off and wrong.off, (right.p_value, wrong.p_value)
+    assert "pot_voltage_drop.time_constant_s" in right.unpinned
+    assert "actuator_friction.force_n" not in right.unpinned
+    assert np.isfinite(right.sigma["series_compliance.k_n_per_mm"])

@@ -59,7 +59,7 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
     from seagen.cli.data import given_actuator
     from seagen.data.schema import data_actuator
     from seagen.discrepancy.replay import load_measured, load_timing, runs_from_frames
-    from seagen.discrepancy.report import summary, write_report
+    from seagen.discrepancy.report import summary, unpinned_words, write_report
     from seagen.discrepancy.workflow import identify
     from seagen.plant import PlantConfig, load_config
 
@@ -86,6 +86,8 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
             f"{r['effect']}.{r['param']} {r['before']:.4g} -> {r['after']:.4g}" for r in s["recalibrated"]
         )
         print(f"verdict: {s['verdict']}; added: {named}; recalibrated: {recal or 'nothing'}")
+        if unpinned_words(res):
+            print(f"note: {unpinned_words(res)}")
         if res.timing is not None:
             print(res.timing.words())
             if res.timing.warning:
@@ -177,5 +179,7 @@ def _print_rig(args: argparse.Namespace) -> int:
             f"hidden={r['hidden']:20s} lag={r['lag']:.2f} {r['verdict']:11s} named={r['named']:25s} "
             f"recal={r['recalibrated']:25s} rms {r['rms_before']:6.2f} -> {r['rms_after']:5.2f} "
             f"({r['seconds']:.0f} s)"
+            + (f" mis-set {r['misset']} (worst {r['misset_error']:.1%} off)" if r["kind"] == "misset" else "")
+            + (f" not pinned: {r['unpinned']}" if r["unpinned"] else "")
         ),
     )

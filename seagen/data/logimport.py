@@ -26,6 +26,7 @@ row, seagen's own data); without it the discrepancy workflow finds it from the d
 
 from __future__ import annotations
 
+import itertools
 import os
 from pathlib import Path
 from typing import Any
@@ -143,9 +144,17 @@ def _convert(path: Path, df: pd.DataFrame, name: str, entry: dict[str, Any], act
 
 
 def _row(df: pd.DataFrame, i: int) -> int:
-    """The log's line number of data row i (header = line 1; comment and blank lines counted)."""
+    """The log's line number of data row i (header = line 1; comment and blank lines counted); a chunk of
+    the log carries its first row's number in attrs['offset']."""
     lines = df.attrs.get("lines")
-    return int(lines[i]) if lines is not None else i + 2
+    return int(lines[i]) if lines is not None else i + 2 + int(df.attrs.get("offset", 0))
+
+
+def _fields(path: Path, line: int) -> list[str]:
+    """The fields of one line of the log (1 = header), stripped."""
+    with path.open("r", newline="") as f:
+        text = next(itertools.islice(f, line - 1, None), "")
+    return [x.strip() for x in text.rstrip("\r\n").split(",")]
 
 
 def _line_numbers(path: Path, comment: str | None) -> np.ndarray:
@@ -160,12 +169,14 @@ def _line_numbers(path: Path, comment: str | None) -> np.ndarray:
     return np.asarray(keep[1:], dtype=np.int64)
 
 
-def _trial_ids(path: Path, df: pd.DataFrame, cols: dict, t: np.ndarray, gap_s: float) -> np.ndarray:
-    """Trial number per row: the mapped column, else a new trial where time jumps by > gap_s or resets
-    (goes back by > gap_s); inside a trial time must increase."""
+def _trial_ids(
+    path: Path, df: pd.DataFrame, cols: dict, t: np.ndarray, gap_s: float, mapped: np.ndarray | None
+) -> np.ndarray:
+    """Trial number per row: the mapped column (`mapped`), else a new trial where time jumps by > gap_s or
+    resets (goes back by > gap_s); inside a trial time must increase."""
     col = cols["t_s"]["column"]
-    if "trial" in cols:
-        trial = _convert(path, df, "trial", cols["trial"], default_actuator())  # no actuator unit
+    if mapped is not None:
+        trial = mapped
         same = trial[1:] == trial[:-1]
     else:
         dt = np.diff(t)
@@ -175,7 +186,7 @@ def _trial_ids(path: Path, df: pd.DataFrame, cols: dict, t: np.ndarray, gap_s: f
     for bad, what in ((same & (dt < 0), "goes backwards"), (same & (dt == 0), "repeats")):
         if bad.any():
             i = int(np.argmax(bad)) + 1
-            dup = bool((df.iloc[i] == df.iloc[i - 1]).all())
+            dup = _fields(path, _row(df, i)) == _fields(path, _row(df, i - 1))
             extra = f" (the whole row repeats row {_row(df, i - 1)})" if dup else ""
             raise DataError(f"{path}, row {_row(df, i)}, column '{col}': time {what} inside a trial{extra}")
     return trial
@@ -244,6 +255,47 @@ def _check_range(path: Path, df: pd.DataFrame, cols: dict, conv: dict, act: Actu
             )
 
 
+CHUNK_ROWS = 100_000  # log rows held as text at a time (a 100 MB log imports in well under 500 MB)
+
+
+def _read(path: Path, mapping: dict[str, Any], act: Actuator) -> tuple[dict[str, np.ndarray], pd.DataFrame]:
+    """Every mapped schema column in seagen's units, the log parsed CHUNK_ROWS rows at a time (only the
+    mapped columns, as text, then numbers); and a frame of the log's rows without columns, whose attrs
+    give each row's line number for the messages."""
+    cols = mapping["columns"]
+    names = [k for k in RAW_COLUMNS if k in cols]
+    opts: dict[str, Any] = {
+        "dtype": str,
+        "keep_default_na": False,
+        "skipinitialspace": True,
+        "comment": mapping.get("comment"),
+    }
+    try:
+        head = pd.read_csv(path, nrows=0, **opts)
+        for k in names:  # a mapped column missing from the header: named before any row is read
+            if "column" in cols[k]:
+                _numbers(path, head, cols[k]["column"], k)
+        use = list(dict.fromkeys(cols[k]["column"] for k in names if "column" in cols[k]))
+        lines = _line_numbers(path, mapping.get("comment"))
+        parts: dict[str, list[np.ndarray]] = {k: [] for k in names}
+        n = 0
+        for chunk in pd.read_csv(path, usecols=use, chunksize=CHUNK_ROWS, **opts):
+            chunk.attrs["offset"] = n
+            if len(lines) >= n + len(chunk):
+                chunk.attrs["lines"] = lines[n : n + len(chunk)]
+            for k in names:
+                parts[k].append(_convert(path, chunk, k, cols[k], act))
+            n += len(chunk)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
+        raise DataError(f"{path}: not a readable CSV: {e}") from None
+    if n == 0:
+        raise DataError(f"{path}: no data rows")
+    rows = pd.DataFrame(index=pd.RangeIndex(n))
+    if len(lines) == n:
+        rows.attrs["lines"] = lines
+    return {k: np.concatenate(v) for k, v in parts.items()}, rows
+
+
 def import_log(
     log: str | os.PathLike[str], mapping: dict[str, Any], act: Actuator | None = None
 ) -> pd.DataFrame:
@@ -253,22 +305,12 @@ def import_log(
     path = Path(log)
     if not path.is_file():
         raise DataError(not_a_file(path, "log file"))
-    try:
-        df = pd.read_csv(
-            path, dtype=str, keep_default_na=False, skipinitialspace=True, comment=mapping.get("comment")
-        )
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
-        raise DataError(f"{path}: not a readable CSV: {e}") from None
-    if len(df) == 0:
-        raise DataError(f"{path}: no data rows")
-    lines = _line_numbers(path, mapping.get("comment"))
-    if len(lines) == len(df):
-        df.attrs["lines"] = lines
+    conv, df = _read(path, mapping, act)
     cols = mapping["columns"]
-    conv = {k: _convert(path, df, k, cols[k], act) for k in RAW_COLUMNS if k not in ("trial",)}
+    mapped = conv.pop("trial", None)
     _check_rate_unit(path, cols, conv["t_s"], mapping["gap_s"])
     _check_range(path, df, cols, conv, act)
-    trial = _trial_ids(path, df, cols, conv["t_s"], mapping["gap_s"])
+    trial = _trial_ids(path, df, cols, conv["t_s"], mapping["gap_s"], mapped)
     parts = []
     for i, key in enumerate(pd.unique(trial)):
         sel = np.flatnonzero(trial == key)

@@ -112,15 +112,14 @@ def values(cfg: PlantConfig, effect: str) -> dict[str, float]:
     return {p: float(getattr(cfg.effect(effect), p)) for p in SPACE[effect]}
 
 
-def joint_recalibration(cfg: PlantConfig, fit: Runs, sigma: dict) -> Candidate | None:
+def joint_recalibration(cfg: PlantConfig) -> Candidate | None:
     """Every present effect's parameters together, at cfg's values, to be polished (least squares only:
-    too many dimensions for a grid); None with fewer than two present effects."""
+    too many dimensions for a grid; the polish sets its chi-square, never above the start's); None with
+    fewer than two present effects."""
     present = tuple(present_effects(cfg))
     if len(present) < 2:
         return None
-    c = at(present, {e: values(cfg, e) for e in present}, held_in(cfg, present), " (joint recalibration)")
-    c.chi2_fit = float(objective(cfg, [c.params()], fit, sigma).sum())
-    return c
+    return at(present, {e: values(cfg, e) for e in present}, held_in(cfg, present), " (joint recalibration)")
 
 
 def start(cfg: PlantConfig, effect: str) -> Candidate:

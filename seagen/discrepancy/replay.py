@@ -182,9 +182,10 @@ def drive(runs: Runs, dt: float) -> np.ndarray:
     return out
 
 
-def _sample_plan(runs: Runs, dt: float, k_max: int) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per plant step k (state after k steps): (trial, sample, weight) of every logged instant that reads
-    it; an instant between two steps is read linearly from both."""
+def _sample_plan(runs: Runs, dt: float, k_max: int) -> tuple[np.ndarray, ...]:
+    """Every read of a plant state by a logged instant, ordered by step: (bounds, trial, sample, weight,
+    first). The reads of step k (state after k steps) are [bounds[k], bounds[k+1]); an instant between two
+    steps is read linearly from both (`first`: the earlier of its reads, or its only one)."""
     tr, js = np.nonzero(runs.mask)
     pos = runs.t[tr, js] / dt
     a = np.floor(pos + 1e-9).astype(int)
@@ -194,14 +195,11 @@ def _sample_plan(runs: Runs, dt: float, k_max: int) -> list[tuple[np.ndarray, np
     rows = np.r_[tr, tr[w > 0]]
     cols = np.r_[js, js[w > 0]]
     wt = np.r_[1.0 - w, w[w > 0]]
+    first = np.r_[np.ones(len(a), bool), np.zeros(int((w > 0).sum()), bool)]
     k = np.minimum(k, k_max)
     order = np.argsort(k, kind="stable")
-    k, rows, cols, wt = k[order], rows[order], cols[order], wt[order]
-    bounds = np.searchsorted(k, np.arange(k_max + 2))
-    return [
-        (rows[bounds[s] : bounds[s + 1]], cols[bounds[s] : bounds[s + 1]], wt[bounds[s] : bounds[s + 1]])
-        for s in range(k_max + 1)
-    ]
+    k, rows, cols, wt, first = k[order], rows[order], cols[order], wt[order], first[order]
+    return np.searchsorted(k, np.arange(k_max + 2)), rows, cols, wt, first
 
 
 def _value(base: PlantConfig, s: ParamSet, effect: str, param: str) -> float:
@@ -234,6 +232,19 @@ def union_config(base: PlantConfig, sets: list[ParamSet], n: int) -> tuple[Plant
     return cfg, post
 
 
+def _motion_sets(base: PlantConfig, sets: list[ParamSet]) -> tuple[list[ParamSet], np.ndarray]:
+    """The distinct motions of sets: sets that differ only in sensor-side effects (POST_HOC) or repeat
+    another move the plant alike, so each motion is stepped once. (motion sets, motion index per set)."""
+    phys = [{e: p for e, p in s.items() if e not in POST_HOC} for s in sets]
+    keys: dict[tuple, int] = {}
+    index = np.empty(len(sets), dtype=int)
+    for i, s in enumerate(phys):
+        key = tuple((e, tuple(sorted(s[e].items()))) for e in sorted(s))
+        index[i] = keys.setdefault(key, len(keys))
+    first = {j: i for i, j in reversed(list(enumerate(index)))}
+    return [phys[first[j]] for j in range(len(keys))], index
+
+
 def simulate(
     base: PlantConfig, sets: list[ParamSet], runs: Runs, inputs: dict[str, np.ndarray] | None = None
 ) -> dict[str, np.ndarray]:
@@ -242,52 +253,85 @@ def simulate(
     The plant steps at its own dt; each logged command takes effect at its own instant (see `drive`) and
     every channel is read at its row's logged instant. The base's learned residual (if on) is added to its
     channel; `inputs`, if given, is filled with the plant signals a learned residual reads (LEARNED_INPUTS),
-    same shape."""
+    same shape. Sets that move the plant alike (they differ only in sensor-side effects) share one stepped
+    motion; every batch element is independent of the others, so the numbers are those of one set alone."""
     n, t = runs.volts.shape
     n_sets = len(sets)
     e_n = n * n_sets
-    cfg, post = union_config(base, sets, n)
+    motions, which = _motion_sets(base, sets)
+    cfg, _ = union_config(base, motions, n)
+    _, post = union_config(base, sets, n)
     dt = cfg.dt_s
-    plant = Plant(cfg, np.tile(runs.angle, n_sets))
-    u = drive(runs, dt)
+    plant = Plant(cfg, np.tile(runs.angle, len(motions)))
+    u = np.tile(drive(runs, dt), (len(motions), 1))
     k_max = u.shape[1]
-    plan = _sample_plan(runs, dt, k_max)
+    bounds, tr, js, w, first = _sample_plan(runs, dt, k_max)
+    # each read, per set: the set's element (row) and the element of its motion (mrow)
+    rows = tr[:, None] + n * np.arange(n_sets)[None, :]
+    mrows = tr[:, None] + n * which[None, :]
     zero = np.zeros(e_n)
     pvd = post.get("pot_voltage_drop")
     kappa = pvd["counts_per_unit_current"] if pvd else zero
     alpha = np.minimum(dt / np.asarray(pvd["time_constant_s"]), 1.0) if pvd else zero
     delay = zero + (post["transport_delay"]["delay_s"] / dt if "transport_delay" in post else 0.0)
     offset = zero + (post["load_cell_offset"]["offset_n"] if "load_cell_offset" in post else 0.0)
+    delayed = bool(delay.any())
     size = int(np.ceil(delay.max())) + 2
     ring, ptr, drop = np.zeros((size, e_n)), 0, np.zeros(e_n)
     i0 = np.floor(delay).astype(int)
     frac = delay - i0
-    shape = (n_sets, n, t)
-    out = {c: np.zeros(shape) for c in ("enc", "pot", "load_cell_n")}
+    of_set = np.repeat(which, n) * n + np.tile(np.arange(n), n_sets)  # each element's motion element
     lr = base.effects.learned_residual
-    rec = {k: np.zeros(shape) for k in LEARNED_INPUTS} if inputs is not None or lr.enabled else {}
+    record = inputs is not None or lr.enabled
+    # the plant states each read needs, gathered step by step, turned into readings after the loop
+    motor_mm, shaft_mm, force, drops = (np.empty(rows.shape) for _ in range(4))
+    rec = {k: np.empty(rows.shape) for k in LEARNED_INPUTS} if record else {}
     for k in range(k_max + 1):
-        tr, js, w = plan[k]
-        if len(tr):
-            rows = (tr[None, :] + n * np.arange(n_sets)[:, None]).ravel()
-            wr = np.tile(w, n_sets)
-            sl = (np.repeat(np.arange(n_sets), len(tr)), np.tile(tr, n_sets), np.tile(js, n_sets))
-            f = (1 - frac[rows]) * ring[(ptr - i0[rows]) % size, rows] + frac[rows] * ring[
-                (ptr - i0[rows] - 1) % size, rows
-            ]
-            angle = plant.geo.angle_from_shaft(np.minimum(plant.shaft_mm[rows], plant.y_contact[rows]))
-            out["enc"][sl] += wr * (plant.motor_mm[rows] / plant.geo.mm_per_count - 0.5)  # E[floored count]
-            out["pot"][sl] += wr * np.clip(plant.geo.pot_from_angle(angle) + drop[rows], 0, plant.geo.adc_max)
-            out["load_cell_n"][sl] += wr * (f * plant.ratio[rows] + offset[rows])
-            for key, v in plant.learned_inputs().items() if rec else ():
-                rec[key][sl] += wr * np.broadcast_to(v, (e_n,))[rows]
+        b0, b1 = bounds[k], bounds[k + 1]
+        if b1 > b0:
+            r, mr = rows[b0:b1], mrows[b0:b1]
+            motor_mm[b0:b1] = plant.motor_mm[mr]
+            shaft_mm[b0:b1] = plant.shaft_mm[mr]
+            if delayed:
+                force[b0:b1] = (1 - frac[r]) * ring[(ptr - i0[r]) % size, r] + frac[r] * ring[
+                    (ptr - i0[r] - 1) % size, r
+                ]
+            else:
+                force[b0:b1] = plant.shaft_force[mr]
+            if pvd:
+                drops[b0:b1] = drop[r]
+            for key, v in plant.learned_inputs().items() if record else ():
+                rec[key][b0:b1] = np.broadcast_to(v, plant.motor_mm.shape)[mr]
         if k == k_max:
             break
-        plant.step(np.tile(u[:, k], n_sets))
+        plant.step(u[:, k])
         if pvd:
-            drop += (kappa * np.abs(plant.current) - drop) * alpha
-        ptr = (ptr + 1) % size
-        ring[ptr] = plant.shaft_force
+            drop += (kappa * np.abs(plant.current[of_set]) - drop) * alpha
+        if delayed:
+            ptr = (ptr + 1) % size
+            ring[ptr] = plant.shaft_force[of_set]
+    r = rows
+    angle = plant.geo.angle_from_shaft(np.minimum(shaft_mm, plant.y_contact[mrows]))
+    pot = plant.geo.pot_from_angle(angle) + (drops if pvd else zero[r])
+    readings = {
+        "enc": motor_mm / plant.geo.mm_per_count - 0.5,  # E[floored count]
+        "pot": np.clip(pot, 0, plant.geo.adc_max),
+        "load_cell_n": force * plant.ratio[mrows] + offset[r],
+    }
+    shape = (n_sets, n, t)
+    sel = tuple(np.broadcast_to(x, rows.shape) for x in (np.arange(n_sets), tr[:, None], js[:, None]))
+    wr = w[:, None]
+    once, twice = first, ~first
+
+    def accumulate(x: np.ndarray) -> np.ndarray:
+        """Weighted reads summed into (set, trial, sample), the earlier read first (as a running sum)."""
+        out = np.zeros(shape)
+        out[tuple(i[once] for i in sel)] += (wr * x)[once]
+        out[tuple(i[twice] for i in sel)] += (wr * x)[twice]
+        return out
+
+    out = {c: accumulate(v) for c, v in readings.items()}
+    rec = {k: accumulate(v) for k, v in rec.items()}
     ratio = plant.geo.linkage_ratio(runs.angle)[None, :, None]
     if lr.enabled:
         flat = {k: v.reshape(e_n, t) for k, v in rec.items()}

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from seagen.discrepancy.recalibrate import change_lines, plausible
+from seagen.discrepancy.recalibrate import PIN_SHARE, PIN_SIGMAS, change_lines, plausible
 from seagen.discrepancy.residuals import SCORE_CHANNELS, region_labels, region_table, rms
 from seagen.discrepancy.workflow import DRIVE, Result, channel_rms, worse_channels
 from seagen.plant import save_config
@@ -116,6 +116,7 @@ def markdown(res: Result, source: str, before: pd.DataFrame, after: pd.DataFrame
         _learned(res),
         "## Parameter changes of the base (recalibrated)\n"
         + ("\n".join(f"- {line}" for n in res.recalibrated for line in _changes(n)) or "none"),
+        _pinning(res),
         "## Effects added\n" + (_md_table(eff) if len(eff) else "none"),
         "![residual maps](residual_maps.png)",
         f"## Where the base plant disagrees (held-out, ranked)\n{_md_table(sig) if len(sig) else 'nowhere'}",
@@ -230,6 +231,30 @@ def write_report(res: Result, out: str | os.PathLike[str], source: str) -> None:
         shutil.rmtree(tmp, ignore_errors=True)
 
 
+def unpinned_words(res: Result) -> str:
+    """The base parameters this data cannot pin, in words ('' when it pins them all)."""
+    if res.check is None or not res.check.unpinned:
+        return ""
+    what = ", ".join(f"{k} (1-sigma {v:.1%})" for k, v in res.check.unpinned.items())
+    return (
+        f"this data cannot pin {what}: a change of {PIN_SHARE:.0%} of the value is below {PIN_SIGMAS:g} "
+        "noise-only sigmas (all present parameters together); a wrong value there may go unnoticed"
+    )
+
+
+def _pinning(res: Result) -> str:
+    """The base-check section: the score test of the base's parameters and the ones the data cannot pin."""
+    if res.check is None or not res.check.sigma:
+        return ""
+    c = res.check
+    verdict = "off (searched)" if c.off else "consistent"
+    return (
+        f"## The base's own parameters\nScore test of the base's values on the fitting trials: "
+        f"{c.score:.3g} (p = {c.p_value:.2g}, {len(c.sigma)} parameters): {verdict}. "
+        + (unpinned_words(res).capitalize() + "." if c.unpinned else "This data pins every one within 5 %.")
+    )
+
+
 def summary(res: Result) -> dict:
     """The --json object."""
     return {
@@ -273,6 +298,10 @@ def summary(res: Result) -> dict:
             "warning": res.timing.warning,
             "problem": res.timing.problem,
         },
+        "unpinned": {} if res.check is None else res.check.unpinned,
+        "base_check": None
+        if res.check is None
+        else {"score": res.check.score, "p_value": res.check.p_value, "sigma": res.check.sigma},
         "signature": res.signature,
         "signature_ranking": [[e, c] for e, c in res.ranking],
         "remainder": res.remainder,

@@ -41,8 +41,8 @@ def _dialect(text: str) -> str:
 
 
 def plan(seeds: int) -> list[tuple]:
-    """Per seed: nothing hidden on every clock x convention (two dialects), two single effects, one mis-set
-    base."""
+    """Per seed: nothing hidden on every clock x convention (two dialects), two single effects, two mis-set
+    bases."""
     out: list[tuple] = []
     for s in range(seeds):
         for i, (hz, conv) in enumerate((h, c) for h in CLOCKS for c in CONVENTIONS):
@@ -50,7 +50,8 @@ def plan(seeds: int) -> list[tuple]:
         rng = np.random.default_rng(20_000 + s)
         for k, e in enumerate(rng.choice(HIDEABLE, size=2, replace=False)):
             out.append(("single", (str(e),), 1000 * s + 100 + k, 250, CONVENTIONS[k % 2], 0))
-        out.append(("misset", (), 1000 * s + 200, 250, CONVENTIONS[s % 2], 1))
+        for k in range(2):  # two mis-set bases (one or two of friction, compliance, pot-drop gain, linkage)
+            out.append(("misset", (), 1000 * s + 200 + k, 250, CONVENTIONS[(s + k) % 2], 1 - k))
     return out
 
 
@@ -93,6 +94,9 @@ def run_case(kind: str, effects: tuple[str, ...], seed: int, hz: int, conv: str,
         "first_correct": bool(effects) and bool(added) and added[0] in effects,
         "untouched": res.verdict == "none" and not added and not res.recalibrated,
         "recovered": bool(wrong) and not added and all(v <= RECOVERED for v in err.values()),
+        "misset": "+".join(f"{k} {b:.4g} for {t:.4g}" for k, (b, t) in wrong.items()) or "-",
+        "misset_error": max(err.values()) if err else float("nan"),
+        "unpinned": "+".join(res.check.unpinned) if res.check else "",
         "rms_before": res.rms_before,
         "rms_after": res.rms_after,
         "noise_floor": res.noise_floor,

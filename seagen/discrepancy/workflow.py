@@ -24,7 +24,7 @@ from seagen.discrepancy.candidates import (
     start,
 )
 from seagen.discrepancy.learned import Learned, fit_learned, with_learned
-from seagen.discrepancy.recalibrate import PLAUSIBLE, plausible, uncertainty
+from seagen.discrepancy.recalibrate import PLAUSIBLE, BaseCheck, base_check, plausible, uncertainty
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
 from seagen.discrepancy.residuals import (
     SCORE_CHANNELS,
@@ -95,6 +95,7 @@ class Result:
     order: list[str] = field(default_factory=list)  # effects changed (added or recalibrated), first first
     timing: Timing | None = None  # the command timing the replay used (fitted or declared)
     notes: list[str] = field(default_factory=list)  # changes refused or flagged, in words (see _honest)
+    check: BaseCheck | None = None  # the base's own parameters: which the data cannot pin, score test
 
     @property
     def first(self) -> str | None:
@@ -198,7 +199,7 @@ def _pairs(cfg: PlantConfig, ranked: list[Candidate], fit: Runs, sig_f) -> list[
     anchor = ranked[0]
     pairs = [pair(cfg, anchor, o) for o in ranked[1:]]
     screen(cfg, pairs, fit, sig_f, hold=anchor.names, **PARTNER)
-    joint = joint_recalibration(cfg, fit, sig_f)  # several base parameters may be off
+    joint = joint_recalibration(cfg)  # several base parameters may be off
     polish(cfg, pairs + ([joint] if joint else []), fit, sig_f, nfev=PAIR_NFEV)
     best = min(pairs, key=lambda c: c.chi2_fit)
     screen(cfg, [best], fit, sig_f, rounds=3, half0=ZOOM_HALF)
@@ -255,10 +256,7 @@ def _refit_all(
     """_refit of several alternative groups of named effects, polished together (batched replays)."""
     cands = [from_params({n.name: n.params for n in named}) for named in groups]
     live = [c for c in cands if c.names]
-    chi = objective(base, [c.params() for c in live], fit, sig_f).sum(axis=1) if live else []
-    for c, x in zip(live, chi, strict=True):
-        c.chi2_fit = float(x)
-    if live:
+    if live:  # least squares never ends above its start, so no replay of the start is needed first
         polish(base, live, fit, sig_f, nfev=nfev)
     return [
         [Named(n.name, c.params()[n.name], n.confidence, n.before) for n in named]
@@ -387,6 +385,7 @@ def identify(
     feats = features(held, base.motor)
     words = describe(profile(z0, held, feats))
     ranking = rank(base, held, sig_h, z0, feats) if _structured(held, z0, labels) else []
+    check = base_check(base, fit, sig_f)  # a mis-set parameter may move every sample a little
     if ranking and held.res.any() and timing_problem(base, held, sig_h, floor, tim):
         max_rounds, verdict = 0, "timing"  # the log's timing, not physics: nothing is fitted
     for _ in range(max_rounds):
@@ -394,7 +393,7 @@ def identify(
             named = _refit(base, named, fit, sig_f, nfev=3 * POLISH_NFEV)
             cfg = _apply(base, {n.name: n.params for n in named})
             z1 = _residual(cfg, held, sig_h)
-        if not _structured(held, z1, labels):
+        if not _structured(held, z1, labels) and (named or not check.off):
             verdict = "explained" if named else "none"
             break
         found, table = best_addition(cfg, fit, held, sig_f, sig_h, rng, floor)
@@ -440,6 +439,6 @@ def identify(
     if verdict == "unexplained" and not base.on("learned_residual"):
         res.learned = fit_learned(cfg, fit, held, sig_f, sig_h)
         res.config = with_learned(cfg, res.learned) if res.learned else cfg
-    res.timing, res.notes = tim, notes
+    res.timing, res.notes, res.check = tim, notes, check
     res.seconds = time.perf_counter() - t0
     return res

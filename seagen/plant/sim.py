@@ -22,6 +22,11 @@ def pick(x, idx: np.ndarray | None):
     return x[idx]
 
 
+def _scalar(x) -> bool:
+    """Whether a parameter is one value for the whole batch (a number or a 0-d array)."""
+    return not isinstance(x, np.ndarray) or x.ndim == 0
+
+
 @dataclass
 class Sensors:
     """One sample of every signal, each an array over the batch of trials."""
@@ -114,14 +119,16 @@ class Plant:
         sc = self.cfg.effects.series_compliance
         if not sc.enabled:
             return self.k_rigid * d, np.where(y > yc, self.k_rigid, 0.0)
-        a = 1.0 / np.asarray(pick(sc.k_n_per_mm, idx), float)
-        b = np.asarray(pick(sc.beta_mm_per_n2, idx), float)
         inside = y > yc
-        if b.ndim == 0:  # one law for every element (the usual case): the same values in fewer operations
-            if b <= 0:
+        k, beta = sc.k_n_per_mm, sc.beta_mm_per_n2
+        a = 1.0 / float(k) if _scalar(k) else 1.0 / np.asarray(pick(k, idx), float)
+        if _scalar(beta):  # one law for every element (the usual case): the same values in fewer
+            b1 = float(beta)  # operations (Python floats: no per-call array overhead)
+            if b1 <= 0:
                 return d / a, np.where(inside, 1.0 / a, 0.0)
-            root = np.sqrt(a * a + 4 * b * d)
-            return (root - a) / (2 * b), np.where(inside, 1.0 / root, 0.0)
+            root = np.sqrt(a * a + 4 * b1 * d)
+            return (root - a) / (2 * b1), np.where(inside, 1.0 / root, 0.0)
+        b = np.asarray(pick(beta, idx), float)
         quad = b > 0
         bq = np.where(quad, b, 1.0)
         root = np.sqrt(a * a + 4 * bq * d)
@@ -148,9 +155,10 @@ class Plant:
         """Advance one internal step with motor command `motor_v` (V, clipped to the supply)."""
         cfg, dt = self.cfg, self.cfg.dt_s
         m = self.motor
-        volts = np.clip(
-            np.broadcast_to(np.asarray(motor_v, dtype=float), self.nut_mm.shape), -m.supply_v, m.supply_v
-        )
+        # np.clip's value, without its per-call overhead (the replay steps small batches many times)
+        volts = np.minimum(np.maximum(np.asarray(motor_v, dtype=float), -m.supply_v), m.supply_v)
+        if volts.shape != self.nut_mm.shape:
+            volts = np.broadcast_to(volts, self.nut_mm.shape)
         load = self.spring_force(self.nut_mm - self.shaft_mm)
         v_target = self.v_max * (volts / m.supply_v - load / m.stall_force_n)
         self.v_motor = self.v_motor + (v_target - self.v_motor) * min(dt / m.time_constant_s, 1.0)
@@ -162,7 +170,8 @@ class Plant:
         if pvd.enabled:
             target = pvd.counts_per_unit_current * np.abs(self.current)
             self.pot_drop += (target - self.pot_drop) * np.minimum(dt / np.asarray(pvd.time_constant_s), 1.0)
-        self._history = np.roll(self._history, 1, axis=0)
+        # a fresh array each step (a caller may hold the last shaft_force); no roll without a delay
+        self._history = np.roll(self._history, 1, axis=0) if self._delay_n else np.empty_like(self._history)
         self._history[0] = self.structure_force(self.shaft_mm)[0]
         self.t += dt
 
@@ -178,7 +187,7 @@ class Plant:
             self.nut_mm = self.motor_mm.copy()
             return
         b = bl.half_width_mm
-        self.nut_mm = np.clip(self.nut_mm, self.motor_mm - b, self.motor_mm + b)
+        self.nut_mm = np.minimum(np.maximum(self.nut_mm, self.motor_mm - b), self.motor_mm + b)  # clip
 
     def _net_force(self, y: np.ndarray, idx: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Spring push minus structure reaction on the massless shaft, and its (negative) slope, for shaft
