@@ -279,3 +279,18 @@ def test_data_folder_actuator_mismatch_is_refused(tmp_path):
     with pytest.raises(ActuatorError, match="actuator.toml"):
         data_actuator(tmp_path, default_actuator())
     assert data_actuator(tmp_path / "none") == default_actuator()  # folders written before the file
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("actuator", ["paper", "example"])
+def test_demo_end_to_end_on_both_designs(tmp_path, actuator, capsys):
+    """`seagen demo` on each shipped design: data -> four models -> export (C == numpy == torch ==
+    onnxruntime on the data, or it stops) -> closed loop on the design's plant -> discrepancy (~2 min each)."""
+    args = ["demo", "--out", str(tmp_path)]
+    if actuator == "example":
+        args += ["--actuator", str(EXAMPLE)]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    name = load_actuator(EXAMPLE).name if actuator == "example" else default_actuator().name
+    assert name in out and "bit for bit" in out and "verdict: explained" in out
+    assert (tmp_path / "discrepancy" / "report" / "report.md").is_file()
