@@ -15,7 +15,7 @@
 #include <stdint.h>
 
 #include "sea_features.h"
-#include "sea_act_heobgnac.h"
+#include "sea_act_iglhmlcd.h"
 
 #define CAL_SF_N_IN 2
 #define CAL_SF_N_OUT 1
@@ -29,8 +29,8 @@
 /* State of the feature pipeline (sea_features.h): previous pot, enc and compression for the differences. */
 typedef sea_features_state cal_sf_state_t;
 
-/* The actuator this model was exported for: its constants (sea_act, sea_fixed.h) in sea_act_heobgnac.c. */
-#define CAL_SF_ACT (&sea_act_heobgnac)
+/* The actuator this model was exported for: its constants (sea_act, sea_fixed.h) in sea_act_iglhmlcd.c. */
+#define CAL_SF_ACT (&sea_act_iglhmlcd)
 
 /* The stateless model on already-quantized features. */
 void cal_sf_infer(const int16_t in[CAL_SF_N_IN], int16_t out[CAL_SF_N_OUT]);

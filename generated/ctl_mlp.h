@@ -22,7 +22,7 @@
 #include <stdint.h>
 
 #include "sea_features.h"
-#include "sea_act_heobgnac.h"
+#include "sea_act_iglhmlcd.h"
 
 #define CTL_MLP_N_IN 7
 #define CTL_MLP_N_OUT 1
@@ -41,8 +41,8 @@
 /* State of the feature pipeline (sea_features.h): previous pot, enc and compression for the differences. */
 typedef sea_features_state ctl_mlp_state_t;
 
-/* The actuator this model was exported for: its constants (sea_act, sea_fixed.h) in sea_act_heobgnac.c. */
-#define CTL_MLP_ACT (&sea_act_heobgnac)
+/* The actuator this model was exported for: its constants (sea_act, sea_fixed.h) in sea_act_iglhmlcd.c. */
+#define CTL_MLP_ACT (&sea_act_iglhmlcd)
 
 /* The stateless model on already-quantized features. */
 void ctl_mlp_infer(const int16_t in[CTL_MLP_N_IN], int16_t out[CTL_MLP_N_OUT]);

@@ -16,7 +16,8 @@ Fields and units (the paper's actuator, `seagen/actuators/paper.toml`, is the de
                    friction_n    N      actuator friction at the output shaft, measured as in the paper's
                                         Fig. 7: the constant the textbook (kinematics) estimate compensates
     [spring] stiffness_n_per_mm  N/mm   series spring stiffness k_s
-    [linkage] cb_mm, ce_mm       mm     the constant lengths CB and CE of Eq. 2
+    [linkage] cb_mm              mm     the lever CB of Eq. 2 (Eq. 2's constant offset CE is not a field: with the
+                                        spring unloaded at home_deg it cancels out of the compression)
               home_deg           deg    contact angle at rest with the spring unloaded
               angle_min_deg, angle_max_deg, split_deg   deg   contact-angle range; H_fit below the split
               h_fit              -      R_l below the split, ascending powers of (angle - angle_min_deg)
@@ -66,7 +67,6 @@ class Linkage:
     """Eq. 2 lengths, the contact-angle range and the force ratio R_l of Eq. 6."""
 
     cb_mm: float
-    ce_mm: float
     home_deg: float
     angle_min_deg: float
     angle_max_deg: float
@@ -148,7 +148,6 @@ _TABLES: dict[str, dict[str, type]] = {
     "spring": {"stiffness_n_per_mm": float},
     "linkage": {
         "cb_mm": float,
-        "ce_mm": float,
         "home_deg": float,
         "angle_min_deg": float,
         "angle_max_deg": float,

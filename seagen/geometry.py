@@ -25,9 +25,10 @@ class Geometry:
         self.angle_min_deg, self.angle_max_deg = lk.angle_min_deg, lk.angle_max_deg  # Eq. 6
         self.split_deg = lk.split_deg  # horizontal load cell up to here, vertical above (Eq. 6)
         self.adc_max = act.adc_max
-        self.cb_mm, self.ce_mm, self.home_deg = lk.cb_mm, lk.ce_mm, lk.home_deg  # Eq. 2
-        # DE at home: zero compression at home_deg; DE shrinks as the nut advances (enc grows).
-        self.de_home_mm = float(np.cos(np.radians(lk.home_deg)) * lk.cb_mm + lk.ce_mm)
+        self.cb_mm, self.home_deg = lk.cb_mm, lk.home_deg  # Eq. 2
+        # DE - CE at home: zero compression at home_deg; it shrinks as the nut advances (enc grows). Eq. 2's
+        # constant CE cancels out of every compression, so the description does not carry it.
+        self.de_home_mm = float(np.cos(np.radians(lk.home_deg)) * lk.cb_mm)
         # R_l (Eq. 6): H_fit in (angle - angle_min) up to the split; V_fit in (angle - split) above it,
         # continuous in value and slope at the split. Tip force = R_l * force at the SEA shaft.
         self.h_fit = lk.h_fit
@@ -54,9 +55,12 @@ class Geometry:
         return np.asarray(enc, dtype=float) * self.mm_per_count
 
     def compression_mm(self, angle_deg: np.ndarray | float, enc: np.ndarray | float) -> np.ndarray:
-        """Eq. 2: spring compression cos(ABC)*CB - (DE - CE), with DE = DE_home - nut travel."""
-        de = self.de_home_mm - self.nut_travel_mm(enc)
-        return np.cos(np.radians(np.asarray(angle_deg, dtype=float))) * self.cb_mm - (de - self.ce_mm)
+        """Eq. 2: spring compression cos(ABC)*CB - (DE - CE), with DE - CE = (DE - CE)_home - nut travel."""
+        return self.linkage_mm(angle_deg) + self.nut_travel_mm(enc)
+
+    def linkage_mm(self, angle_deg: np.ndarray | float) -> np.ndarray:
+        """The linkage term of Eq. 2, cos(ABC)*CB - (DE - CE)_home: the compression at encoder count 0."""
+        return np.cos(np.radians(np.asarray(angle_deg, dtype=float))) * self.cb_mm - self.de_home_mm
 
     def shaft_advance_mm(self, angle_deg: np.ndarray | float) -> np.ndarray:
         """Output-shaft advance from home implied by the linkage angle (inverse of the free linkage)."""

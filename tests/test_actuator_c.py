@@ -58,7 +58,6 @@ def description(u: list[float]) -> dict:
         "spring": {"stiffness_n_per_mm": _log(u[5], 0.5, 50.0)},
         "linkage": {
             "cb_mm": _log(u[6], 5.0, 150.0),
-            "ce_mm": _log(u[7], 2.0, 60.0),
             "home_deg": _lin(u[10], amin, amax),
             "angle_min_deg": amin,
             "angle_max_deg": amax,

@@ -22,6 +22,7 @@ from seagen.geometry import geometry
 from seagen.modelfile import load_model
 from seagen.plant import Plant, PlantConfig, load_config
 from seagen.plant.config import ConfigError
+from seagen.runtime.actq import act_q
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml"
 FACTORS = (1.1, 0.9, 2.0, 0.5)  # the first that gives a valid description (loop_hz must divide 1 kHz)
@@ -127,6 +128,8 @@ def _consumers(act, tmp: Path) -> dict[str, object]:
     (tmp / "log.csv").write_text(LOG)
     (tmp / "map.toml").write_text(LOG_MAP)
     out["logimport"] = import_log(tmp / "log.csv", load_map(tmp / "map.toml"), act).to_numpy(float)
+    aq = act_q(act)  # the C side: the sea_act constants the export renders and the twins read
+    out["c_act"] = (aq.link, aq.struct_fields())
     return out
 
 
@@ -138,15 +141,12 @@ def _same(a, b) -> bool:
     return type(a) is type(b) and a == b
 
 
-# CE cancels out of Eq. 2 once the spring is unloaded at home_deg (DE_home = cos(home) CB + CE), so no
-# output can move with it; listed here so that it is the only such field and stays that way.
-CANCELS = {"linkage.ce_mm"}
-GEOMETRY = {"plant", "protocol", "features", "replay"}  # what Eq. 2-6 moves (features: angle, compression)
+GEOMETRY = {"plant", "protocol", "features", "replay", "c_act"}  # Eq. 2-6 (features: angle, compression)
 MOTOR = {"plant", "protocol", "replay"}  # the simulated motor
 # Which consumers each field of the description must move (a consumer that ignores one fails the test).
 EXPECTED = {
-    "motor.supply_v": MOTOR | {"logimport"},  # PWM % of the supply, volts within +-supply
-    "motor.no_load_rpm": MOTOR,
+    "motor.supply_v": MOTOR | {"logimport", "c_act"},  # PWM % of the supply, +-supply, the C command limit
+    "motor.no_load_rpm": MOTOR | {"c_act"},  # the C encoder-jump bound
     "motor.gear_ratio": GEOMETRY,  # nut travel per count: encoder, stairs, compression
     "motor.counts_per_rev": GEOMETRY,
     "motor.stall_force_n": MOTOR,
@@ -155,7 +155,6 @@ EXPECTED = {
     "transmission.friction_n": {"kinematics"},
     "spring.stiffness_n_per_mm": MOTOR | {"kinematics"},
     "linkage.cb_mm": GEOMETRY,
-    "linkage.ce_mm": set(),  # CANCELS
     "linkage.home_deg": GEOMETRY,
     "linkage.angle_min_deg": MOTOR,  # R_l's origin (load cell) and the angles; not Eq. 2 or 5
     "linkage.angle_max_deg": {"plant", "protocol", "replay"},  # linkage friction's range, train angles
@@ -164,8 +163,8 @@ EXPECTED = {
     "linkage.v_fit_higher": {"plant"},  # R_l above the split: only the plant's 18 deg element is there
     "pot.full_scale_deg": GEOMETRY,
     "pot.offset_deg": GEOMETRY,
-    "pot.adc_bits": {"plant", "protocol", "features", "replay", "logimport"},
-    "control.loop_hz": {"protocol", "features", "replay"},  # replay: of the protocol's rows
+    "pot.adc_bits": {"plant", "protocol", "features", "replay", "logimport", "c_act"},
+    "control.loop_hz": {"protocol", "features", "replay", "c_act"},  # replay: of the protocol's rows
 }
 
 
@@ -179,7 +178,7 @@ def test_every_field_moves_the_consumers_that_read_it(tmp_path):
     for field in fields:
         got = _consumers(_scaled(field), tmp_path)
         moved[field] = {c for c in base if not _same(base[c], got[c])}
-    assert all(moved[f] for f in fields if f not in CANCELS), (
+    assert all(moved[f] for f in fields), (
         f"fields nobody reads: {[f for f in fields if not moved[f]]}"
     )
     wrong = {f: (sorted(moved[f]), sorted(EXPECTED[f])) for f in fields if moved[f] != EXPECTED[f]}

@@ -19,6 +19,7 @@ import numpy as np
 
 from seagen.actuator import Actuator, ActuatorError, default_actuator
 from seagen.c_runtime import defines
+from seagen.geometry import geometry
 
 COMP_FRAC = defines("sea_fixed.h")["SEA_COMP_FRAC_BITS"]  # compression: Q16 mm
 ANGLE_FRAC = defines("sea_features.h")["SEA_FEAT_ANGLE_FRAC_BITS"]  # angle: Q24 deg
@@ -95,13 +96,10 @@ def _refuse(act: Actuator, why: str) -> ActuatorError:
 
 
 def link_table(act: Actuator, shift: int) -> np.ndarray:
-    """Q16 mm table of cos(angle(pot)) * CB - (DE_home - CE) at pot = i 2^shift, i = 0..256 (Eq. 2, 5)."""
-    lk = act.linkage
+    """Q16 mm table of the linkage term of Eq. 2 (geometry.linkage_mm) at pot = i 2^shift, i = 0..256."""
+    geo = geometry(act)
     pot = np.arange((1 << LINK_INDEX_BITS) + 1, dtype=float) * (1 << shift)
-    angle = pot * act.pot_deg_per_count + act.pot.offset_deg
-    de_home = float(np.cos(np.radians(lk.home_deg)) * lk.cb_mm + lk.ce_mm)
-    mm = np.cos(np.radians(angle)) * lk.cb_mm - (de_home - lk.ce_mm)
-    return np.rint(mm * (1 << COMP_FRAC)).astype(np.int64)
+    return np.rint(geo.linkage_mm(geo.angle_from_pot(pot)) * (1 << COMP_FRAC)).astype(np.int64)
 
 
 def _travel(act: Actuator) -> tuple[int, int, int]:

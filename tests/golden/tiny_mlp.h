@@ -19,7 +19,7 @@
 #include <stdint.h>
 
 #include "sea_features.h"
-#include "sea_act_heobgnac.h"
+#include "sea_act_iglhmlcd.h"
 
 #define TINY_MLP_N_IN 4
 #define TINY_MLP_N_OUT 1
@@ -35,8 +35,8 @@
 /* State of the feature pipeline (sea_features.h): previous pot, enc and compression for the differences. */
 typedef sea_features_state tiny_mlp_state_t;
 
-/* The actuator this model was exported for: its constants (sea_act, sea_fixed.h) in sea_act_heobgnac.c. */
-#define TINY_MLP_ACT (&sea_act_heobgnac)
+/* The actuator this model was exported for: its constants (sea_act, sea_fixed.h) in sea_act_iglhmlcd.c. */
+#define TINY_MLP_ACT (&sea_act_iglhmlcd)
 
 /* The stateless model on already-quantized features. */
 void tiny_mlp_infer(const int16_t in[TINY_MLP_N_IN], int16_t out[TINY_MLP_N_OUT]);
