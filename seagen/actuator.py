@@ -16,7 +16,7 @@ Fields and units (the paper's actuator, `seagen/actuators/paper.toml`, is the de
                    friction_n    N      actuator friction at the output shaft, measured as in the paper's
                                         Fig. 7: the constant the textbook (kinematics) estimate compensates
     [spring] stiffness_n_per_mm  N/mm   series spring stiffness k_s
-    [linkage] cb_mm              mm     the lever CB of Eq. 2 (Eq. 2's constant offset CE is not a field: with the
+    [linkage] cb_mm              mm     the lever CB of Eq. 2 (its constant offset CE is not a field: with the
                                         spring unloaded at home_deg it cancels out of the compression)
               home_deg           deg    contact angle at rest with the spring unloaded
               angle_min_deg, angle_max_deg, split_deg   deg   contact-angle range; H_fit below the split

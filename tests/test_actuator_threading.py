@@ -178,9 +178,7 @@ def test_every_field_moves_the_consumers_that_read_it(tmp_path):
     for field in fields:
         got = _consumers(_scaled(field), tmp_path)
         moved[field] = {c for c in base if not _same(base[c], got[c])}
-    assert all(moved[f] for f in fields), (
-        f"fields nobody reads: {[f for f in fields if not moved[f]]}"
-    )
+    assert all(moved[f] for f in fields), f"fields nobody reads: {[f for f in fields if not moved[f]]}"
     wrong = {f: (sorted(moved[f]), sorted(EXPECTED[f])) for f in fields if moved[f] != EXPECTED[f]}
     assert not wrong, f"field: (consumers moved, expected): {wrong}"
     assert set().union(*moved.values()) == set(base), "a threaded consumer no field moves"
@@ -247,8 +245,9 @@ def _closed_loop_c_equals_twin(ctl: str, act) -> None:
     pred, cfg = setups[name](0.1)
     assert cfg.act.digest == act.digest() and cfg.act.loop_hz == act.loop_hz
     plant = PlantConfig(actuator=act)
+    angles = np.array([8.0, 16.0, 24.0])
     recs = {
-        impl: run_closed_loop(pred, 8.0, np.array([8.0, 16.0, 24.0]), impl=impl, duration_s=1.0, plant_cfg=plant)
+        impl: run_closed_loop(pred, 8.0, angles, impl=impl, duration_s=1.0, plant_cfg=plant)
         for impl in ("c", "py")
     }
     assert recs["c"]["out_mv"].shape == (int(act.loop_hz), 3)
@@ -284,7 +283,8 @@ def test_data_folder_actuator_mismatch_is_refused(tmp_path):
 @pytest.mark.parametrize("actuator", ["paper", "example"])
 def test_demo_end_to_end_on_both_designs(tmp_path, actuator, capsys):
     """`seagen demo` on each shipped design: data -> four models -> export (C == numpy == torch ==
-    onnxruntime on the data, or it stops) -> closed loop on the design's plant -> discrepancy (~2 min each)."""
+    onnxruntime on the data, or it stops) -> closed loop on the design's plant -> discrepancy (~2 min
+    each)."""
     args = ["demo", "--out", str(tmp_path)]
     if actuator == "example":
         args += ["--actuator", str(EXAMPLE)]
