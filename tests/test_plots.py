@@ -53,7 +53,7 @@ def test_validation_axis_is_seconds(tmp_path, monkeypatch):
     assert plots.validation_time(pd.DataFrame({"x": range(5)}))[-1] == pytest.approx(0.04)
     seen = {}
     monkeypatch.setattr(plots, "save_png", lambda fig, path, **kw: seen.setdefault("fig", fig))
-    monkeypatch.setattr(plots, "kinematics_predict", lambda task, v: np.zeros(len(v)))
+    monkeypatch.setattr(plots, "kinematics_predict", lambda task, v, geo=None: np.zeros(len(v)))
     monkeypatch.setattr(plots, "predict", lambda m, v: np.ones(len(v)))
     frame = val.assign(force_n=1.0, angle_set_deg=12.0)
     plots.plot_validation("calibration", {"m": {}}, frame, tmp_path / "v.png")
