@@ -21,7 +21,11 @@ The issue's goal: first_ok in >= 90 % of the named cases, a wrong sure claim in 
 
 from __future__ import annotations
 
+import argparse
+import json
+import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -133,7 +137,11 @@ class SeatingMount(Plant):
         for _ in range(40):
             e = np.exp(-f / self.fg)
             h = f / self.k + self.gap * (1 - e) - d
-            f = np.maximum(f - h / (1 / self.k + self.gap / self.fg * e), 0.0)
+            f_new = np.maximum(f - h / (1 / self.k + self.gap / self.fg * e), 0.0)
+            done = np.all(np.abs(f_new - f) <= 1e-12)
+            f = f_new
+            if done:
+                break
         slope = 1.0 / (1 / self.k + self.gap / self.fg * np.exp(-f / self.fg))
         return f, np.where(y > yc, slope, 0.0)
 
@@ -219,7 +227,7 @@ class PwmDeadZone(Plant):
 
 @dataclass(frozen=True)
 class Form:
-    """A form: its truth plant class, the default effect it replaces, parameter ranges, expected names, why."""
+    """A form: truth plant class, the default effect it replaces, parameter ranges, expected names, why."""
 
     cls: type[Plant]
     replaces: str | None
@@ -310,3 +318,119 @@ def form_case(name: str, seed: int) -> tuple[type[Plant], PlantConfig, dict[str,
     cls = type(f"{form.cls.__name__}_{seed}", (form.cls,), params)
     cfg = PlantConfig() if form.replaces is None else PlantConfig().with_effect(form.replaces, False)
     return cls, cfg, params
+
+
+SURE = 0.9  # confidence at which a claim counts as sure (the issue's threshold)
+
+
+def run_form(name: str, seed: int, fast: bool = False) -> dict:
+    """One case: the form's data as the measured runs, the workflow from its base, the outcomes above."""
+    from seagen.discrepancy.bench import measure
+    from seagen.discrepancy.report import gap_cut
+    from seagen.discrepancy.workflow import identify
+
+    t0 = time.perf_counter()
+    cls, cfg, params = form_case(name, seed)
+    expected = FORMS[name].expected
+    runs = measure(cfg, seed=seed, fast=fast, plant_cls=cls)
+    res = identify(runs, cfg)
+    changed = [(n, "added") for n in res.effects] + [(n, "recalibrated") for n in res.recalibrated]
+    sure = [(n.name, how) for n, how in changed if n.claimed and n.confidence >= SURE]
+    wrong = [f"{nm} ({how})" for nm, how in sure if nm not in expected]
+    return {
+        "form": name,
+        "seed": seed,
+        "params": params,
+        "expected": "+".join(sorted(expected)) or "none",
+        "first": res.first or "-",
+        "first_ok": (res.first in expected) if expected else None,
+        "closest": res.ranking[0][0] if res.ranking else "-",
+        "changed": [
+            {"name": n.name, "how": how, "confidence": float(n.confidence), "claimed": bool(n.claimed)}
+            for n, how in changed
+        ],
+        "wrong_sure": wrong,
+        "wrong_sure_added": [w for w in wrong if w.endswith("(added)")],
+        "verdict": res.verdict,
+        "rms_before": float(res.rms_before),
+        "rms_after": float(res.rms_after),
+        "noise_floor": float(res.noise_floor),
+        "gap_cut_physics": gap_cut(res.rms_before, res.rms_after, res.noise_floor),
+        "learned": res.learned is not None,
+        "seconds": time.perf_counter() - t0,
+    }
+
+
+def rates(rows: list[dict]) -> dict:
+    """The issue's two rates: closest named first (named forms) and wrong sure claims (all cases)."""
+    named = [r for r in rows if r["first_ok"] is not None]
+    return {
+        "cases": len(rows),
+        "named_cases": len(named),
+        "closest_first_rate": sum(r["first_ok"] for r in named) / max(len(named), 1),
+        "wrong_sure_rate": sum(bool(r["wrong_sure"]) for r in rows) / max(len(rows), 1),
+        "wrong_sure_added_rate": sum(bool(r["wrong_sure_added"]) for r in rows) / max(len(rows), 1),
+    }
+
+
+def _claims(r: dict) -> str:
+    """The changes of a row in words: name (added/recal.) confidence, '*' when claimed."""
+    return (
+        ", ".join(
+            f"{c['name']} ({'add' if c['how'] == 'added' else 'recal'}) "
+            f"{c['confidence']:.2f}{'*' if c['claimed'] else ''}"
+            for c in r["changed"]
+        )
+        or "-"
+    )
+
+
+def table(rows: list[dict]) -> str:
+    """A markdown table of the rows, then the two rates."""
+    out = [
+        "| form | seed | expected | named first | ok | changes (confidence, * claimed) | wrong sure claim "
+        "| verdict | RMS before → after (floor) | s |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for r in rows:
+        ok = "–" if r["first_ok"] is None else ("yes" if r["first_ok"] else "**no**")
+        out.append(
+            f"| {r['form']} | {r['seed']} | {r['expected']} | {r['first']} | {ok} | {_claims(r)} "
+            f"| {', '.join(r['wrong_sure']) or '-'} | {r['verdict']} "
+            f"| {r['rms_before']:.2f} → {r['rms_after']:.2f} ({r['noise_floor']:.2f}) | {r['seconds']:.0f} |"
+        )
+    k = rates(rows)
+    out.append("")
+    out.append(
+        f"Closest named first: {k['closest_first_rate']:.0%} of {k['named_cases']} named cases; a wrong name "
+        f"claimed at >= {SURE}: {k['wrong_sure_rate']:.0%} of {k['cases']} cases "
+        f"({k['wrong_sure_added_rate']:.0%} counting added effects only)."
+    )
+    return "\n".join(out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the forms one case at a time (one process), print each row as it ends, then the table."""
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--seeds", type=int, default=1, help="seeds per form (0, 1, ...)")
+    p.add_argument("--forms", default=",".join(FORMS), help="comma-separated form names")
+    p.add_argument("--quick", action="store_true", help="the benchmark's quick moves")
+    p.add_argument("--json", help="also write the rows to this JSON file (appends to an existing one)")
+    a = p.parse_args(argv)
+    rows = json.loads(Path(a.json).read_text()) if a.json and Path(a.json).exists() else []
+    for seed in range(a.seeds):
+        for name in a.forms.split(","):
+            if any(r["form"] == name and r["seed"] == seed for r in rows):
+                continue
+            rows.append(run_form(name, seed, a.quick))
+            print(json.dumps(rows[-1]), flush=True)
+            if a.json:
+                tmp = Path(a.json + ".tmp")
+                tmp.write_text(json.dumps(rows, indent=1))
+                tmp.replace(a.json)
+    print(table(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
