@@ -78,8 +78,8 @@ class SealDrag(Plant):
             boost = sf.extra_static_n * np.exp(-((self.v_shaft / sf.v_s_mm_s) ** 2))
             fwd, rev = fwd + boost, rev + boost * (rev > 0)
         n0, s0 = self._net_force(y0)
-        b = e.viscous_friction.b_n_s_per_mm if e.viscous_friction.enabled else 0.0
-        b = (b + self.c * np.abs(self.v_shaft)) / dt
+        b0 = e.viscous_friction.b_n_s_per_mm if e.viscous_friction.enabled else 0.0
+        b = (b0 + self.c * np.abs(self.v_shaft)) / dt
         target = np.where(n0 > fwd, fwd, np.where(n0 < -rev, -rev, n0))
         moving = target != n0
         y = y0.copy()

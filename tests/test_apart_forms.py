@@ -1,4 +1,4 @@
-"""The forms written apart from the naming rule (tests/apart_forms.py): their laws, and the rule measured on them."""
+"""Forms written apart from the naming rule (tests/apart_forms.py): their laws; the rule measured on them."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ NOISE = {"enc": 1.0, "pot": 10.0, "load_cell_n": 0.08}  # counts, counts, N: the
 
 
 def _change(name: str) -> dict[str, float]:
-    """Largest RMS change per channel (in NOISE units) the form makes to the base plant's trials, same noise."""
+    """Largest RMS change per channel (NOISE units) the form makes to the base plant's trials, same noise."""
     cls, cfg, _ = form_case(name, 0)
     truth, base = run_trials(cfg, MOVES, seed=3, plant_cls=cls), run_trials(cfg, MOVES, seed=3)
     out = {}
@@ -29,7 +29,7 @@ def _change(name: str) -> dict[str, float]:
 
 
 def test_forms_are_well_formed():
-    """Eight to ten forms, each expected name in the catalogue, each replaced effect one the default enables."""
+    """8-10 forms, expected names from the catalogue, each replaced effect one the default plant enables."""
     assert 8 <= len(FORMS) <= 10
     for name, form in FORMS.items():
         assert form.expected <= set(CATALOGUE), name
