@@ -1,0 +1,67 @@
+"""Forms written apart from the naming rule (tests/apart_forms.py): their laws; the rule measured on them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from apart_forms import FORMS, form_case, rates, run_form
+
+from seagen.data.protocol import Move, run_trials
+from seagen.plant.config import CATALOGUE
+
+# One brisk push into the load cell and back at a low and a high contact angle (well under a second per form).
+MOVES = [Move(8.0, 5.0, 15.0, -8.0), Move(22.0, 5.0, 15.0, -8.0)]
+NOISE = {"enc": 1.0, "pot": 10.0, "load_cell_n": 0.08}  # counts, counts, N: the plant's noise or resolution
+
+
+def _change(name: str) -> dict[str, float]:
+    """Largest RMS change per channel (NOISE units) the form makes to the base plant's trials, same noise."""
+    cls, cfg, _ = form_case(name, 0)
+    truth, base = run_trials(cfg, MOVES, seed=3, plant_cls=cls), run_trials(cfg, MOVES, seed=3)
+    out = {}
+    for c, sigma in NOISE.items():
+        per = []
+        for a, b in zip(truth, base, strict=True):
+            n = min(len(a), len(b))
+            per.append(float(np.sqrt(np.mean((a[c].to_numpy()[:n] - b[c].to_numpy()[:n]) ** 2))) / sigma)
+        out[c] = max(per)
+    return out
+
+
+def test_forms_are_well_formed():
+    """8-10 forms, expected names from the catalogue, each replaced effect one the default plant enables."""
+    assert 8 <= len(FORMS) <= 10
+    for name, form in FORMS.items():
+        assert form.expected <= set(CATALOGUE), name
+        assert form.why
+        if form.replaces:
+            _, cfg, _ = form_case(name, 0)
+            assert not cfg.on(form.replaces), name
+    assert any(not f.expected for f in FORMS.values())  # at least one form no catalogue effect is close to
+
+
+@pytest.mark.parametrize("name", list(FORMS))
+def test_form_law_differs_from_base_above_noise(name):
+    """Each form's plant runs, and its law moves some measured channel by more than twice the noise (RMS)."""
+    change = _change(name)
+    assert max(change.values()) > 2.0, change
+
+
+def test_form_parameters_are_drawn_within_ranges():
+    """Parameters differ between seeds and stay in their stated ranges."""
+    for name, form in FORMS.items():
+        p0, p1 = form_case(name, 0)[2], form_case(name, 1)[2]
+        assert p0 != p1
+        for k, (lo, hi) in form.ranges.items():
+            assert lo <= p0[k] <= hi and lo <= p1[k] <= hi
+
+
+@pytest.mark.slow
+def test_naming_rule_on_forms_written_apart():
+    """The issue's goal on forms not used to tune the rule: the closest effect named first in >= 90 % of the
+    named cases, a wrong name claimed at >= 0.9 in <= 5 % of the cases (one seed per form)."""
+    rows = [run_form(name, 0) for name in FORMS]
+    k = rates(rows)
+    assert k["closest_first_rate"] >= 0.9 and k["wrong_sure_rate"] <= 0.05, [
+        (r["form"], r["first"], r["wrong_sure"]) for r in rows
+    ]
