@@ -30,7 +30,6 @@ from typing import Any
 
 import numpy as np
 
-from seagen import geometry as g
 from seagen.plant import Plant, PlantConfig, pick
 
 
@@ -71,7 +70,7 @@ class SealDrag(Plant):
         """The plant's quasi-static shaft with the speed-squared drag as a lagged viscous coefficient."""
         e = self.cfg.effects
         y0 = self.shaft_mm
-        angle = g.angle_from_shaft(np.minimum(y0, self.y_contact))
+        angle = self.geo.angle_from_shaft(np.minimum(y0, self.y_contact))
         fwd, rev = self.friction_limits(angle)
         if e.stribeck_friction.enabled:
             sf = e.stribeck_friction
@@ -109,7 +108,7 @@ class DualRateSpring(Plant):
 
     def _extra(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The coil-closing force and its slope at compression d."""
-        dk = (self.k2_over_k - 1.0) * g.SPRING_N_PER_MM
+        dk = (self.k2_over_k - 1.0) * self.geo.spring_n_per_mm
         u = (np.maximum(d, 0.0) - self.d1) / self.soft
         return dk * self.soft * np.logaddexp(0.0, u), dk / (1.0 + np.exp(-u)) * (d >= 0)
 
@@ -209,7 +208,7 @@ class DutySagPot(Plant):
         """The reading plus the sag."""
         s = super().read()
         sag = getattr(self, "_sag", np.zeros(s.pot.shape))
-        s.pot = np.clip(np.rint(s.pot + sag), 0, g.ADC_MAX).astype(np.int64)
+        s.pot = np.clip(np.rint(s.pot + sag), 0, self.geo.adc_max).astype(np.int64)
         return s
 
 
