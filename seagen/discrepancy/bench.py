@@ -170,7 +170,10 @@ def summarize(rows: pd.DataFrame) -> dict:
 def bench(seeds: int, jobs: int = 2, act: Actuator | None = None) -> dict:
     """Run every planned case (in `jobs` processes) on actuator `act` (the paper's when None), summarize."""
     todo = [(*c, act) for c in plan(seeds)]
-    return summarize(pd.DataFrame(run_all(_run, todo, jobs)))
+    return {
+        "actuator": (act or default_actuator()).name,
+        **summarize(pd.DataFrame(run_all(_run, todo, jobs))),
+    }
 
 
 def run_all(fn, todo: list, jobs: int) -> list[dict]:

@@ -118,7 +118,8 @@ def summarize(rows: pd.DataFrame) -> dict:
 def bench_families(seeds: int, jobs: int = 2, fast: bool = False, act: Actuator | None = None) -> dict:
     """Run every planned family case on actuator `act` (the paper's when None) in `jobs` processes and
     summarize."""
-    return summarize(pd.DataFrame(run_all(_run, [(n, s, fast, act) for n, s in plan(seeds)], jobs)))
+    rows = run_all(_run, [(n, s, fast, act) for n, s in plan(seeds)], jobs)
+    return {"actuator": (act or default_actuator()).name, **summarize(pd.DataFrame(rows))}
 
 
 def _run(args: tuple[str, int, bool, Actuator | None]) -> dict:

@@ -141,4 +141,7 @@ def bench_rig(
 ) -> dict:
     """Run the planned rig cases on actuator `act` (the paper's when None; in `jobs` processes), summarize."""
     todo = [(*c, act) for c in plan(seeds) if c[0] in kinds]
-    return summarize(pd.DataFrame(run_all(_run, todo, jobs)))
+    return {
+        "actuator": (act or default_actuator()).name,
+        **summarize(pd.DataFrame(run_all(_run, todo, jobs))),
+    }
