@@ -5,6 +5,10 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from seagen.actuator import Actuator
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -13,7 +17,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "discrepancy",
         help="find where measured data and the simulated SEA disagree, name the missing effect, add it",
         description="seagen discrepancy --measured DIR_OR_CSV [--base plant.toml] --out REPORT_DIR [--json]"
-        "  |  seagen discrepancy bench [--seeds N] [--json]",
+        "  |  seagen discrepancy bench [--seeds N] [--families | --rig [--quick]] [--actuator FILE] [--json]",
     )
     p.add_argument("action", nargs="?", choices=["bench"], help="run the benchmark instead")
     p.add_argument("--measured", help="a CSV or a directory of CSVs (the data schema)")
@@ -22,7 +26,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--actuator",
         metavar="FILE",
         help="actuator description TOML (default: the measured folder's actuator.toml, else the paper's; "
-        "one that disagrees with the folder's is refused; never rewritten)",
+        "one that disagrees with the folder's is refused; never rewritten); bench: the design the cases "
+        "simulate and the rig logs are imported with",
     )
     p.add_argument("--out", help="report directory (written whole, or not at all)")
     p.add_argument("--seeds", type=int, default=3, help="bench: seeds (cases per seed: 14; --families: 8)")
@@ -103,16 +108,22 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
 
 def cmd_bench(args: argparse.Namespace) -> int:
     """Run the benchmark and print its goal numbers."""
+    from seagen.cli.data import given_actuator
+    from seagen.data.protocol import sample_every
     from seagen.discrepancy.bench import bench
     from seagen.errors import UserError
+    from seagen.plant import PlantConfig
 
     if args.seeds < 1:
         raise UserError(f"--seeds must be >= 1, got {args.seeds}")
+    act = given_actuator(args)  # None: the paper's
+    if act is not None:
+        sample_every(PlantConfig(actuator=act))  # a loop rate the plant cannot log is refused first
     if args.families:
-        return _print_families(args)
+        return _print_families(args, act)
     if args.rig:
-        return _print_rig(args)
-    out = bench(args.seeds, jobs=max(1, args.jobs))
+        return _print_rig(args, act)
+    out = bench(args.seeds, jobs=max(1, args.jobs), act=act)
     return _print_bench(
         out,
         args.json,
@@ -139,11 +150,11 @@ def _print_bench(out: dict, as_json: bool, case_line, table=None) -> int:
     return 0
 
 
-def _print_families(args: argparse.Namespace) -> int:
+def _print_families(args: argparse.Namespace, act: Actuator | None) -> int:
     """Run the family benchmark and print its per-family table and goal numbers."""
     from seagen.discrepancy.famibench import bench_families
 
-    out = bench_families(args.seeds, jobs=max(1, args.jobs), fast=args.quick)
+    out = bench_families(args.seeds, jobs=max(1, args.jobs), fast=args.quick, act=act)
 
     def per_family() -> None:
         print("family            cases first_ok spurious recovered gap_cut (physics) s/dataset")
@@ -165,12 +176,12 @@ def _print_families(args: argparse.Namespace) -> int:
     )
 
 
-def _print_rig(args: argparse.Namespace) -> int:
+def _print_rig(args: argparse.Namespace, act: Actuator | None) -> int:
     """Run the rig benchmark and print its goal numbers and cases."""
     from seagen.discrepancy.rigbench import bench_rig
 
     kinds = ("control",) if args.quick else ("control", "single", "misset")
-    out = bench_rig(args.seeds, jobs=max(1, args.jobs), kinds=kinds)
+    out = bench_rig(args.seeds, jobs=max(1, args.jobs), kinds=kinds, act=act)
     return _print_bench(
         out,
         args.json,

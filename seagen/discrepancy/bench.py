@@ -8,10 +8,12 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from seagen.actuator import Actuator, default_actuator
 from seagen.data.protocol import PUSH_MOVES, Move, run_trials
 from seagen.discrepancy.replay import ParamSet, Runs, runs_from_frames, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS, noise_sigma, zscores
 from seagen.discrepancy.workflow import Result, identify
+from seagen.geometry import geometry
 from seagen.plant import PlantConfig
 from seagen.plant.config import CATALOGUE
 
@@ -38,7 +40,7 @@ HARD_PAIRS = (
     ("backlash", "stribeck_friction"),
     ("actuator_friction", "load_cell_offset"),
 )
-CASE_ANGLES = (6.0, 10.0, 14.0, 18.0, 22.0, 26.0)
+N_CASE_ANGLES = 6  # the reduced protocol's contact angles (6 to 26 deg on the paper's 5 to 28 deg range)
 # Quick test data: two brisk moves to high force (longest trial ~190 samples instead of ~345; the replay
 # costs the same per step whatever the batch, so a data set's cost is its longest trial).
 FAST_MOVES = ((4.0, 17.0, -7.0), (5.0, 12.0, -8.0))
@@ -61,15 +63,25 @@ def draw(effect: str, rng: np.random.Generator) -> dict[str, float]:
     return p
 
 
-def case_moves(moves: tuple[tuple[float, float, float], ...] = PUSH_MOVES) -> list[Move]:
-    """The reduced protocol: two trials at each of the six CASE_ANGLES, cycling through `moves`."""
+def case_angles(act: Actuator | None = None) -> tuple[float, ...]:
+    """The reduced protocol's contact angles: evenly from 1 deg above the linkage range's minimum to 2 deg
+    below its top (those of the train split, every other one) of `act` (the paper's when None)."""
+    geo = geometry(act or default_actuator())
+    lo, hi = geo.angle_min_deg + 1.0, geo.angle_max_deg - 2.0
+    return tuple(float(a) for a in np.linspace(lo, hi, N_CASE_ANGLES))
+
+
+def case_moves(
+    moves: tuple[tuple[float, float, float], ...] = PUSH_MOVES, act: Actuator | None = None
+) -> list[Move]:
+    """The reduced protocol: two trials at each of the six case_angles of `act`, cycling through `moves`."""
     n = len(moves)
-    return [Move(a, *moves[(i + k) % n]) for i, a in enumerate(CASE_ANGLES) for k in (0, 1)]
+    return [Move(a, *moves[(i + k) % n]) for i, a in enumerate(case_angles(act)) for k in (0, 1)]
 
 
 def case_frames(cfg: PlantConfig, seed: int, fast: bool = False, plant_cls=None) -> list[pd.DataFrame]:
     """The case_moves trials of the plant cfg (FAST_MOVES if `fast`), each frame with its trial number."""
-    moves = case_moves(FAST_MOVES if fast else PUSH_MOVES)
+    moves = case_moves(FAST_MOVES if fast else PUSH_MOVES, cfg.actuator)
     return [df.assign(trial=i) for i, df in enumerate(run_trials(cfg, moves, seed=seed, plant_cls=plant_cls))]
 
 
@@ -79,11 +91,16 @@ def measure(cfg: PlantConfig, seed: int, fast: bool = False, plant_cls=None) -> 
 
 
 def make_case(
-    effects: tuple[str, ...], seed: int, default: PlantConfig | None = None, fast: bool = False
+    effects: tuple[str, ...],
+    seed: int,
+    default: PlantConfig | None = None,
+    fast: bool = False,
+    act: Actuator | None = None,
 ) -> Case:
-    """Hide `effects` (random parameters) in the default plant; the base has them switched off."""
+    """Hide `effects` (random parameters) in the default plant (of actuator `act`, the paper's when None);
+    the base has them switched off."""
     rng = np.random.default_rng(seed)
-    default = default or PlantConfig()
+    default = default or PlantConfig(actuator=act or default_actuator())
     hidden = {e: draw(e, rng) for e in effects}
     truth, base = default, default
     for e, p in hidden.items():
@@ -99,9 +116,9 @@ def effect_to_noise(case: Case) -> float:
     return max(float(np.sqrt(np.mean(z[c][case.runs.mask] ** 2))) for c in SCORE_CHANNELS)
 
 
-def run_case(kind: str, effects: tuple[str, ...], seed: int) -> dict:
-    """One benchmark row: what was hidden, what was named, the gap before and after."""
-    case = make_case(effects, seed)
+def run_case(kind: str, effects: tuple[str, ...], seed: int, act: Actuator | None = None) -> dict:
+    """One benchmark row: what was hidden, what was named, the gap before and after (actuator `act`)."""
+    case = make_case(effects, seed, act=act)
     t0 = time.perf_counter()
     res: Result = identify(case.runs, case.base)
     names = [n.name for n in res.effects]
@@ -150,9 +167,13 @@ def summarize(rows: pd.DataFrame) -> dict:
     }
 
 
-def bench(seeds: int, jobs: int = 2) -> dict:
-    """Run every planned case (in `jobs` processes) and summarize."""
-    return summarize(pd.DataFrame(run_all(_run, plan(seeds), jobs)))
+def bench(seeds: int, jobs: int = 2, act: Actuator | None = None) -> dict:
+    """Run every planned case (in `jobs` processes) on actuator `act` (the paper's when None), summarize."""
+    todo = [(*c, act) for c in plan(seeds)]
+    return {
+        "actuator": (act or default_actuator()).name,
+        **summarize(pd.DataFrame(run_all(_run, todo, jobs))),
+    }
 
 
 def run_all(fn, todo: list, jobs: int) -> list[dict]:
@@ -163,6 +184,6 @@ def run_all(fn, todo: list, jobs: int) -> list[dict]:
     return run_in_workers(fn, todo, jobs, desc="data sets", unit="set")
 
 
-def _run(args: tuple[str, tuple[str, ...], int]) -> dict:
+def _run(args: tuple[str, tuple[str, ...], int, Actuator | None]) -> dict:
     """Picklable wrapper of run_case."""
     return run_case(*args)

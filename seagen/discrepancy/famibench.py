@@ -7,6 +7,7 @@ import time
 import numpy as np
 import pandas as pd
 
+from seagen.actuator import Actuator, default_actuator
 from seagen.discrepancy.bench import measure, run_all
 from seagen.discrepancy.families import FAMILIES, family_case, misset_case
 from seagen.discrepancy.report import gap_cut
@@ -17,25 +18,27 @@ RECOVERED = 0.05  # a mis-set parameter counts as recovered within 5 % of the tr
 SURE = 0.9  # confidence at which a name counts as 'given' for the calibration
 
 
-def _misset(seed: int, fast: bool) -> tuple:
+def _misset(seed: int, fast: bool, act: Actuator | None) -> tuple:
     """Data from the default plant, a base with parameters off; the expected changes are recalibrations."""
-    truth, base, wrong = misset_case(seed)
+    truth, base, wrong = misset_case(seed, act)
     return measure(truth, seed=seed, fast=fast), base, frozenset(k.split(".")[0] for k in wrong), wrong
 
 
-def run_family(name: str, seed: int, fast: bool = False) -> dict:
-    """One case: what was expected, what changed first, spurious additions, gap cut, seconds."""
+def run_family(name: str, seed: int, fast: bool = False, act: Actuator | None = None) -> dict:
+    """One case on actuator `act` (the paper's when None): what was expected, what changed first, spurious
+    additions, gap cut, seconds."""
+    default = PlantConfig(actuator=act or default_actuator())
     if name == "misset":
-        runs, base, expected, wrong = _misset(seed, fast)
+        runs, base, expected, wrong = _misset(seed, fast, act)
     elif name == "control":
         runs, base, expected, wrong = (
-            measure(PlantConfig(), seed=seed, fast=fast),
-            PlantConfig(),
+            measure(default, seed=seed, fast=fast),
+            default,
             frozenset(),
             {},
         )
     else:
-        cls, truth, base, _ = family_case(name, seed)
+        cls, truth, base, _ = family_case(name, seed, act)
         runs, expected, wrong = (
             measure(truth, seed=seed, fast=fast, plant_cls=cls),
             FAMILIES[name].expected,
@@ -112,11 +115,13 @@ def summarize(rows: pd.DataFrame) -> dict:
     }
 
 
-def bench_families(seeds: int, jobs: int = 2, fast: bool = False) -> dict:
-    """Run every planned family case in `jobs` processes and summarize."""
-    return summarize(pd.DataFrame(run_all(_run, [(n, s, fast) for n, s in plan(seeds)], jobs)))
+def bench_families(seeds: int, jobs: int = 2, fast: bool = False, act: Actuator | None = None) -> dict:
+    """Run every planned family case on actuator `act` (the paper's when None) in `jobs` processes and
+    summarize."""
+    rows = run_all(_run, [(n, s, fast, act) for n, s in plan(seeds)], jobs)
+    return {"actuator": (act or default_actuator()).name, **summarize(pd.DataFrame(rows))}
 
 
-def _run(args: tuple[str, int, bool]) -> dict:
+def _run(args: tuple[str, int, bool, Actuator | None]) -> dict:
     """Picklable wrapper of run_family."""
     return run_family(*args)

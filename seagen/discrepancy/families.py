@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from seagen.actuator import Actuator, default_actuator
 from seagen.plant import Plant, PlantConfig, pick
 
 
@@ -160,21 +161,28 @@ MISSET = (
 )
 
 
-def family_case(name: str, seed: int) -> tuple[type[Plant], PlantConfig, PlantConfig, dict[str, float]]:
-    """(plant class, truth config, base config, drawn parameters) of one case of family `name`."""
+def family_case(
+    name: str, seed: int, act: Actuator | None = None
+) -> tuple[type[Plant], PlantConfig, PlantConfig, dict[str, float]]:
+    """(plant class, truth config, base config, drawn parameters) of one case of family `name` on actuator
+    `act` (the paper's when None)."""
     rng = np.random.default_rng(seed)
     fam = FAMILIES[name]
     params = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in fam.ranges.items()}
     cls = type(f"{fam.cls.__name__}_{seed}", (fam.cls,), params)
-    truth = PlantConfig() if fam.replaces is None else PlantConfig().with_effect(fam.replaces, False)
+    default = PlantConfig(actuator=act or default_actuator())
+    truth = default if fam.replaces is None else default.with_effect(fam.replaces, False)
     return cls, truth, truth, params
 
 
-def misset_case(seed: int) -> tuple[PlantConfig, PlantConfig, dict[str, tuple[float, float]]]:
-    """(truth = the default plant, base with one or two parameters off by 20-60 %, {key: (base, truth)})."""
+def misset_case(
+    seed: int, act: Actuator | None = None
+) -> tuple[PlantConfig, PlantConfig, dict[str, tuple[float, float]]]:
+    """(truth = the default plant of actuator `act` (the paper's when None), base with one or two
+    parameters off by 20-60 %, {key: (base, truth)})."""
     rng = np.random.default_rng(seed)
     picks = rng.choice(len(MISSET), size=1 + int(rng.integers(2)), replace=False)
-    truth = base = PlantConfig()
+    truth = base = PlantConfig(actuator=act or default_actuator())
     wrong = {}
     for i in picks:
         e, p = MISSET[int(i)]

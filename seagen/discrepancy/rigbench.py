@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from seagen.actuator import Actuator, default_actuator
 from seagen.data.logimport import import_log, load_map
 from seagen.discrepancy.bench import FAST_MOVES, HIDEABLE, case_moves, draw, run_all
 from seagen.discrepancy.families import misset_case
@@ -30,11 +31,11 @@ ALT_MAP = (
 )
 
 
-def _dialect(text: str) -> str:
-    """The rig CSV in the second dialect (s, V, lbf, other names)."""
+def _dialect(text: str, act: Actuator) -> str:
+    """The rig CSV in the second dialect (s, V of the supply of `act`, lbf, other names)."""
     df = pd.read_csv(io.StringIO(text))
     df["millis"] = df["millis"] / 1000.0
-    df["pwm_pct"] = df["pwm_pct"] * 0.12
+    df["pwm_pct"] = df["pwm_pct"] * (act.motor.supply_v / 100.0)
     df["shaft_kgf"] = df["shaft_kgf"] * 9.80665 / 4.4482216152605
     df = df.rename(columns={"millis": "time_s", "pwm_pct": "u_V", "shaft_kgf": "F_shaft_lbf"})
     return df.to_csv(index=False, float_format="%.9g")
@@ -55,25 +56,35 @@ def plan(seeds: int) -> list[tuple]:
     return out
 
 
-def run_case(kind: str, effects: tuple[str, ...], seed: int, hz: int, conv: str, dialect: int) -> dict:
-    """One case: simulate the rig, write its log, import it with its map, run the workflow."""
+def run_case(
+    kind: str,
+    effects: tuple[str, ...],
+    seed: int,
+    hz: int,
+    conv: str,
+    dialect: int,
+    act: Actuator | None = None,
+) -> dict:
+    """One case on actuator `act` (the paper's when None): simulate the rig, write its log, import it with
+    its map and that actuator, run the workflow."""
+    act = act or default_actuator()
     rng = np.random.default_rng(seed)
-    truth = base = PlantConfig()
+    truth = base = PlantConfig(actuator=act)
     hidden = {e: draw(e, rng) for e in effects}
     for e, p in hidden.items():
         truth, base = truth.with_effect(e, True, **p), base.with_effect(e, False)
     wrong: dict[str, tuple[float, float]] = {}
     if kind == "misset":
-        truth, base, wrong = misset_case(seed)
+        truth, base, wrong = misset_case(seed, act)
     # a mis-set base on the protocol's moves: quick moves do not pin the pot-drop gain (docs/discrepancy.md)
-    moves = case_moves() if kind == "misset" else case_moves(FAST_MOVES)
+    moves = case_moves(act=act) if kind == "misset" else case_moves(FAST_MOVES, act)
     frames = rig_trials(truth, moves, seed=seed, convention=conv, loop_ms=CLOCKS[hz])
-    text = rig_csv(frames)
+    text = rig_csv(frames, act=act)
     with tempfile.TemporaryDirectory() as tmp:
         log, mp = Path(tmp) / "rig.csv", Path(tmp) / "map.toml"
-        log.write_text(_dialect(text) if dialect else text)
+        log.write_text(_dialect(text, act) if dialect else text)
         mp.write_text(ALT_MAP if dialect else RIG_MAP)
-        df = import_log(log, load_map(mp))
+        df = import_log(log, load_map(mp), act)
     t0 = time.perf_counter()
     res = identify(runs_from_frames([("rig", df)]), base)
     recal = {f"{n.name}.{p}": v for n in res.recalibrated for p, v in n.params.items()}
@@ -122,7 +133,15 @@ def summarize(rows: pd.DataFrame) -> dict:
     }
 
 
-def bench_rig(seeds: int, jobs: int = 2, kinds: tuple[str, ...] = ("control", "single", "misset")) -> dict:
-    """Run the planned rig cases (in `jobs` processes) and summarize."""
-    todo = [c for c in plan(seeds) if c[0] in kinds]
-    return summarize(pd.DataFrame(run_all(_run, todo, jobs)))
+def bench_rig(
+    seeds: int,
+    jobs: int = 2,
+    kinds: tuple[str, ...] = ("control", "single", "misset"),
+    act: Actuator | None = None,
+) -> dict:
+    """Run the planned rig cases on actuator `act` (the paper's when None; in `jobs` processes), summarize."""
+    todo = [(*c, act) for c in plan(seeds) if c[0] in kinds]
+    return {
+        "actuator": (act or default_actuator()).name,
+        **summarize(pd.DataFrame(run_all(_run, todo, jobs))),
+    }
