@@ -16,8 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from seagen.data.protocol import PUSH_MOVES, TRAIN_ANGLES_DEG, Move
+from seagen.data.protocol import PUSH_MOVES, Move, train_angles
 from seagen.discrepancy import riglog
+from seagen.geometry import geometry
 from seagen.plant import Plant, PlantConfig, save_config
 
 
@@ -38,8 +39,9 @@ def main(argv: list[str]) -> None:
     kind = argv[1] if len(argv) > 1 and not argv[1].startswith("--") else "lugre"
     repeat = int(argv[argv.index("--repeat") + 1]) if "--repeat" in argv else 1
     out.mkdir(parents=True, exist_ok=True)
-    moves = [Move(TRAIN_ANGLES_DEG[i % 12], *PUSH_MOVES[i % len(PUSH_MOVES)]) for i in range(61)]
     truth = PlantConfig()
+    angles = train_angles(geometry(truth.actuator))
+    moves = [Move(angles[i % len(angles)], *PUSH_MOVES[i % len(PUSH_MOVES)]) for i in range(61)]
     if kind == "lugre":
         riglog.Plant = LuGrePlant  # type: ignore[misc]  # the rig loop steps this plant
         truth = truth.with_effect("actuator_friction", False)

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -180,3 +181,17 @@ def test_lag_is_found_at_1_khz() -> None:
     fit_i, _ = split_trials(runs)
     tim = fit_timing(PlantConfig(), runs.take(fit_i), noise_sigma(runs)["enc"][fit_i])
     assert tim.fitted == pytest.approx(1.0, abs=0.02)
+
+
+def test_rig_session_example_writes_the_documented_session(tmp_path):
+    """examples/rig_session.py (docs/discrepancy.md's 61-trial session) still runs: 30,989 rows, a map
+    `data import` reads and a base config (~2 s)."""
+    import subprocess
+    import sys
+
+    script = Path(__file__).resolve().parents[1] / "examples" / "rig_session.py"
+    out = tmp_path / "S"
+    run = subprocess.run([sys.executable, str(script), str(out), "lugre"], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert "30989 rows" in run.stdout
+    assert {p.name for p in out.iterdir()} >= {"rig.csv", "map.toml", "base.toml"}
