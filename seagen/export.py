@@ -101,7 +101,7 @@ def prepare(
     )
     if not rep.ok:
         raise CheckFailed(f"{model_path}: {rep.line()}")
-    act = export_actuator(model_path, actuator, allow_pickle)
+    act = export_actuator(loaded, actuator, model_path)
     aq = act_q(act)  # the geometry's formats proven, or refused with the reason
     try:
         rendered = render(qm, prefix, target, aq)

@@ -154,7 +154,7 @@ def safe_load(p: Path, allow_pickle: bool = False) -> Any:
 
     if allow_pickle:  # --allow-pickle was given: full unpickling, the one place seagen runs a file's code
         with _readable(p):
-            return torch.load(p, map_location="cpu", weights_only=False)
+            return torch.load(p, map_location="cpu", weights_only=False)  # only under allow_pickle
     with _readable(p), torch.serialization.safe_globals(nn_allowlist()):
         return torch.load(p, map_location="cpu", weights_only=True)
 
@@ -274,7 +274,13 @@ def model_actuator(model: dict[str, Any], where: str, given: Actuator | None = N
     """The actuator a model was trained for (the paper's when the file predates the record); a `given`
     description that disagrees with the recorded one is refused, naming both."""
     rec = model.get("actuator")
-    act = default_actuator() if rec is None else actuator_from_record(rec, where)
+    return same_actuator(
+        default_actuator() if rec is None else actuator_from_record(rec, where), given, where
+    )
+
+
+def same_actuator(act: Actuator, given: Actuator | None, where: str) -> Actuator:
+    """`act`, the description a model is for; a `given` one that disagrees is refused, naming both."""
     if given is not None and given.digest() != act.digest():
         raise ActuatorError(
             f"{where}: the model was trained for actuator '{act.name}' (sha256 {act.digest()[:12]}), "

@@ -9,6 +9,7 @@ import io
 import json
 import os
 import pickle
+import re
 import shutil
 import subprocess
 import zipfile
@@ -445,9 +446,12 @@ def test_graph_with_file_io_refused_before_it_runs(build, good, tmp_path, capsys
 
 
 def _script_member(good, suffix: str) -> str:
-    """The full name of the TorchScript archive's member ending with suffix."""
+    """The full name of the TorchScript archive's member for `suffix` (a module's source file; a process
+    that scripted the same class before names it `suffix-without-.py/___torch_mangle_N.py`)."""
+    stem, ext = suffix.rsplit(".", 1)
+    pattern = rf"(^|/){re.escape(stem)}(/___torch_mangle_\d+)?\.{re.escape(ext)}$"
     with zipfile.ZipFile(good["script"]) as z:
-        return next(n for n in z.namelist() if n.endswith(suffix))
+        return next(n for n in z.namelist() if re.search(pattern, n))
 
 
 def ts_carriage_return(good, d: Path) -> Path:

@@ -3,11 +3,14 @@ actuator an export is for."""
 
 from __future__ import annotations
 
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 from seagen.actuator import Actuator, default_actuator
 from seagen.codegen.cfmt import c_int
 from seagen.runtime.actq import ActQ
+
+if TYPE_CHECKING:
+    from seagen.frontends.load import Loaded
 
 NOTES = {
     "link_shift": "table step 2^link_shift pot counts",
@@ -42,17 +45,12 @@ def act_files(a: ActQ) -> dict[str, str]:
     return {f"{a.cid}{x}": env.get_template(f"sea_act{x}.j2").render(ctx) for x in (".h", ".c")}
 
 
-def export_actuator(model_path: str, given: Actuator | None = None, allow_pickle: bool = False) -> Actuator:
-    """The actuator an export is for: the one a seagen model file recorded (the paper's for a file from
-    before the record), else the given one (a bare network or ONNX graph), else the paper's. A given
-    description that disagrees with the model file's is refused (exit 2)."""
-    from seagen.filekind import PICKLE, TORCH_SAVE, file_kind
-    from seagen.frontends.torch_files import load_torch
-    from seagen.modelfile import FORMAT, model_actuator
+def export_actuator(loaded: Loaded, given: Actuator | None, where: str) -> Actuator:
+    """The actuator an export is for: the one its seagen model file recorded (`loaded.actuator`: the paper's
+    for a file from before the record), else the given one (a bare network or ONNX graph), else the paper's.
+    A given description that disagrees with the model file's is refused (exit 2)."""
+    from seagen.modelfile import same_actuator
 
-    p = Path(model_path)
-    if file_kind(p) in (TORCH_SAVE, PICKLE):
-        obj = load_torch(p, allow_pickle)
-        if isinstance(obj, dict) and obj.get("format") == FORMAT:
-            return model_actuator(obj, model_path, given)
-    return given or default_actuator()
+    if loaded.actuator is None:
+        return given or default_actuator()
+    return same_actuator(loaded.actuator, given, where)

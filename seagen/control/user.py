@@ -52,7 +52,7 @@ def exported(model: str, features: str | None = None, allow_pickle: bool = False
         raise CheckFailed(f"{model}: {rep.line()}")
     stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(model).stem)
     prefix = assert_valid_prefix(stem if stem[:1].isalpha() and not stem.startswith("sea") else f"m_{stem}")
-    aq = act_q(export_actuator(model, None, allow_pickle))  # the model file's actuator (the paper's if none)
+    aq = act_q(export_actuator(loaded, None, model))  # the model file's actuator (the paper's if none)
     files = {**render(qm, prefix, act=aq), **runtime_sources(*RUNTIME)}
     return Exported(loaded.model, qm, prefix, files, aq)
 

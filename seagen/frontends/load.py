@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from seagen.actuator import Actuator
 from seagen.errors import UserError, not_a_file
 from seagen.filekind import ONNX, UNKNOWN, file_kind
 from seagen.frontends import Network, read_module, read_onnx
@@ -19,7 +20,7 @@ from seagen.frontends import modeldict as D
 from seagen.frontends.margin import forward_margin
 from seagen.frontends.torch_files import load_torch
 from seagen.ir import FloatLayer, FloatMLP, FloatModel, FloatSF, Signal, poly2
-from seagen.modelfile import FORMAT, FeatureSpec
+from seagen.modelfile import FORMAT, FeatureSpec, model_actuator
 from seagen.quant.qformat import widened, widened_box
 
 UNITS = {"pot": "count", "enc": "count", "angle_deg": "deg", "compression_mm": "mm", "force_n": "N"}
@@ -82,6 +83,9 @@ class Loaded:
     margin: float  # stated allowance for the original's own rounding (its float type's forward error)
     dtype: str = "float64"  # the float type the original computes in (the margin derives from it)
     notes: list[str] = dataclasses.field(default_factory=list)  # how the file was read, when not literally
+    # the description a seagen model file recorded (the paper's for a file from before the record); None for
+    # a bare network or an ONNX graph, which record none
+    actuator: Actuator | None = None
 
 
 def _sf_model(d: dict[str, Any], where: str, rng: Any, output: Signal, task: str) -> Loaded:
@@ -220,7 +224,8 @@ def load_with_original(
         return from_model_dict({"kind": "mlp", **extra}, str(p), ranges, read_onnx(p))
     obj = load_torch(p, allow_pickle)
     if isinstance(obj, dict) and obj.get("format") == FORMAT:
-        return from_model_dict({**obj, **extra}, str(p), ranges)
+        loaded = from_model_dict({**obj, **extra}, str(p), ranges)
+        return dataclasses.replace(loaded, actuator=model_actuator(obj, str(p)))
     if isinstance(obj, dict):
         from seagen.modelfile import describe_dict
 

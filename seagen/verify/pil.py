@@ -148,7 +148,6 @@ def run_pil(
     from seagen.codegen.controller import shipped_config
     from seagen.control.experiment import TARGETS_N
     from seagen.control.gentwin import StepTwin
-    from seagen.defaults import resolve_model
     from seagen.plant import PlantConfig
 
     if ticks < 1 or not 1 <= actuators <= MAX_ACTUATORS:
@@ -169,7 +168,7 @@ def run_pil(
     board = PilController(files, ex.prefix, core, cal)
     res = PilResult(v, core, board.board.machine, actuators)
     cfg = shipped_config(ex.qmodel, ex.act)  # the configuration export --controller renders
-    plant_cfg = PlantConfig().with_actuator(export_actuator(resolve_model(model), actuator, allow_pickle))
+    plant_cfg = PlantConfig().with_actuator(export_actuator(ex.loaded, actuator, model))  # the export's
     angles = np.linspace(7.0, 25.0, actuators)
     try:
         for i, target in enumerate(TARGETS_N):
