@@ -17,7 +17,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from seagen.actuator import Actuator, ActuatorError, default_actuator
+from seagen.actuator import Actuator, ActuatorError, Control, default_actuator
 from seagen.c_runtime import defines
 from seagen.geometry import geometry
 
@@ -54,6 +54,7 @@ class ActQ:
     pot_avg_ticks: int  # ticks per pot average (10 Hz)
     pot_stuck_ticks: int  # consecutive rail readings that make a fault (100 ms)
     loop_hz: float
+    control: Control  # the description's force range and PID gains (SI; ControlConfig.for_act quantizes them)
 
     @property
     def cid(self) -> str:
@@ -175,6 +176,7 @@ def act_q(act: Actuator) -> ActQ:
         pot_avg_ticks=_ticks(act, POT_AVG_HZ, "pot average"),
         pot_stuck_ticks=_ticks(act, 1.0 / POT_STUCK_S, "stuck-pot check"),
         loop_hz=act.loop_hz,
+        control=act.control,
     )
 
 
