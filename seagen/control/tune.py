@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from seagen.actuator import default_actuator
 from seagen.control.experiment import (
     CONFIGS,
     DURATION_S,
@@ -16,7 +17,6 @@ from seagen.control.experiment import (
     runs,
     targets_n,
 )
-from seagen.actuator import default_actuator
 from seagen.runtime.pid import DEFAULT_PID_SI, PidParams
 
 # The shipped choice (DEFAULT_PID, MLP_PRED_AVG) in the search's parameters: the first trial, as a baseline.
