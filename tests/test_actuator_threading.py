@@ -12,6 +12,7 @@ import pytest
 
 from seagen.actuator import ActuatorError, actuator_from_dict, default_actuator, load_actuator
 from seagen.cli import main
+from seagen.control.experiment import contact_deg, targets_n
 from seagen.data import protocol
 from seagen.data.features import derive
 from seagen.data.logimport import import_log, load_map
@@ -23,6 +24,8 @@ from seagen.modelfile import load_model
 from seagen.plant import Plant, PlantConfig, load_config
 from seagen.plant.config import ConfigError
 from seagen.runtime.actq import act_q
+from seagen.runtime.control import ControlConfig
+from seagen.verify.run import enc_span
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml"
 FACTORS = (1.1, 0.9, 2.0, 0.5)  # the first that gives a valid description (loop_hz must divide 1 kHz)
@@ -130,6 +133,16 @@ def _consumers(act, tmp: Path) -> dict[str, object]:
     out["logimport"] = import_log(tmp / "log.csv", load_map(tmp / "map.toml"), act).to_numpy(float)
     aq = act_q(act)  # the C side: the sea_act constants the export renders and the twins read
     out["c_act"] = (aq.link, aq.struct_fields())
+    ctl = ControlConfig.for_act(aq)  # the controller configuration an export renders (PID, limits, faults)
+    out["controller"] = (
+        ctl.pid.as_tuple(),
+        ctl.force_min,
+        ctl.force_max,
+        ctl.enc_jump_max,
+        ctl.pot_stuck_ticks,
+    )
+    out["experiment"] = (targets_n(act), contact_deg(act))  # simulate's targets and contact angles
+    out["verify"] = enc_span(act)  # verify's synthetic encoder range
     return out
 
 
@@ -146,25 +159,45 @@ MOTOR = {"plant", "protocol", "replay"}  # the simulated motor
 # Which consumers each field of the description must move (a consumer that ignores one fails the test).
 EXPECTED = {
     "motor.supply_v": MOTOR | {"logimport", "c_act"},  # PWM % of the supply, +-supply, the C command limit
-    "motor.no_load_rpm": MOTOR | {"c_act"},  # the C encoder-jump bound
-    "motor.gear_ratio": GEOMETRY,  # nut travel per count: encoder, stairs, compression
-    "motor.counts_per_rev": GEOMETRY,
+    "motor.no_load_rpm": MOTOR | {"c_act", "controller"},  # the C encoder-jump bound
+    "motor.gear_ratio": GEOMETRY | {"verify"},  # nut travel per count: encoder, stairs, compression
+    "motor.counts_per_rev": GEOMETRY | {"controller", "verify"},  # and the encoder-jump bound
     "motor.stall_force_n": MOTOR,
     "motor.time_constant_s": MOTOR,
-    "transmission.lead_mm": GEOMETRY,
+    "transmission.lead_mm": GEOMETRY | {"verify"},
     "transmission.friction_n": {"kinematics"},
-    "spring.stiffness_n_per_mm": MOTOR | {"kinematics"},
-    "linkage.cb_mm": GEOMETRY,
-    "linkage.home_deg": GEOMETRY,
-    "linkage.angle_min_deg": MOTOR,  # R_l's origin (load cell) and the angles; not Eq. 2 or 5
-    "linkage.angle_max_deg": {"plant", "protocol", "replay"},  # linkage friction's range, train angles
+    "spring.stiffness_n_per_mm": MOTOR | {"kinematics", "verify"},
+    "linkage.cb_mm": GEOMETRY | {"verify"},
+    "linkage.home_deg": GEOMETRY | {"verify"},
+    "linkage.angle_min_deg": MOTOR
+    | {"experiment"},  # R_l's origin (load cell) and the angles; not Eq. 2 or 5
+    "linkage.angle_max_deg": {
+        "plant",
+        "protocol",
+        "replay",
+        "experiment",
+        "verify",
+    },  # friction range, angles
     "linkage.split_deg": {"plant", "protocol", "replay"},
     "linkage.h_fit": {"plant", "protocol", "replay"},  # R_l: the load cell reads tip force
     "linkage.v_fit_higher": {"plant"},  # R_l above the split: only the plant's 18 deg element is there
     "pot.full_scale_deg": GEOMETRY,
     "pot.offset_deg": GEOMETRY,
     "pot.adc_bits": {"plant", "protocol", "features", "replay", "logimport", "c_act"},
-    "control.loop_hz": {"protocol", "features", "replay", "c_act"},  # replay: of the protocol's rows
+    "control.loop_hz": {
+        "protocol",
+        "features",
+        "replay",
+        "c_act",
+        "controller",
+    },  # replay: the protocol's rows
+    "control.force_max_n": {"controller", "experiment", "verify"},  # fault range, targets, encoder span
+    "control.kp_v_per_mm": {"controller"},
+    "control.ki_v_per_mm_s": {"controller"},
+    "control.kd_v_s_per_mm": {"controller"},
+    "control.d_alpha": {"controller"},
+    "control.margin_mm": {"controller"},
+    "control.limit_v": {"controller"},
 }
 
 

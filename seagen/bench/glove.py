@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from seagen.actuator import default_actuator
 from seagen.defaults import DEFAULT_PREFIX, default_model
 from seagen.toolchain import cortexm as cm
 from seagen.toolchain.host import compile_objects
@@ -24,7 +25,7 @@ from seagen.toolchain.mcu_trace import disassemble, traced_call
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "firmware"
 N_SEA, TICKS = 7, 120
-CYCLES_PER_TICK = 48_000_000 // 100  # a 48 MHz core, 100 Hz tick
+CYCLES_PER_TICK = round(48_000_000 / default_actuator().loop_hz)  # a 48 MHz core at the paper's loop rate
 MODEL_OF = {prefix: name for name, prefix in DEFAULT_PREFIX.items()}
 TRACED = range(10, 40)  # 30 ticks after 10 of warm-up: three refreshes of the pot average
 

@@ -213,10 +213,12 @@ def sensor_walk(
     pot_max: int = PAPER.pot_max,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Test sequences for controller ticks, (n, *batch) each: raw enc and pot random walks (steps of at most
-    `steps` counts from `start`, pot kept off its rails: 1..pot_max - 1) and a desired force (Q16 N) drawn in `force_n` and
-    held `hold` ticks."""
+    `steps` counts from `start`, pot kept off its rails: 1..pot_max - 1) and a desired force (Q16 N) drawn
+    in `force_n` and held `hold` ticks."""
     rng = np.random.default_rng(seed)
     enc = start[0] + np.cumsum(rng.integers(-steps[0], steps[0] + 1, (n, *batch)), axis=0)
-    pot = np.clip(start[1] + np.cumsum(rng.integers(-steps[1], steps[1] + 1, (n, *batch)), axis=0), 1, pot_max - 1)
+    pot = np.clip(
+        start[1] + np.cumsum(rng.integers(-steps[1], steps[1] + 1, (n, *batch)), axis=0), 1, pot_max - 1
+    )
     force = np.repeat(rng.uniform(force_n[0], force_n[1], (n // hold + 1, *batch)), hold, axis=0)[:n]
     return enc, pot, np.vectorize(q16, otypes=[np.int64])(force)
