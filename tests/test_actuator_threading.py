@@ -17,6 +17,7 @@ from seagen.data import protocol
 from seagen.data.features import derive
 from seagen.data.logimport import import_log, load_map
 from seagen.data.protocol import Move, run_trials
+from seagen.discrepancy.candidates import box, full_scale
 from seagen.discrepancy.replay import runs_from_frames, simulate
 from seagen.fit.kinematics import compression_for, shaft_force
 from seagen.geometry import geometry
@@ -143,6 +144,7 @@ def _consumers(act, tmp: Path) -> dict[str, object]:
     )
     out["experiment"] = (targets_n(act), contact_deg(act))  # simulate's targets and contact angles
     out["verify"] = enc_span(act)  # verify's synthetic encoder range
+    out["discrepancy"] = box("pot_voltage_drop", "counts_per_unit_current", full_scale(cfg))  # search box
     return out
 
 
@@ -183,7 +185,7 @@ EXPECTED = {
     "linkage.v_fit_higher": {"plant"},  # R_l above the split: only the plant's 18 deg element is there
     "pot.full_scale_deg": GEOMETRY,
     "pot.offset_deg": GEOMETRY,
-    "pot.adc_bits": {"plant", "protocol", "features", "replay", "logimport", "c_act"},
+    "pot.adc_bits": {"plant", "protocol", "features", "replay", "logimport", "c_act", "discrepancy"},
     "control.loop_hz": {
         "protocol",
         "features",
@@ -215,6 +217,22 @@ def test_every_field_moves_the_consumers_that_read_it(tmp_path):
     wrong = {f: (sorted(moved[f]), sorted(EXPECTED[f])) for f in fields if moved[f] != EXPECTED[f]}
     assert not wrong, f"field: (consumers moved, expected): {wrong}"
     assert set().union(*moved.values()) == set(base), "a threaded consumer no field moves"
+
+
+def test_pot_drop_search_box_follows_the_adc():
+    """The discrepancy search box of the pot's voltage drop is in counts of the described ADC: 5 to 600
+    counts per unit current on the paper's 12-bit ADC (unchanged), 16 times that on a 16-bit one."""
+    from seagen.discrepancy.candidates import start
+
+    d = default_actuator().to_dict()
+    d["pot"]["adc_bits"] = 16
+    paper, fine = PlantConfig(), PlantConfig(actuator=actuator_from_dict(d))
+    key = ("pot_voltage_drop", "counts_per_unit_current")
+    assert box(*key, full_scale(paper))[:2] == (5.0, 600.0)
+    assert box(*key, full_scale(fine))[:2] == (80.0, 9600.0)
+    for cfg in (paper, fine):  # a recalibration starts at the plant's own value, inside its box
+        got = start(cfg, "pot_voltage_drop").params()["pot_voltage_drop"]["counts_per_unit_current"]
+        assert got == pytest.approx(cfg.effect("pot_voltage_drop").counts_per_unit_current)
 
 
 def test_old_plant_toml_with_motor_is_refused(tmp_path):

@@ -11,9 +11,10 @@ import pandas as pd
 
 from seagen.discrepancy.candidates import (
     POLISH_NFEV,
-    SPACE,
     Candidate,
+    box,
     from_params,
+    full_scale,
     joint_recalibration,
     missing_effects,
     objective,
@@ -254,7 +255,7 @@ def _refit_all(
     base: PlantConfig, groups: list[list[Named]], fit: Runs, sig_f, nfev: int
 ) -> list[list[Named]]:
     """_refit of several alternative groups of named effects, polished together (batched replays)."""
-    cands = [from_params({n.name: n.params for n in named}) for named in groups]
+    cands = [from_params({n.name: n.params for n in named}, base) for named in groups]
     live = [c for c in cands if c.names]
     if live:  # least squares never ends above its start, so no replay of the start is needed first
         polish(base, live, fit, sig_f, nfev=nfev)
@@ -352,11 +353,12 @@ def _honest(base: PlantConfig, named: list[Named], held: Runs, sig_h, z0) -> tup
     return named, notes
 
 
-def _at_edge(n: Named) -> list[str]:
-    """The parameters of a named change fitted within EDGE of an end of their search box."""
+def _at_edge(n: Named, cfg: PlantConfig | None = None) -> list[str]:
+    """The parameters of a named change fitted within EDGE of an end of their search box (on the plant
+    `cfg`, whose pot ADC sets the FULL_SCALE_BOXES; the paper's when None)."""
     out = []
     for p, v in n.params.items():
-        lo, hi, log = SPACE[n.name][p]
+        lo, hi, log = box(n.name, p, full_scale(cfg))
         u = np.log(v / lo) / np.log(hi / lo) if log and v > 0 else (v - lo) / (hi - lo)
         if u <= EDGE or u >= 1 - EDGE:
             out.append(p)
@@ -429,7 +431,7 @@ def identify(
         n.sigma = sig_p[n.name]
     _claims(named, verdict)
     for n in named:
-        n.edge = _at_edge(n)
+        n.edge = _at_edge(n, base)
         n.claimed = n.claimed and not n.edge
     added = [n for n in named if n.before is None]
     res = Result(added, verdict, cfg, held, z0, z1, floor, rounds, labels=labels)
