@@ -67,7 +67,7 @@ def glove_files(target: str = "portable", cal: str = "cal_mlp", ctl: str = "ctl_
     files = {**c.files, **k.files, **controller_files(ctl, k.qmodel)}
     for f in EXAMPLE.glob("glove.[ch]"):
         files[f.name] = f.read_text().replace("cal_mlp", cal).replace("CAL_MLP", cal.upper())
-        files[f.name] = files[f.name].replace("ctl_mlp", ctl)
+        files[f.name] = files[f.name].replace("ctl_mlp", ctl).replace("CTL_MLP", ctl.upper())
     return files
 
 
