@@ -43,7 +43,8 @@ class PilController:
         """Build the firmware for n actuators, boot it, read its SysTick calibration."""
         if not 1 <= n <= MAX_ACTUATORS:
             raise UserError(f"the firmware serves 1..{MAX_ACTUATORS} actuators, not {n}")
-        elf = build_firmware(self.files, model_header(self.ctl, self.cal, n, self.onboard, self.shared), self.core)
+        header = model_header(self.ctl, self.cal, n, self.onboard, self.shared)
+        elf = build_firmware(self.files, header, self.core)
         self.link = Link(elf, self.board, self.timeout_s)
         empty, loop = struct.unpack("<II", self.link.exchange("C", 0, b"", 8, "calibration"))
         if loop <= empty:
