@@ -63,6 +63,11 @@ class ActQ:
         return "sea_act_" + "".join("abcdefghijklmnop"[int(h, 16)] for h in self.digest[:8])
 
     @property
+    def key(self) -> str:
+        """NAME_ACT_KEY: the same 32 bits as a C literal; models with equal keys may share one pipeline."""
+        return f"0x{self.digest[:8]}u"
+
+    @property
     def table(self) -> np.ndarray:
         """The link table as an int64 array (for the twins)."""
         return np.array(self.link, dtype=np.int64)

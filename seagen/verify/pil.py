@@ -161,12 +161,13 @@ def run_pil(
             f"{man.path}: exported without --controller (re-export with seagen export --controller)"
         )
     v.prefix = ex.prefix
-    cal_qm, cal = None, None
+    cal_qm, cal, shared = None, None, False
     if cal_model is not None:
         cal_files, cal_ex, _ = _export(root, cal_model, None, v, allow_pickle, actuator)
         cal_qm, cal = cal_ex.qmodel, cal_ex.prefix
         files = {**files, **cal_files}
-    board = PilController(files, ex.prefix, core, cal)
+        shared = cal_ex.act is not None and ex.act is not None and cal_ex.act.cid == ex.act.cid
+    board = PilController(files, ex.prefix, core, cal, shared=shared)  # one pipeline for one actuator
     res = PilResult(v, core, board.board.machine, actuators)
     cfg = shipped_config(ex.qmodel, ex.act)  # the configuration export --controller renders
     plant_cfg = PlantConfig().with_actuator(export_actuator(ex.loaded, actuator, model))  # the export's
