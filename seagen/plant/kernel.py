@@ -119,15 +119,14 @@ def _spring_slope(d, k_spring, k_stop, nl, k3):
     return s
 
 
-def _structure(y, yc, sc, k_rigid, kc, beta):
-    """Plant.structure_force of one element: (force, slope)."""
+def _structure(y, yc, sc, k_rigid, a, beta):
+    """Plant.structure_force of one element: (force, slope); a = 1 / k of the compliance."""
     d = y - yc
     if d < 0.0:
         d = 0.0
     inside = y > yc
     if not sc:
         return k_rigid * d, (k_rigid if inside else 0.0)
-    a = 1.0 / kc
     if beta > 0:
         root = math.sqrt(a * a + 4.0 * beta * d)
         return (root - a) / (2.0 * beta), (1.0 / root if inside else 0.0)
@@ -163,7 +162,9 @@ def _loop(volts, y_contact, par, flags, consts, out):
         bv, s_extra, s_vs, kc, beta = par[5, i], par[6, i], par[7, i], par[8, i], par[9, i]
         half, f0, k3 = par[10, i], par[11, i], par[12, i]
         yc = y_contact[i]
+        a = 1.0 / kc if sc else 0.0
         b = bv / dt if visc else 0.0
+        y_link, f_link = np.nan, 0.0  # the linkage friction at the last shaft position it was computed for
         ratio = rr if act else 1.0
         motor = v_motor = nut = shaft = v_shaft = current = force = 0.0
         for k in range(k_max):
@@ -179,11 +180,14 @@ def _loop(volts, y_contact, par, flags, consts, out):
             y0 = shaft
             fwd = fc if act else 0.0
             if link:
-                c = cos_home - min(y0, yc) / cb
-                c = min(max(c, -1.0), 1.0)
-                angle = math.acos(c) * rad2deg
-                x = (angle - split) / (amax - split)
-                fwd = max(fwd + c0 + c1 * x + c2 * x * x, 0.0)
+                ym = min(y0, yc)
+                if ym != y_link:  # the angle stays put in contact: computed once
+                    c = cos_home - ym / cb
+                    c = min(max(c, -1.0), 1.0)
+                    angle = math.acos(c) * rad2deg
+                    x = (angle - split) / (amax - split)
+                    y_link, f_link = ym, max(fwd + c0 + c1 * x + c2 * x * x, 0.0)
+                fwd = f_link
             rev = fwd * ratio
             if strib:
                 q = v_shaft / s_vs
@@ -191,7 +195,7 @@ def _loop(volts, y_contact, par, flags, consts, out):
                 fwd = fwd + boost
                 rev = rev + boost * (1.0 if rev > 0 else 0.0)
             d0 = nut - y0
-            fl, sl = _structure(y0, yc, sc, k_rigid, kc, beta)
+            fl, sl = _structure(y0, yc, sc, k_rigid, a, beta)
             n0 = _spring(d0, k_spring, k_stop, nl, k3, pre, f0) - fl
             s0 = -_spring_slope(d0, k_spring, k_stop, nl, k3) - sl
             target = fwd if n0 > fwd else (-rev if n0 < -rev else n0)
@@ -222,13 +226,13 @@ def _loop(volts, y_contact, par, flags, consts, out):
                     if done:
                         break
                     d = nut - ya
-                    fl, sl = _structure(ya, yc, sc, k_rigid, kc, beta)
+                    fl, sl = _structure(ya, yc, sc, k_rigid, a, beta)
                     f = _spring(d, k_spring, k_stop, nl, k3, pre, f0) - fl
                     s = -_spring_slope(d, k_spring, k_stop, nl, k3) - sl
                 y = ya
             v_shaft = (y - y0) / dt
             shaft = y
-            force = _structure(shaft, yc, sc, k_rigid, kc, beta)[0]
+            force = _structure(shaft, yc, sc, k_rigid, a, beta)[0]
             out[0, i, k + 1] = motor
             out[1, i, k + 1] = shaft
             out[2, i, k + 1] = force
@@ -254,8 +258,10 @@ def pot_drop(current: np.ndarray, of_set: np.ndarray, kappa: np.ndarray, alpha: 
 
 
 # compiled on first use, cached beside the module (or in numba's user cache when that is read-only)
-_drop_all = numba.njit(cache=True)(_drop)
-_spring = numba.njit(cache=True)(_spring)
-_spring_slope = numba.njit(cache=True)(_spring_slope)
-_structure = numba.njit(cache=True)(_structure)
-_step_all = numba.njit(cache=True)(_loop)
+# (numpy's error model: a division by zero gives inf or nan as in Plant, never an exception)
+_JIT = {"cache": True, "error_model": "numpy"}
+_drop_all = numba.njit(**_JIT)(_drop)
+_spring = numba.njit(**_JIT)(_spring)
+_spring_slope = numba.njit(**_JIT)(_spring_slope)
+_structure = numba.njit(**_JIT)(_structure)
+_step_all = numba.njit(**_JIT)(_loop)
