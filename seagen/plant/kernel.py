@@ -259,9 +259,8 @@ def pot_drop(current: np.ndarray, of_set: np.ndarray, kappa: np.ndarray, alpha: 
 
 # compiled on first use, cached beside the module (or in numba's user cache when that is read-only)
 # (numpy's error model: a division by zero gives inf or nan as in Plant, never an exception)
-_JIT = {"cache": True, "error_model": "numpy"}
-_drop_all = numba.njit(**_JIT)(_drop)
-_spring = numba.njit(**_JIT)(_spring)
-_spring_slope = numba.njit(**_JIT)(_spring_slope)
-_structure = numba.njit(**_JIT)(_structure)
-_step_all = numba.njit(**_JIT)(_loop)
+_drop_all = numba.njit(_drop, cache=True, error_model="numpy")
+_spring = numba.njit(_spring, cache=True, error_model="numpy")
+_spring_slope = numba.njit(_spring_slope, cache=True, error_model="numpy")
+_structure = numba.njit(_structure, cache=True, error_model="numpy")
+_step_all = numba.njit(_loop, cache=True, error_model="numpy")
