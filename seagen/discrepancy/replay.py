@@ -284,7 +284,8 @@ def simulate(
     of_set = np.repeat(which, n) * n + np.tile(np.arange(n), n_sets)  # each element's motion element
     lr = base.effects.learned_residual
     record = inputs is not None or lr.enabled
-    traj = kernel.run(plant, u) if compiled and kernel.available(plant) else _stepped(plant, u)
+    n_sig = 5 if record else 4 if pvd else 3  # the states the reads below need
+    traj = kernel.run(plant, u, n_sig) if compiled and kernel.available(plant) else _stepped(plant, u)
     # the plant states each read needs (the reads of step k see the states after k steps)
     ks = np.repeat(np.arange(k_max + 1), np.diff(bounds))[:, None]
     motor_mm, shaft_mm = traj.motor_mm[mrows, ks], traj.shaft_mm[mrows, ks]
@@ -297,11 +298,13 @@ def simulate(
         ]
     else:
         force = traj.force_n[mrows, ks]
-    drops = kernel.pot_drop(traj.current, of_set, zero + kappa, zero + alpha)[rows, ks] if pvd else None
+    drops = None
+    if pvd and traj.current is not None:
+        drops = kernel.pot_drop(traj.current, of_set, zero + kappa, zero + alpha)[rows, ks]
     rec = {}
     if record:
         signals = {"force_n": traj.force_n, "speed_mm_s": traj.v_shaft, "current": traj.current}
-        rec = {key: v[mrows, ks] for key, v in signals.items()}
+        rec = {key: v[mrows, ks] for key, v in signals.items() if v is not None}
         rec["contact_deg"] = np.broadcast_to(plant.contact_deg[mrows], rows.shape).copy()
     r = rows
     angle = plant.geo.angle_from_shaft(np.minimum(shaft_mm, plant.y_contact[mrows]))

@@ -54,8 +54,8 @@ class Trajectory:
     motor_mm: np.ndarray
     shaft_mm: np.ndarray
     force_n: np.ndarray  # structure force on the shaft (before any transport delay)
-    current: np.ndarray
-    v_shaft: np.ndarray
+    current: np.ndarray | None = None  # recorded when asked for (`signals`)
+    v_shaft: np.ndarray | None = None
 
 
 def available(plant: Plant) -> bool:
@@ -67,8 +67,9 @@ def available(plant: Plant) -> bool:
     return not any(plant.cfg.on(e) for e in SENSOR_SIDE if e != "pot_noise")
 
 
-def run(plant: Plant, volts: np.ndarray) -> Trajectory:
-    """Step a fresh plant (all states zero) with command volts (n_elements, K): its states at every step."""
+def run(plant: Plant, volts: np.ndarray, signals: int = 5) -> Trajectory:
+    """Step a fresh plant (all states zero) with command volts (n_elements, K): its states at every step,
+    the first `signals` of Trajectory's (3: positions and force; 4: and the current; 5: all)."""
     cfg, geo, m = plant.cfg, plant.geo, plant.motor
     n = plant.nut_mm.size
     par = np.empty((len(PARAMS), n))
@@ -92,7 +93,7 @@ def run(plant: Plant, volts: np.ndarray) -> Trajectory:
         ]
     )
     k = volts.shape[1]
-    out = np.zeros((5, n, k + 1))
+    out = np.empty((signals, n, k + 1))
     _step_all(
         np.ascontiguousarray(volts, dtype=float), np.asarray(plant.y_contact, float), par, flags, consts, out
     )
@@ -157,6 +158,7 @@ def _loop(volts, y_contact, par, flags, consts, out):
     )
     rad2deg = 180.0 / math.pi
     n, k_max = volts.shape
+    n_sig = out.shape[0]
     for i in range(n):
         fc, rr, c0, c1, c2 = par[0, i], par[1, i], par[2, i], par[3, i], par[4, i]
         bv, s_extra, s_vs, kc, beta = par[5, i], par[6, i], par[7, i], par[8, i], par[9, i]
@@ -167,6 +169,8 @@ def _loop(volts, y_contact, par, flags, consts, out):
         y_link, f_link = np.nan, 0.0  # the linkage friction at the last shaft position it was computed for
         ratio = rr if act else 1.0
         motor = v_motor = nut = shaft = v_shaft = current = force = 0.0
+        for j in range(n_sig):
+            out[j, i, 0] = 0.0
         for k in range(k_max):
             v = volts[i, k]
             v = min(max(v, -supply), supply)
@@ -236,8 +240,10 @@ def _loop(volts, y_contact, par, flags, consts, out):
             out[0, i, k + 1] = motor
             out[1, i, k + 1] = shaft
             out[2, i, k + 1] = force
-            out[3, i, k + 1] = current
-            out[4, i, k + 1] = v_shaft
+            if n_sig > 3:
+                out[3, i, k + 1] = current
+            if n_sig > 4:
+                out[4, i, k + 1] = v_shaft
 
 
 def _drop(current, of_set, kappa, alpha, out):
