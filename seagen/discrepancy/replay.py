@@ -315,15 +315,16 @@ def simulate(
         "load_cell_n": force * plant.ratio[mrows] + offset[r],
     }
     shape = (n_sets, n, t)
-    sel = tuple(np.broadcast_to(x, rows.shape) for x in (np.arange(n_sets), tr[:, None], js[:, None]))
     wr = w[:, None]
     once, twice = first, ~first
+    at_once, at_twice = (tr[once], js[once]), (tr[twice], js[twice])  # (trial, sample) of each read
 
     def accumulate(x: np.ndarray) -> np.ndarray:
         """Weighted reads summed into (set, trial, sample), the earlier read first (as a running sum)."""
         out = np.zeros(shape)
-        out[tuple(i[once] for i in sel)] += (wr * x)[once]
-        out[tuple(i[twice] for i in sel)] += (wr * x)[twice]
+        y = wr * x
+        out[:, at_once[0], at_once[1]] += y[once].T
+        out[:, at_twice[0], at_twice[1]] += y[twice].T
         return out
 
     out = {c: accumulate(v) for c, v in readings.items()}
