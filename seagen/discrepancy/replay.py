@@ -299,8 +299,11 @@ def simulate(
     else:
         force = traj.force_n[mrows, ks]
     drops = None
-    if pvd and traj.current is not None:
-        drops = kernel.pot_drop(traj.current, of_set, zero + kappa, zero + alpha)[rows, ks]
+    if pvd and traj.current is not None:  # filtered once per distinct (motion, gain, time constant)
+        key = np.stack([of_set, zero + kappa, zero + alpha], axis=1)
+        uniq, inv = np.unique(key, axis=0, return_inverse=True)
+        filt = kernel.pot_drop(traj.current, uniq[:, 0].astype(np.int64), uniq[:, 1], uniq[:, 2])
+        drops = filt[inv.reshape(-1)[rows], ks]
     rec = {}
     if record:
         signals = {"force_n": traj.force_n, "speed_mm_s": traj.v_shaft, "current": traj.current}
