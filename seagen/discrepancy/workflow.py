@@ -185,7 +185,7 @@ PAIR_NFEV = 12  # least-squares evaluations for every pair and the joint recalib
 # Then the best pairs (up to JOINT_DIMS parameters) are searched again with the anchor nudged around its
 # fit, within NUDGE x the partner's half-width: the best single alone may have absorbed part of its
 # partner (a hidden backlash in a Stribeck fit), so the pair's valley lies beside the anchor's own fit.
-JOINT_TOP, JOINT_DIMS, NUDGE = 3, 4, 0.3
+JOINT_TOP, JOINT_DIMS, NUDGE = 3, 3, 0.3
 
 
 def _deep_fit(cfg: PlantConfig, cands: list[Candidate], fit: Runs, sig_f, search: dict, nfev: int) -> None:
