@@ -11,7 +11,6 @@ own inputs, so a batch gives every element's numbers alone, whatever shares it.
 from __future__ import annotations
 
 import math
-import threading
 from dataclasses import dataclass
 
 import numba
@@ -59,21 +58,6 @@ class Trajectory:
     v_shaft: np.ndarray | None = None
 
 
-_BUFFERS = threading.local()  # each thread's scratch memory for trajectories, kept between calls
-
-
-def scratch(name: str, shape: tuple[int, ...]) -> np.ndarray:
-    """An uninitialised float array of this shape in this thread's buffer `name`, reused from call to call
-    (a replay allocates hundreds of MB a call; fresh pages cost the kernel time to map and zero). Valid
-    until the next call for the same name in the same thread."""
-    size = int(np.prod(shape))
-    buf = getattr(_BUFFERS, name, None)
-    if buf is None or buf.size < size:
-        buf = np.empty(size)
-        setattr(_BUFFERS, name, buf)
-    return buf[:size].reshape(shape)
-
-
 def available(plant: Plant) -> bool:
     """Whether the kernel can step this plant: its force laws are `Plant`'s own and the sensor-side
     effects (which the kernel does not model) are off."""
@@ -85,8 +69,7 @@ def available(plant: Plant) -> bool:
 
 def run(plant: Plant, volts: np.ndarray, signals: int = 5) -> Trajectory:
     """Step a fresh plant (all states zero) with command volts (n_elements, K): its states at every step,
-    the first `signals` of Trajectory's (3: positions and force; 4: and the current; 5: all), in this
-    thread's scratch memory (valid until its next call)."""
+    the first `signals` of Trajectory's (3: positions and force; 4: and the current; 5: all)."""
     cfg, geo, m = plant.cfg, plant.geo, plant.motor
     n = plant.nut_mm.size
     par = np.empty((len(PARAMS), n))
@@ -110,7 +93,7 @@ def run(plant: Plant, volts: np.ndarray, signals: int = 5) -> Trajectory:
         ]
     )
     k = volts.shape[1]
-    out = scratch("trajectory", (signals, n, k + 1))
+    out = np.empty((signals, n, k + 1))
     _step_all(
         np.ascontiguousarray(volts, dtype=float), np.asarray(plant.y_contact, float), par, flags, consts, out
     )
@@ -274,10 +257,8 @@ def _drop(current, of_set, kappa, alpha, out):
 
 def pot_drop(current: np.ndarray, of_set: np.ndarray, kappa: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     """The pot's voltage drop after every step (n_sets_elements, K + 1) of the elements of_set of a
-    trajectory's current: drop += (kappa |current| - drop) alpha each step, from zero (scratch memory,
-    valid until the next call)."""
-    out = scratch("pot_drop", (of_set.size, current.shape[1]))
-    out[:, 0] = 0.0
+    trajectory's current: drop += (kappa |current| - drop) alpha each step, from zero."""
+    out = np.zeros((of_set.size, current.shape[1]))
     _drop_all(current, np.asarray(of_set, np.int64), np.asarray(kappa, float), np.asarray(alpha, float), out)
     return out
 
