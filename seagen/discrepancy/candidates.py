@@ -170,12 +170,19 @@ def objective(cfg: PlantConfig, sets: list[ParamSet], runs: Runs, sigma: dict) -
     return chi2_per_trial(zscores(runs, simulate(cfg, sets, runs), sigma))
 
 
-def _grid(c: Candidate, center: np.ndarray, half: float, hold: tuple[str, ...] = ()) -> list[np.ndarray]:
-    """A regular grid in the candidate's unit box around center; coordinates of effects in hold stay put."""
+def _grid(
+    c: Candidate, center: np.ndarray, half: float, hold: tuple[str, ...] = (), nudge: float = 0.0
+) -> list[np.ndarray]:
+    """A regular grid in the candidate's unit box around center; coordinates of effects in hold stay put,
+    or, with nudge > 0, take three points within nudge x half of it."""
     free = [e not in hold for e, _ in c.keys]
     n = GRID[min(sum(free), 3)]
     axes = [
-        np.clip(np.linspace(x - half, x + half, n), 0, 1) if f else [x]
+        np.clip(np.linspace(x - half, x + half, n), 0, 1)
+        if f
+        else np.clip(np.linspace(x - nudge * half, x + nudge * half, 3), 0, 1)
+        if nudge
+        else [x]
         for x, f in zip(center, free, strict=True)
     ]
     return [np.array(p) for p in itertools.product(*axes)]
@@ -190,17 +197,21 @@ def screen(
     half0: float = 0.5,
     beam: int = 1,
     hold: tuple[str, ...] = (),
+    nudge: float = 0.0,
 ) -> None:
     """Zooming grid search for all candidates at once (one batched replay per round), half-width half0.
 
     Each candidate keeps its `beam` best distinct points and zooms around all of them (a multi-start
     search: the stick-slip and compliance objectives have narrow valleys and flat steps). The parameters
-    of the effects in `hold` stay put (a pair's anchor, already fitted alone)."""
+    of the effects in `hold` stay put (a pair's anchor, already fitted alone), or move within nudge x the
+    half-width."""
     centers = {id(c): [c.u] for c in cands}
     half = half0
     for _ in range(rounds):
         pts = [
-            (c, u) for c in cands for u in _unique(p for x in centers[id(c)] for p in _grid(c, x, half, hold))
+            (c, u)
+            for c in cands
+            for u in _unique(p for x in centers[id(c)] for p in _grid(c, x, half, hold, nudge))
         ]
         chi = objective(cfg, [c.params(u) for c, u in pts], runs, sigma).sum(axis=1)
         for c in cands:

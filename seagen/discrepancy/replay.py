@@ -12,8 +12,8 @@ import pandas as pd
 
 from seagen.actuator import default_actuator
 from seagen.data.logimport import clock_resolution
-from seagen.plant import Plant, PlantConfig
-from seagen.plant.config import CATALOGUE, LEARNED_INPUTS
+from seagen.plant import Plant, PlantConfig, kernel
+from seagen.plant.config import CATALOGUE
 from seagen.plant.sim import learned_correction
 
 CHANNELS = ("enc", "pot", "load_cell_n", "force_n")
@@ -247,7 +247,11 @@ def _motion_sets(base: PlantConfig, sets: list[ParamSet]) -> tuple[list[ParamSet
 
 
 def simulate(
-    base: PlantConfig, sets: list[ParamSet], runs: Runs, inputs: dict[str, np.ndarray] | None = None
+    base: PlantConfig,
+    sets: list[ParamSet],
+    runs: Runs,
+    inputs: dict[str, np.ndarray] | None = None,
+    compiled: bool = True,
 ) -> dict[str, np.ndarray]:
     """Noise-free twins of every channel, shape (len(sets), n_trials, T), driven by the measured command.
 
@@ -255,7 +259,9 @@ def simulate(
     every channel is read at its row's logged instant. The base's learned residual (if on) is added to its
     channel; `inputs`, if given, is filled with the plant signals a learned residual reads (LEARNED_INPUTS),
     same shape. Sets that move the plant alike (they differ only in sensor-side effects) share one stepped
-    motion; every batch element is independent of the others, so the numbers are those of one set alone."""
+    motion; every batch element is independent of the others, so the numbers are those of one set alone.
+    The motion is stepped by the compiled kernel (`plant/kernel.py`), or by `Plant` in Python when not
+    `compiled` (the two agree to rounding)."""
     n, t = runs.volts.shape
     n_sets = len(sets)
     e_n = n * n_sets
@@ -276,59 +282,53 @@ def simulate(
     alpha = np.minimum(dt / np.asarray(pvd["time_constant_s"]), 1.0) if pvd else zero
     delay = zero + (post["transport_delay"]["delay_s"] / dt if "transport_delay" in post else 0.0)
     offset = zero + (post["load_cell_offset"]["offset_n"] if "load_cell_offset" in post else 0.0)
-    delayed = bool(delay.any())
-    size = int(np.ceil(delay.max())) + 2
-    ring, ptr, drop = np.zeros((size, e_n)), 0, np.zeros(e_n)
-    i0 = np.floor(delay).astype(int)
-    frac = delay - i0
     of_set = np.repeat(which, n) * n + np.tile(np.arange(n), n_sets)  # each element's motion element
     lr = base.effects.learned_residual
     record = inputs is not None or lr.enabled
-    # the plant states each read needs, gathered step by step, turned into readings after the loop
-    motor_mm, shaft_mm, force, drops = (np.empty(rows.shape) for _ in range(4))
-    rec = {k: np.empty(rows.shape) for k in LEARNED_INPUTS} if record else {}
-    for k in range(k_max + 1):
-        b0, b1 = bounds[k], bounds[k + 1]
-        if b1 > b0:
-            r, mr = rows[b0:b1], mrows[b0:b1]
-            motor_mm[b0:b1] = plant.motor_mm[mr]
-            shaft_mm[b0:b1] = plant.shaft_mm[mr]
-            if delayed:
-                force[b0:b1] = (1 - frac[r]) * ring[(ptr - i0[r]) % size, r] + frac[r] * ring[
-                    (ptr - i0[r] - 1) % size, r
-                ]
-            else:
-                force[b0:b1] = plant.shaft_force[mr]
-            if pvd:
-                drops[b0:b1] = drop[r]
-            for key, v in plant.learned_inputs().items() if record else ():
-                rec[key][b0:b1] = np.broadcast_to(v, plant.motor_mm.shape)[mr]
-        if k == k_max:
-            break
-        plant.step(u[:, k])
-        if pvd:
-            drop += (kappa * np.abs(plant.current[of_set]) - drop) * alpha
-        if delayed:
-            ptr = (ptr + 1) % size
-            ring[ptr] = plant.shaft_force[of_set]
+    n_sig = 5 if record else 4 if pvd else 3  # the states the reads below need
+    traj = kernel.run(plant, u, n_sig) if compiled and kernel.available(plant) else _stepped(plant, u)
+    # the plant states each read needs (the reads of step k see the states after k steps)
+    ks = np.repeat(np.arange(k_max + 1), np.diff(bounds))[:, None]
+    motor_mm, shaft_mm = traj.motor_mm[mrows, ks], traj.shaft_mm[mrows, ks]
+    if delay.any():  # the force i0 and i0 + 1 steps back (zero before the first step), weighted
+        i0 = np.floor(delay).astype(int)
+        frac = (delay - i0)[rows]
+        back = ks - i0[rows]
+        force = (1 - frac) * traj.force_n[mrows, np.maximum(back, 0)] + frac * traj.force_n[
+            mrows, np.maximum(back - 1, 0)
+        ]
+    else:
+        force = traj.force_n[mrows, ks]
+    drops = None
+    if pvd and traj.current is not None:  # filtered once per distinct (motion, gain, time constant)
+        key = np.stack([of_set, zero + kappa, zero + alpha], axis=1)
+        uniq, inv = np.unique(key, axis=0, return_inverse=True)
+        filt = kernel.pot_drop(traj.current, uniq[:, 0].astype(np.int64), uniq[:, 1], uniq[:, 2])
+        drops = filt[inv.reshape(-1)[rows], ks]
+    rec = {}
+    if record:
+        signals = {"force_n": traj.force_n, "speed_mm_s": traj.v_shaft, "current": traj.current}
+        rec = {key: v[mrows, ks] for key, v in signals.items() if v is not None}
+        rec["contact_deg"] = np.broadcast_to(plant.contact_deg[mrows], rows.shape).copy()
     r = rows
     angle = plant.geo.angle_from_shaft(np.minimum(shaft_mm, plant.y_contact[mrows]))
-    pot = plant.geo.pot_from_angle(angle) + (drops if pvd else zero[r])
+    pot = plant.geo.pot_from_angle(angle) + (drops if drops is not None else zero[r])
     readings = {
         "enc": motor_mm / plant.geo.mm_per_count - 0.5,  # E[floored count]
         "pot": np.clip(pot, 0, plant.geo.adc_max),
         "load_cell_n": force * plant.ratio[mrows] + offset[r],
     }
     shape = (n_sets, n, t)
-    sel = tuple(np.broadcast_to(x, rows.shape) for x in (np.arange(n_sets), tr[:, None], js[:, None]))
     wr = w[:, None]
     once, twice = first, ~first
+    at_once, at_twice = (tr[once], js[once]), (tr[twice], js[twice])  # (trial, sample) of each read
 
     def accumulate(x: np.ndarray) -> np.ndarray:
         """Weighted reads summed into (set, trial, sample), the earlier read first (as a running sum)."""
         out = np.zeros(shape)
-        out[tuple(i[once] for i in sel)] += (wr * x)[once]
-        out[tuple(i[twice] for i in sel)] += (wr * x)[twice]
+        y = wr * x
+        out[:, at_once[0], at_once[1]] += y[once].T
+        out[:, at_twice[0], at_twice[1]] += y[twice].T
         return out
 
     out = {c: accumulate(v) for c, v in readings.items()}
@@ -341,6 +341,18 @@ def simulate(
     if inputs is not None:
         inputs.update(rec)
     return out
+
+
+def _stepped(plant: Plant, u: np.ndarray) -> kernel.Trajectory:
+    """Plant's states after every step of command u (n_elements, K), stepped in Python."""
+    out = np.zeros((5, u.shape[0], u.shape[1] + 1))
+    for k in range(u.shape[1]):
+        plant.step(u[:, k])
+        for i, x in enumerate(
+            (plant.motor_mm, plant.shaft_mm, plant.shaft_force, plant.current, plant.v_shaft)
+        ):
+            out[i, :, k + 1] = x
+    return kernel.Trajectory(*out)
 
 
 def load_timing(path: str) -> dict:

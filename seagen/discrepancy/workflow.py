@@ -183,6 +183,10 @@ DEEP_TOP = 2  # singles that get the multi-start search after the first screen
 DEEP = {"rounds": 8, "beam": 4}  # multi-start zoom of the best singles (narrow valleys, stick-slip steps)
 PARTNER = {"rounds": 5, "beam": 2}  # multi-start search of each partner, the best single held at its fit
 PAIR_NFEV = 12  # least-squares evaluations for every pair and the joint recalibration
+# Then the best pairs (up to JOINT_DIMS parameters) are searched again with the anchor nudged around its
+# fit, within NUDGE x the partner's half-width: the best single alone may have absorbed part of its
+# partner (a hidden backlash in a Stribeck fit), so the pair's valley lies beside the anchor's own fit.
+JOINT_TOP, JOINT_DIMS, NUDGE = 3, 3, 0.3
 
 
 def _deep_fit(cfg: PlantConfig, cands: list[Candidate], fit: Runs, sig_f, search: dict, nfev: int) -> None:
@@ -195,11 +199,14 @@ def _deep_fit(cfg: PlantConfig, cands: list[Candidate], fit: Runs, sig_f, search
 
 def _pairs(cfg: PlantConfig, ranked: list[Candidate], fit: Runs, sig_f) -> list[Candidate]:
     """The best single with every other: each partner searched with the best single held at its own fit
-    (one batch a round), then every pair and the joint recalibration polished together in all their
-    parameters (batched least squares) and a local zoom of the best pair."""
+    (one batch a round), the JOINT_TOP best of them again with the anchor nudged (NUDGE), then every pair
+    and the joint recalibration polished together in all their parameters (batched least squares) and a
+    local zoom of the best pair."""
     anchor = ranked[0]
     pairs = [pair(cfg, anchor, o) for o in ranked[1:]]
     screen(cfg, pairs, fit, sig_f, hold=anchor.names, **PARTNER)
+    small = sorted((p for p in pairs if len(p.keys) <= JOINT_DIMS), key=lambda c: c.chi2_fit)
+    screen(cfg, small[:JOINT_TOP], fit, sig_f, hold=anchor.names, nudge=NUDGE, **PARTNER)
     joint = joint_recalibration(cfg)  # several base parameters may be off
     polish(cfg, pairs + ([joint] if joint else []), fit, sig_f, nfev=PAIR_NFEV)
     best = min(pairs, key=lambda c: c.chi2_fit)

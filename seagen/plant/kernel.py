@@ -1,0 +1,272 @@
+"""The Plant's motion compiled (numba): every batch element stepped on its own, its states at every step.
+
+A twin of `Plant.step` for the plant as `sim.py` writes it (its force laws not overridden): the same
+operations in the same order, element by element. The transcendental functions (arccos of the linkage
+angle, exp of Stribeck friction, the cube of the spring nonlinearity) come from the C library here and
+from numpy's vector code in `Plant`, which differ in the last bit on a few percent of arguments, so the
+two agree to rounding, not bit for bit (`tests/test_plant_kernel.py`). Each element depends only on its
+own inputs, so a batch gives every element's numbers alone, whatever shares it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from seagen.plant.sim import Plant
+
+# effect parameters the kernel reads, in its order: (effect, parameter)
+PARAMS = (
+    ("actuator_friction", "force_n"),
+    ("actuator_friction", "reverse_ratio"),
+    ("linkage_friction", "c0_n"),
+    ("linkage_friction", "c1_n"),
+    ("linkage_friction", "c2_n"),
+    ("viscous_friction", "b_n_s_per_mm"),
+    ("stribeck_friction", "extra_static_n"),
+    ("stribeck_friction", "v_s_mm_s"),
+    ("series_compliance", "k_n_per_mm"),
+    ("series_compliance", "beta_mm_per_n2"),
+    ("backlash", "half_width_mm"),
+    ("spring_preload", "force_n"),
+    ("spring_nonlinearity", "k3_n_per_mm3"),
+)
+FLAGS = (
+    "actuator_friction",
+    "linkage_friction",
+    "viscous_friction",
+    "stribeck_friction",
+    "series_compliance",
+    "backlash",
+    "spring_preload",
+    "spring_nonlinearity",
+)
+SENSOR_SIDE = ("pot_voltage_drop", "transport_delay", "load_cell_offset", "pot_noise", "learned_residual")
+
+
+@dataclass
+class Trajectory:
+    """States after k steps, k = 0..K, per element: shape (n_elements, K + 1)."""
+
+    motor_mm: np.ndarray
+    shaft_mm: np.ndarray
+    force_n: np.ndarray  # structure force on the shaft (before any transport delay)
+    current: np.ndarray | None = None  # recorded when asked for (`signals`)
+    v_shaft: np.ndarray | None = None
+
+
+def available(plant: Plant) -> bool:
+    """Whether the kernel can step this plant: its force laws are `Plant`'s own and the sensor-side
+    effects (which the kernel does not model) are off."""
+    laws = ("step", "spring_force", "_spring_slope", "structure_force", "friction_limits", "_move_shaft")
+    if any(getattr(type(plant), m) is not getattr(Plant, m) for m in laws):
+        return False
+    return not any(plant.cfg.on(e) for e in SENSOR_SIDE if e != "pot_noise")
+
+
+def run(plant: Plant, volts: np.ndarray, signals: int = 5) -> Trajectory:
+    """Step a fresh plant (all states zero) with command volts (n_elements, K): its states at every step,
+    the first `signals` of Trajectory's (3: positions and force; 4: and the current; 5: all)."""
+    cfg, geo, m = plant.cfg, plant.geo, plant.motor
+    n = plant.nut_mm.size
+    par = np.empty((len(PARAMS), n))
+    for i, (e, p) in enumerate(PARAMS):
+        par[i] = getattr(cfg.effect(e), p) if cfg.on(e) else 0.0
+    flags = np.array([cfg.on(e) for e in FLAGS], dtype=np.bool_)
+    consts = np.array(
+        [
+            cfg.dt_s,
+            m.supply_v,
+            m.stall_force_n,
+            plant.v_max,
+            min(cfg.dt_s / m.time_constant_s, 1.0),
+            plant.k_spring,
+            plant.k_stop,
+            plant.k_rigid,
+            float(np.cos(np.radians(geo.home_deg))),
+            geo.cb_mm,
+            geo.split_deg,
+            geo.angle_max_deg,
+        ]
+    )
+    k = volts.shape[1]
+    out = np.empty((signals, n, k + 1))
+    _step_all(
+        np.ascontiguousarray(volts, dtype=float), np.asarray(plant.y_contact, float), par, flags, consts, out
+    )
+    return Trajectory(*out)
+
+
+def _spring(d, k_spring, k_stop, nl, k3, pre, f0):
+    """Plant.spring_force of one element."""
+    f = k_spring * d if d >= 0 else k_stop * d
+    if nl:
+        x = d if d > 0.0 else 0.0
+        f = f + k3 * x**3.0
+    if pre:
+        f = f + f0
+    return f
+
+
+def _spring_slope(d, k_spring, k_stop, nl, k3):
+    """Plant._spring_slope of one element."""
+    s = k_spring if d >= 0 else k_stop
+    if nl:
+        x = d if d > 0.0 else 0.0
+        s = s + 3.0 * k3 * (x * x)
+    return s
+
+
+def _structure(y, yc, sc, k_rigid, a, beta):
+    """Plant.structure_force of one element: (force, slope); a = 1 / k of the compliance."""
+    d = y - yc
+    if d < 0.0:
+        d = 0.0
+    inside = y > yc
+    if not sc:
+        return k_rigid * d, (k_rigid if inside else 0.0)
+    if beta > 0:
+        root = math.sqrt(a * a + 4.0 * beta * d)
+        return (root - a) / (2.0 * beta), (1.0 / root if inside else 0.0)
+    return d / a, (1.0 / a if inside else 0.0)
+
+
+def _loop(volts, y_contact, par, flags, consts, out):
+    """Every element through every step (see Plant.step, _move_nut, _move_shaft, _solve)."""
+    dt, supply, stall, v_max, alpha = consts[0], consts[1], consts[2], consts[3], consts[4]
+    k_spring, k_stop, k_rigid, cos_home, cb, split, amax = (
+        consts[5],
+        consts[6],
+        consts[7],
+        consts[8],
+        consts[9],
+        consts[10],
+        consts[11],
+    )
+    act, link, visc, strib, sc, bl, pre, nl = (
+        flags[0],
+        flags[1],
+        flags[2],
+        flags[3],
+        flags[4],
+        flags[5],
+        flags[6],
+        flags[7],
+    )
+    rad2deg = 180.0 / math.pi
+    n, k_max = volts.shape
+    n_sig = out.shape[0]
+    for i in range(n):
+        fc, rr, c0, c1, c2 = par[0, i], par[1, i], par[2, i], par[3, i], par[4, i]
+        bv, s_extra, s_vs, kc, beta = par[5, i], par[6, i], par[7, i], par[8, i], par[9, i]
+        half, f0, k3 = par[10, i], par[11, i], par[12, i]
+        yc = y_contact[i]
+        a = 1.0 / kc if sc else 0.0
+        b = bv / dt if visc else 0.0
+        y_link, f_link = np.nan, 0.0  # the linkage friction at the last shaft position it was computed for
+        ratio = rr if act else 1.0
+        motor = v_motor = nut = shaft = v_shaft = current = force = 0.0
+        for j in range(n_sig):
+            out[j, i, 0] = 0.0
+        for k in range(k_max):
+            v = volts[i, k]
+            v = min(max(v, -supply), supply)
+            load = _spring(nut - shaft, k_spring, k_stop, nl, k3, pre, f0)
+            v_target = v_max * (v / supply - load / stall)
+            v_motor = v_motor + (v_target - v_motor) * alpha
+            current = v / supply - v_motor / v_max
+            motor = motor + v_motor * dt
+            nut = min(max(nut, motor - half), motor + half) if bl else motor
+            # the shaft: stick inside the friction band, else slide to its edge
+            y0 = shaft
+            fwd = fc if act else 0.0
+            if link:
+                ym = min(y0, yc)
+                if ym != y_link:  # the angle stays put in contact: computed once
+                    c = cos_home - ym / cb
+                    c = min(max(c, -1.0), 1.0)
+                    angle = math.acos(c) * rad2deg
+                    x = (angle - split) / (amax - split)
+                    y_link, f_link = ym, max(fwd + c0 + c1 * x + c2 * x * x, 0.0)
+                fwd = f_link
+            rev = fwd * ratio
+            if strib:
+                q = v_shaft / s_vs
+                boost = s_extra * math.exp(-(q * q))
+                fwd = fwd + boost
+                rev = rev + boost * (1.0 if rev > 0 else 0.0)
+            d0 = nut - y0
+            fl, sl = _structure(y0, yc, sc, k_rigid, a, beta)
+            n0 = _spring(d0, k_spring, k_stop, nl, k3, pre, f0) - fl
+            s0 = -_spring_slope(d0, k_spring, k_stop, nl, k3) - sl
+            target = fwd if n0 > fwd else (-rev if n0 < -rev else n0)
+            y = y0
+            if target != n0:  # safeguarded Newton (Plant._solve)
+                f, s = n0, s0
+                span = abs(f - target) / k_spring
+                if f > target:
+                    lo, hi = y0, y0 + span
+                else:
+                    lo, hi = y0 - span, y0
+                ya = y0
+                last = np.inf
+                done = False
+                for _ in range(50):
+                    r = f - b * (ya - y0) - target
+                    if r > 0:
+                        lo = ya
+                    else:
+                        hi = ya
+                    st = r / (s - b)
+                    y_new = ya - st
+                    if not ((y_new >= lo) and (y_new <= hi) and (2 * abs(st) <= last)):
+                        y_new = 0.5 * (lo + hi)
+                    last = abs(y_new - ya)
+                    done = last < 1e-9
+                    ya = y_new
+                    if done:
+                        break
+                    d = nut - ya
+                    fl, sl = _structure(ya, yc, sc, k_rigid, a, beta)
+                    f = _spring(d, k_spring, k_stop, nl, k3, pre, f0) - fl
+                    s = -_spring_slope(d, k_spring, k_stop, nl, k3) - sl
+                y = ya
+            v_shaft = (y - y0) / dt
+            shaft = y
+            force = _structure(shaft, yc, sc, k_rigid, a, beta)[0]
+            out[0, i, k + 1] = motor
+            out[1, i, k + 1] = shaft
+            out[2, i, k + 1] = force
+            if n_sig > 3:
+                out[3, i, k + 1] = current
+            if n_sig > 4:
+                out[4, i, k + 1] = v_shaft
+
+
+def _drop(current, of_set, kappa, alpha, out):
+    """The pot-drop filter of every set element (see replay.simulate), after every step."""
+    for e in range(of_set.size):
+        m, d = of_set[e], 0.0
+        for k in range(1, current.shape[1]):
+            d += (kappa[e] * abs(current[m, k]) - d) * alpha[e]
+            out[e, k] = d
+
+
+def pot_drop(current: np.ndarray, of_set: np.ndarray, kappa: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """The pot's voltage drop after every step (n_sets_elements, K + 1) of the elements of_set of a
+    trajectory's current: drop += (kappa |current| - drop) alpha each step, from zero."""
+    out = np.zeros((of_set.size, current.shape[1]))
+    _drop_all(current, np.asarray(of_set, np.int64), np.asarray(kappa, float), np.asarray(alpha, float), out)
+    return out
+
+
+# compiled on first use, cached beside the module (or in numba's user cache when that is read-only)
+# (numpy's error model: a division by zero gives inf or nan as in Plant, never an exception)
+_drop_all = numba.njit(_drop, cache=True, error_model="numpy")
+_spring = numba.njit(_spring, cache=True, error_model="numpy")
+_spring_slope = numba.njit(_spring_slope, cache=True, error_model="numpy")
+_structure = numba.njit(_structure, cache=True, error_model="numpy")
+_step_all = numba.njit(_loop, cache=True, error_model="numpy")
