@@ -6,7 +6,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from seagen.discrepancy.claims import CUT, Evidence, channel_rms_masked, evidence, footprints, left_structure
+from seagen.discrepancy.claims import (
+    CUT,
+    SHARE,
+    Evidence,
+    channel_rms_masked,
+    evidence,
+    footprints,
+    left_structure,
+)
 from seagen.discrepancy.workflow import Named, _decide
 
 FLOOR = 1.0
@@ -119,3 +127,12 @@ def test_footprints_undo_one_change_at_a_time() -> None:
     assert fp["spring_preload"]["enc"] > 1.0
     z = {c: np.ones_like(runs.t) * 2.0 for c in CH}
     assert channel_rms_masked(z, runs.mask) == _d(2.0, 2.0, 2.0)
+
+
+def test_a_rider_on_the_other_changes_is_not_claimed() -> None:
+    """A load-cell offset that moves the load cell by 0.07 sigma while the others close its 0.24 sigma gap
+    carries 29 % of it (< SHARE): not claimed, though the gap is closed and nothing is left there."""
+    ev = _ev(_d(0.0, 0.0, 0.07), _d(8.2, 1.9, 1.24), _d(1.13, 0.97, 1.0))
+    assert ev.cut > CUT and not ev.structure
+    assert ev.share == pytest.approx(0.07 / 0.24) and ev.share < SHARE
+    assert not ev.ok and "of the gap there" in ev.words()

@@ -13,6 +13,7 @@ from seagen.plant import PlantConfig
 
 ACT_SHARE = 0.3  # a channel an effect acts on: its footprint there is >= this share of its largest channel's
 CUT = 0.8  # share of the gap (RMS above the noise floor) the changes must close on those channels
+SHARE = 0.5  # the change's own footprint there must be at least this share of that gap (not a rider)
 
 
 @dataclass
@@ -34,18 +35,27 @@ class Evidence:
     @property
     def cut(self) -> float:
         """Share of the gap to the noise floor closed on those channels (1 when they had no gap)."""
-        ch = self.channels
-        if not ch:
+        if not self.channels:
             return 0.0
-        b = float(np.sqrt(np.mean([self.before[c] ** 2 for c in ch])))
-        a = float(np.sqrt(np.mean([self.after[c] ** 2 for c in ch])))
+        b, a = self._rms(self.before), self._rms(self.after)
         gap = b - self.floor
         return 1.0 if gap <= 0 else float(1 - max(a - self.floor, 0.0) / gap)
 
+    def _rms(self, values: dict[str, float]) -> float:
+        """RMS over the channels the change acts on."""
+        return float(np.sqrt(np.mean([values[c] ** 2 for c in self.channels])))
+
+    @property
+    def share(self) -> float:
+        """The change's own footprint on those channels over their gap before (inf when they had none)."""
+        gap = self._rms(self.before) - self.floor if self.channels else 0.0
+        return float("inf") if gap <= 0 else self._rms(self.footprint) / gap
+
     @property
     def ok(self) -> bool:
-        """The rule: the change acts somewhere, closes >= CUT of the gap there and leaves no structure."""
-        return bool(self.channels) and self.cut >= CUT and not self.structure
+        """The rule: the change acts somewhere, carries >= SHARE of the gap there itself, the changes close
+        >= CUT of it, and no significant region is left there."""
+        return bool(self.channels) and self.share >= SHARE and self.cut >= CUT and not self.structure
 
     def words(self) -> str:
         """Why a name is not claimed, in words ('' when it is)."""
@@ -53,6 +63,11 @@ class Evidence:
         if not ch:
             return "moves no channel"
         what = ", ".join(ch)
+        if self.share < SHARE:
+            return (
+                f"moves {what} by {self._rms(self.footprint):.2g} sigma, {self.share:.0%} of the gap there "
+                f"(rule: >= {SHARE:.0%}; the gap is closed by the other changes)"
+            )
         if self.cut < CUT:
             return f"closes only {self.cut:.0%} of the gap on {what} (rule: >= {CUT:.0%})"
         if self.structure:
