@@ -8,7 +8,7 @@ import pytest
 
 from seagen.discrepancy.claims import (
     CUT,
-    SHARE,
+    OWN,
     Evidence,
     channel_rms_masked,
     evidence,
@@ -28,8 +28,9 @@ def _table(*rows: tuple[str, str, bool]) -> pd.DataFrame:
     )
 
 
-def _ev(fp: dict[str, float], before: dict[str, float], after: dict[str, float], table=None) -> Evidence:
-    return evidence(fp, before, after, FLOOR, _table() if table is None else table)
+def _ev(fp, before, after, table=None, without=None) -> Evidence:
+    """Evidence with the change undone = before (a single change) unless `without` is given."""
+    return evidence(fp, before, after, FLOOR, _table() if table is None else table, without or before)
 
 
 CH = ("enc", "pot", "load_cell_n")
@@ -70,12 +71,14 @@ def test_insignificant_regions_do_not_block_the_claim() -> None:
 
 def test_channels_acted_on_are_relative_to_the_largest_footprint() -> None:
     """A channel counts when its footprint is >= 30 % of the largest; a change that moves nothing is never
-    claimed; a thin change on a channel with no gap (a small recalibration at the noise) is."""
+    claimed; a thin change closing a thin gap is; one whose undoing leaves its channel at the floor is not."""
     assert _ev(_d(10.0, 2.9, 3.1), _d(11, 3, 4), _d(1, 1, 1)).channels == ["enc", "load_cell_n"]
     none = _ev(_d(0.0, 0.0, 0.0), _d(5, 5, 5), _d(1, 1, 1))
     assert not none.ok and none.words() == "moves no channel"
-    thin = _ev(_d(0.0, 0.1, 0.0), _d(1.0, 0.98, 1.0), _d(1.0, 0.97, 1.0))
-    assert thin.channels == ["pot"] and thin.cut == 1.0 and thin.ok
+    thin = _ev(_d(0.0, 0.1, 0.0), _d(1.0, 1.08, 1.0), _d(1.0, 1.01, 1.0))
+    assert thin.channels == ["pot"] and thin.cut == pytest.approx(0.875) and thin.ok
+    at_floor = _ev(_d(0.0, 0.1, 0.0), _d(1.0, 0.98, 1.0), _d(1.0, 0.97, 1.0))
+    assert at_floor.cut == 1.0 and at_floor.own == 0.0 and not at_floor.ok  # nothing there needs it
 
 
 def test_left_structure_names_channel_and_region() -> None:
@@ -111,16 +114,19 @@ def test_decide_combines_compensation_edge_and_evidence() -> None:
 
 def test_footprints_undo_one_change_at_a_time() -> None:
     """On a small run: a load-cell offset moves only the load cell, by |offset| / sigma; a preload moves the
-    encoder too (one batched replay, ~2 s)."""
+    encoder too; the residual with each undone (one batched replay, ~2 s)."""
     from seagen.discrepancy.bench import measure
     from seagen.discrepancy.residuals import noise_sigma
     from seagen.plant import PlantConfig
 
     runs = measure(PlantConfig(), seed=1, fast=True).take([0, 1])
     sig = noise_sigma(runs)
-    fp = footprints(
+    fp, without = footprints(
         PlantConfig(), {"load_cell_offset": {"offset_n": 0.5}, "spring_preload": {"force_n": 1.0}}, runs, sig
     )
+    # the data have neither: with the preload undone only the offset is left, which leaves the encoder at
+    # its noise; with the offset undone the preload is left, which moves the encoder
+    assert without["spring_preload"]["enc"] < 1.5 < without["load_cell_offset"]["enc"]
     cell = 0.5 / sig["load_cell_n"]
     assert fp["load_cell_offset"]["enc"] == 0.0 and fp["load_cell_offset"]["pot"] == 0.0
     assert cell.min() - 1e-6 <= fp["load_cell_offset"]["load_cell_n"] <= cell.max() + 1e-6
@@ -130,9 +136,17 @@ def test_footprints_undo_one_change_at_a_time() -> None:
 
 
 def test_a_rider_on_the_other_changes_is_not_claimed() -> None:
-    """A load-cell offset that moves the load cell by 0.07 sigma while the others close its 0.24 sigma gap
-    carries 29 % of it (< SHARE): not claimed, though the gap is closed and nothing is left there."""
-    ev = _ev(_d(0.0, 0.0, 0.07), _d(8.2, 1.9, 1.24), _d(1.13, 0.97, 1.0))
-    assert ev.cut > CUT and not ev.structure
-    assert ev.share == pytest.approx(0.07 / 0.24) and ev.share < SHARE
-    assert not ev.ok and "of the gap there" in ev.words()
+    """A load-cell offset that moves the load cell by 0.07 sigma while the other changes close its gap
+    (1.5 -> 1.05 sigma, floor 1; 1.06 with the offset alone undone): the changes close 90 % of the gap and
+    leave nothing there, but the offset itself closes 17 % of what is left without it (< OWN): not claimed."""
+    ev = _ev(_d(0.0, 0.0, 0.07), _d(8.2, 1.9, 1.5), _d(1.13, 0.97, 1.05), without=_d(1.13, 0.97, 1.06))
+    assert ev.cut == pytest.approx(0.9) and not ev.structure
+    assert ev.own == pytest.approx(1 / 6) and not ev.ok
+    assert "of the gap left on load_cell_n without it" in ev.words()
+
+
+def test_a_pair_member_sharing_a_channel_is_claimed() -> None:
+    """A pot drop beside a viscous friction that also moves the pot: with the pot drop undone the pot is at
+    1.55 sigma, with it 0.99 (floor 1): it closes 98 % of that itself: claimed."""
+    ev = _ev(_d(0.0, 1.27, 0.0), _d(25.6, 3.9, 2.7), _d(1.0, 0.99, 0.95), without=_d(1.0, 1.55, 0.91))
+    assert ev.channels == ["pot"] and ev.own >= OWN and ev.ok

@@ -13,7 +13,7 @@ from seagen.plant import PlantConfig
 
 ACT_SHARE = 0.3  # a channel an effect acts on: its footprint there is >= this share of its largest channel's
 CUT = 0.8  # share of the gap (RMS above the noise floor) the changes must close on those channels
-SHARE = 0.5  # the change's own footprint there must be at least this share of that gap (not a rider)
+OWN = 0.5  # ... and the change alone must close at least this share of what is left with it undone
 
 
 @dataclass
@@ -24,6 +24,7 @@ class Evidence:
     before: dict[str, float]  # channel RMS of the base plant
     after: dict[str, float]  # channel RMS with every change
     floor: float  # the noise floor
+    without: dict[str, float] = field(default_factory=dict)  # channel RMS with the change alone undone
     structure: list[str] = field(default_factory=list)  # significant regions left there ('channel by region')
 
     @property
@@ -46,16 +47,19 @@ class Evidence:
         return float(np.sqrt(np.mean([values[c] ** 2 for c in self.channels])))
 
     @property
-    def share(self) -> float:
-        """The change's own footprint on those channels over their gap before (inf when they had none)."""
-        gap = self._rms(self.before) - self.floor if self.channels else 0.0
-        return float("inf") if gap <= 0 else self._rms(self.footprint) / gap
+    def own(self) -> float:
+        """Share of the gap the change alone closes on those channels: from the RMS with it undone (the
+        others kept) to the RMS with every change; 0 when undoing it leaves them at the noise floor."""
+        if not self.channels:
+            return 0.0
+        gap = self._rms(self.without) - self.floor
+        return 0.0 if gap <= 0 else float(1 - max(self._rms(self.after) - self.floor, 0.0) / gap)
 
     @property
     def ok(self) -> bool:
-        """The rule: the change acts somewhere, carries >= SHARE of the gap there itself, the changes close
-        >= CUT of it, and no significant region is left there."""
-        return bool(self.channels) and self.share >= SHARE and self.cut >= CUT and not self.structure
+        """The rule: the change acts somewhere, the changes close >= CUT of the gap there, the change itself
+        >= OWN of what is left without it (not a rider on the others), and no significant region is left."""
+        return bool(self.channels) and self.cut >= CUT and self.own >= OWN and not self.structure
 
     def words(self) -> str:
         """Why a name is not claimed, in words ('' when it is)."""
@@ -63,13 +67,13 @@ class Evidence:
         if not ch:
             return "moves no channel"
         what = ", ".join(ch)
-        if self.share < SHARE:
-            return (
-                f"moves {what} by {self._rms(self.footprint):.2g} sigma, {self.share:.0%} of the gap there "
-                f"(rule: >= {SHARE:.0%}; the gap is closed by the other changes)"
-            )
         if self.cut < CUT:
             return f"closes only {self.cut:.0%} of the gap on {what} (rule: >= {CUT:.0%})"
+        if self.own < OWN:
+            return (
+                f"closes only {self.own:.0%} of the gap left on {what} without it (rule: >= {OWN:.0%}; "
+                "the other changes do the rest)"
+            )
         if self.structure:
             return f"leaves structure on {what} ({'; '.join(self.structure[:3])})"
         return ""
@@ -77,16 +81,20 @@ class Evidence:
 
 def footprints(
     base: PlantConfig, changes: ParamSet, runs: Runs, sigma: dict[str, np.ndarray]
-) -> dict[str, dict[str, float]]:
-    """Per change: each scored channel's RMS change (noise sigmas) when that change alone is undone (an
-    added effect removed, a recalibration back to the base's values), the others kept (one batched replay)."""
+) -> tuple[dict[str, dict[str, float]], dict[str, dict[str, float]]]:
+    """Per change, with that change alone undone (an added effect removed, a recalibration back to the
+    base's values) and the others kept: each scored channel's RMS change and its residual RMS (noise
+    sigmas; one batched replay)."""
     names = list(changes)
     sets = [changes] + [{e: p for e, p in changes.items() if e != n} for n in names]
     z = zscores(runs, simulate(base, sets, runs), sigma)
     m = runs.mask
-    return {
+    fp = {
         n: {c: float(np.sqrt(np.mean((z[c][i + 1] - z[c][0])[m] ** 2))) for c in SCORE_CHANNELS}
         for i, n in enumerate(names)
+    }
+    return fp, {
+        n: channel_rms_masked({c: z[c][i + 1] for c in SCORE_CHANNELS}, m) for i, n in enumerate(names)
     }
 
 
@@ -102,9 +110,15 @@ def left_structure(table: pd.DataFrame, channels: list[str]) -> list[str]:
 
 
 def evidence(
-    footprint: dict[str, float], before: dict[str, float], after: dict[str, float], floor: float, table
+    footprint: dict[str, float],
+    before: dict[str, float],
+    after: dict[str, float],
+    floor: float,
+    table: pd.DataFrame,
+    without: dict[str, float],
 ) -> Evidence:
-    """The evidence of one change from its footprint, the channel RMS before/after and the region table."""
-    ev = Evidence(footprint, before, after, floor)
+    """The evidence of one change from its footprint, the channel RMS before, after and with it undone,
+    and the region table of the final residual."""
+    ev = Evidence(footprint, before, after, floor, without=without)
     ev.structure = left_structure(table, ev.channels)
     return ev

@@ -318,10 +318,10 @@ def _evidence(
     after, and the significant regions the final residual leaves on the channels it acts on."""
     if not named:
         return {}
-    fp = footprints(base, {n.name: n.params for n in named}, held, sig_h)
+    fp, without = footprints(base, {n.name: n.params for n in named}, held, sig_h)
     before, after = channel_rms_masked(z0, held.mask), channel_rms_masked(z1, held.mask)
     table = region_table(held, z1, labels)
-    return {n.name: evidence(fp[n.name], before, after, floor, table) for n in named}
+    return {n.name: evidence(fp[n.name], before, after, floor, table, without[n.name]) for n in named}
 
 
 def _decide(named: list[Named], verdict: str, evid: dict[str, Evidence]) -> None:
