@@ -111,21 +111,26 @@ void cal_mlp_reset(cal_mlp_state_t *s)
     sea_features_reset(s);
 }
 
+int16_t cal_mlp_step_features(const sea_features_out *f)
+{
+    int16_t in[CAL_MLP_N_IN];
+    int16_t out[CAL_MLP_N_OUT];
+    in[0] = sea_to_s16(sea_features_value(f, SEA_FEAT_BASE, SEA_FEAT_POT), 0, 3); /* pot */
+    in[1] = sea_to_s16(sea_features_value(f, SEA_FEAT_BASE, SEA_FEAT_ENC), 0, 3); /* enc */
+    in[2] = sea_to_s16(sea_features_value(f, SEA_FEAT_BASE, SEA_FEAT_COMP), 16, 11); /* compression_mm */
+    in[3] = sea_to_s16(sea_features_value(f, SEA_FEAT_D, SEA_FEAT_POT), 0, 6); /* d_pot */
+    in[4] = sea_to_s16(sea_features_value(f, SEA_FEAT_D, SEA_FEAT_ENC), 0, 9); /* d_enc */
+    in[5] = sea_to_s16(sea_features_value(f, SEA_FEAT_D, SEA_FEAT_COMP), 16, 16); /* d_compression_mm */
+    in[6] = sea_to_s16(sea_features_value(f, SEA_FEAT_DD, SEA_FEAT_POT), 0, 6); /* dd_pot */
+    in[7] = sea_to_s16(sea_features_value(f, SEA_FEAT_DD, SEA_FEAT_ENC), 0, 10); /* dd_enc */
+    in[8] = sea_to_s16(sea_features_value(f, SEA_FEAT_DD, SEA_FEAT_COMP), 16, 16); /* dd_compression_mm */
+    cal_mlp_infer(in, out);
+    return out[0];
+}
+
 int16_t cal_mlp_step(cal_mlp_state_t *s, int32_t enc, int32_t pot)
 {
     sea_features_out f;
-    int16_t in[CAL_MLP_N_IN];
-    int16_t out[CAL_MLP_N_OUT];
     sea_features_step(s, CAL_MLP_ACT, enc, pot, &f);
-    in[0] = sea_to_s16(sea_features_value(&f, SEA_FEAT_BASE, SEA_FEAT_POT), 0, 3); /* pot */
-    in[1] = sea_to_s16(sea_features_value(&f, SEA_FEAT_BASE, SEA_FEAT_ENC), 0, 3); /* enc */
-    in[2] = sea_to_s16(sea_features_value(&f, SEA_FEAT_BASE, SEA_FEAT_COMP), 16, 11); /* compression_mm */
-    in[3] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_POT), 0, 6); /* d_pot */
-    in[4] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_ENC), 0, 9); /* d_enc */
-    in[5] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_COMP), 16, 16); /* d_compression_mm */
-    in[6] = sea_to_s16(sea_features_value(&f, SEA_FEAT_DD, SEA_FEAT_POT), 0, 6); /* dd_pot */
-    in[7] = sea_to_s16(sea_features_value(&f, SEA_FEAT_DD, SEA_FEAT_ENC), 0, 10); /* dd_enc */
-    in[8] = sea_to_s16(sea_features_value(&f, SEA_FEAT_DD, SEA_FEAT_COMP), 16, 16); /* dd_compression_mm */
-    cal_mlp_infer(in, out);
-    return out[0];
+    return cal_mlp_step_features(&f);
 }

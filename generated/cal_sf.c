@@ -33,14 +33,19 @@ void cal_sf_reset(cal_sf_state_t *s)
     sea_features_reset(s);
 }
 
+int16_t cal_sf_step_features(const sea_features_out *f)
+{
+    int16_t in[CAL_SF_N_IN];
+    int16_t out[CAL_SF_N_OUT];
+    in[0] = sea_to_s16(sea_features_value(f, SEA_FEAT_ANGLE, 0), 24, 10); /* angle_deg */
+    in[1] = sea_to_s16(sea_features_value(f, SEA_FEAT_BASE, SEA_FEAT_COMP), 16, 11); /* compression_mm */
+    cal_sf_infer(in, out);
+    return out[0];
+}
+
 int16_t cal_sf_step(cal_sf_state_t *s, int32_t enc, int32_t pot)
 {
     sea_features_out f;
-    int16_t in[CAL_SF_N_IN];
-    int16_t out[CAL_SF_N_OUT];
     sea_features_step(s, CAL_SF_ACT, enc, pot, &f);
-    in[0] = sea_to_s16(sea_features_value(&f, SEA_FEAT_ANGLE, 0), 24, 10); /* angle_deg */
-    in[1] = sea_to_s16(sea_features_value(&f, SEA_FEAT_BASE, SEA_FEAT_COMP), 16, 11); /* compression_mm */
-    cal_sf_infer(in, out);
-    return out[0];
+    return cal_sf_step_features(&f);
 }

@@ -29,8 +29,11 @@
 /* State of the feature pipeline (sea_features.h): previous pot, enc and compression for the differences. */
 typedef sea_features_state cal_sf_state_t;
 
-/* The actuator this model was exported for: its constants (sea_act, sea_fixed.h) in sea_act_iglhmlcd.c. */
+/* The actuator this model was exported for: its constants (sea_act, sea_fixed.h) in sea_act_iglhmlcd.c, and its
+ * key (the description's sha256, first 32 bits): models with equal keys are for the same actuator and can
+ * share one feature pipeline (cal_sf_step_features). */
 #define CAL_SF_ACT (&sea_act_iglhmlcd)
+#define CAL_SF_ACT_KEY 0x86b7cb23u
 
 /* The stateless model on already-quantized features. */
 void cal_sf_infer(const int16_t in[CAL_SF_N_IN], int16_t out[CAL_SF_N_OUT]);
@@ -41,5 +44,9 @@ void cal_sf_reset(cal_sf_state_t *s);
 /* One control-loop sample from raw sensor counts:
  * the feature pipeline, then cal_sf_infer. Returns force_n in Q9. */
 int16_t cal_sf_step(cal_sf_state_t *s, int32_t enc, int32_t pot);
+
+/* cal_sf_infer on one sample's features already computed by sea_features_step(s, CAL_SF_ACT, enc, pot, f):
+ * the actuator's pipeline run once per tick and shared by its models (cal_sf_step is that call and this). */
+int16_t cal_sf_step_features(const sea_features_out *f);
 
 #endif /* CAL_SF_H */

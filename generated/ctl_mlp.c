@@ -67,25 +67,38 @@ void ctl_mlp_reset(ctl_mlp_state_t *s)
     sea_features_reset(s);
 }
 
+int16_t ctl_mlp_step_features(const sea_features_out *f, int16_t force_n_q)
+{
+    int16_t in[CTL_MLP_N_IN];
+    int16_t out[CTL_MLP_N_OUT];
+    in[0] = force_n_q; /* force_n */
+    in[1] = sea_to_s16(sea_features_value(f, SEA_FEAT_BASE, SEA_FEAT_POT), 0, 3); /* pot */
+    in[2] = sea_to_s16(sea_features_value(f, SEA_FEAT_D, SEA_FEAT_POT), 0, 6); /* d_pot */
+    in[3] = sea_to_s16(sea_features_value(f, SEA_FEAT_DD, SEA_FEAT_POT), 0, 6); /* dd_pot */
+    in[4] = sea_to_s16(sea_features_value(f, SEA_FEAT_D, SEA_FEAT_ENC), 0, 9); /* d_enc */
+    in[5] = sea_to_s16(sea_features_value(f, SEA_FEAT_DD, SEA_FEAT_ENC), 0, 10); /* dd_enc */
+    in[6] = sea_to_s16(sea_features_value(f, SEA_FEAT_D, SEA_FEAT_COMP), 16, 16); /* d_compression_mm */
+    ctl_mlp_infer(in, out);
+    return out[0];
+}
+
 int16_t ctl_mlp_step(ctl_mlp_state_t *s, int32_t enc, int32_t pot, int16_t force_n_q)
 {
     sea_features_out f;
-    int16_t in[CTL_MLP_N_IN];
-    int16_t out[CTL_MLP_N_OUT];
     sea_features_step(s, CTL_MLP_ACT, enc, pot, &f);
-    in[0] = force_n_q; /* force_n */
-    in[1] = sea_to_s16(sea_features_value(&f, SEA_FEAT_BASE, SEA_FEAT_POT), 0, 3); /* pot */
-    in[2] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_POT), 0, 6); /* d_pot */
-    in[3] = sea_to_s16(sea_features_value(&f, SEA_FEAT_DD, SEA_FEAT_POT), 0, 6); /* dd_pot */
-    in[4] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_ENC), 0, 9); /* d_enc */
-    in[5] = sea_to_s16(sea_features_value(&f, SEA_FEAT_DD, SEA_FEAT_ENC), 0, 10); /* dd_enc */
-    in[6] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_COMP), 16, 16); /* d_compression_mm */
-    ctl_mlp_infer(in, out);
-    return out[0];
+    return ctl_mlp_step_features(&f, force_n_q);
 }
 
 int32_t ctl_mlp_predict_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q16)
 {
     int16_t y = ctl_mlp_step((ctl_mlp_state_t *)ctx, enc, pot, sea_to_s16(force_q16, SEA_FORCE_FRAC_BITS, CTL_MLP_IN_Q_FORCE_N));
+    return sea_to_s32(y, CTL_MLP_OUT_Q, SEA_COMP_FRAC_BITS);
+}
+
+int32_t ctl_mlp_predict_features_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q16)
+{
+    int16_t y = ctl_mlp_step_features((const sea_features_out *)ctx, sea_to_s16(force_q16, SEA_FORCE_FRAC_BITS, CTL_MLP_IN_Q_FORCE_N));
+    (void)enc; /* the features of this tick are already in *ctx */
+    (void)pot;
     return sea_to_s32(y, CTL_MLP_OUT_Q, SEA_COMP_FRAC_BITS);
 }

@@ -41,8 +41,11 @@
 /* State of the feature pipeline (sea_features.h): previous pot, enc and compression for the differences. */
 typedef sea_features_state ctl_mlp_state_t;
 
-/* The actuator this model was exported for: its constants (sea_act, sea_fixed.h) in sea_act_iglhmlcd.c. */
+/* The actuator this model was exported for: its constants (sea_act, sea_fixed.h) in sea_act_iglhmlcd.c, and its
+ * key (the description's sha256, first 32 bits): models with equal keys are for the same actuator and can
+ * share one feature pipeline (ctl_mlp_step_features). */
 #define CTL_MLP_ACT (&sea_act_iglhmlcd)
+#define CTL_MLP_ACT_KEY 0x86b7cb23u
 
 /* The stateless model on already-quantized features. */
 void ctl_mlp_infer(const int16_t in[CTL_MLP_N_IN], int16_t out[CTL_MLP_N_OUT]);
@@ -54,8 +57,16 @@ void ctl_mlp_reset(ctl_mlp_state_t *s);
  * the feature pipeline, then ctl_mlp_infer. Returns compression_mm in Q10. */
 int16_t ctl_mlp_step(ctl_mlp_state_t *s, int32_t enc, int32_t pot, int16_t force_n_q);
 
+/* ctl_mlp_infer on one sample's features already computed by sea_features_step(s, CTL_MLP_ACT, enc, pot, f):
+ * the actuator's pipeline run once per tick and shared by its models (ctl_mlp_step is that call and this). */
+int16_t ctl_mlp_step_features(const sea_features_out *f, int16_t force_n_q);
+
 /* Predictor callback for sea_control_step (c_runtime/sea_control.h): desired compression (Q16 mm) for a
  * desired force at the shaft (Q16 N) and the raw counts. ctx must point to a ctl_mlp_state_t. */
 int32_t ctl_mlp_predict_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);
+
+/* The same on a shared pipeline: ctx must point to the sea_features_out of this tick (sea_features_step with
+ * CTL_MLP_ACT on the same enc and pot, run before the controller tick); enc and pot are not read again. */
+int32_t ctl_mlp_predict_features_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);
 
 #endif /* CTL_MLP_H */

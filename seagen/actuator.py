@@ -26,6 +26,18 @@ Fields and units (the paper's actuator, `seagen/actuators/paper.toml`, is the de
           offset_deg             deg    angle at ADC count 0
           adc_bits               bit    ADC resolution (8..16)
     [control] loop_hz            Hz     controller tick rate
+              force_max_n        N      top of the calibrated desired-force range at the output shaft (the
+                                        controller faults above it; the experiment's targets are fractions)
+              kp_v_per_mm        V/mm       PID proportional gain on the compression error
+              ki_v_per_mm_s      V/(mm s)   integral gain
+              kd_v_s_per_mm      V s/mm     derivative gain, on the filtered compression rate
+              d_alpha            -          derivative filter coefficient in (0, 1] (1: no filter)
+              margin_mm          mm         control margin: no P action, integrator held within it
+              limit_v            V          command limit (within +-motor.supply_v)
+    The [control] fields after loop_hz are optional: a file without one takes the paper's value
+    (seagen/actuators/paper.toml: gains tuned on its simulated plant; retune yours with
+    `python -m seagen.control.tune`). A value equal to that default is left out of the recorded values and
+    the hash, so descriptions and model files written before these fields existed keep their hash.
 
 Errors name the file and the field (`ActuatorError`, a user error: exit 2).
 """
@@ -85,6 +97,19 @@ class Pot:
 
 
 @dataclass(frozen=True)
+class Control:
+    """The control loop's optional settings: desired-force range and PID gains (SI units)."""
+
+    force_max_n: float
+    kp_v_per_mm: float
+    ki_v_per_mm_s: float
+    kd_v_s_per_mm: float
+    d_alpha: float
+    margin_mm: float
+    limit_v: float
+
+
+@dataclass(frozen=True)
 class Actuator:
     """A linear SEA as seagen sees it; derived quantities are properties."""
 
@@ -97,6 +122,7 @@ class Actuator:
     linkage: Linkage
     pot: Pot
     loop_hz: float
+    control: Control
 
     @property
     def mm_per_count(self) -> float:
@@ -123,16 +149,22 @@ class Actuator:
             "spring": {"stiffness_n_per_mm": self.stiffness_n_per_mm},
             "linkage": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self.linkage).items()},
             "pot": asdict(self.pot),
-            "control": {"loop_hz": self.loop_hz},
+            "control": {"loop_hz": self.loop_hz, **asdict(self.control)},
         }
 
+    def recorded(self) -> dict[str, Any]:
+        """to_dict without the optional [control] values that equal their defaults (what the hash covers)."""
+        d = self.to_dict()
+        d["control"] = {k: v for k, v in d["control"].items() if k not in _OPTIONAL or v != _OPTIONAL[k]}
+        return d
+
     def digest(self) -> str:
-        """sha256 of the parsed values (formatting and comments of the file do not count)."""
-        return hashlib.sha256(json.dumps(self.to_dict(), sort_keys=True).encode()).hexdigest()
+        """sha256 of the recorded values (formatting, comments and defaulted optional fields do not count)."""
+        return hashlib.sha256(json.dumps(self.recorded(), sort_keys=True).encode()).hexdigest()
 
     def record(self) -> dict[str, Any]:
         """What a model file stores: the parsed values and their hash (`actuator_from_record` reads it)."""
-        return {"values": self.to_dict(), "sha256": self.digest()}
+        return {"values": self.recorded(), "sha256": self.digest()}
 
 
 _TABLES: dict[str, dict[str, type]] = {
@@ -158,6 +190,17 @@ _TABLES: dict[str, dict[str, type]] = {
     "pot": {"full_scale_deg": float, "offset_deg": float, "adc_bits": int},
     "control": {"loop_hz": float},
 }
+_CONTROL_FIELDS = tuple(Control.__dataclass_fields__)
+
+
+def _paper_control() -> dict[str, float]:
+    """The optional [control] fields' defaults: the paper's values, read from its description file."""
+    text = resources.files("seagen.actuators").joinpath("paper.toml").read_text(encoding="utf-8")
+    table = tomllib.loads(text)["control"]
+    return {k: float(table[k]) for k in _CONTROL_FIELDS}
+
+
+_OPTIONAL: dict[str, float] = _paper_control()
 
 
 def _value(where: str, field: str, value: Any, kind: type) -> Any:
@@ -187,16 +230,21 @@ def _tables(data: dict[str, Any], where: str) -> dict[str, dict[str, Any]]:
         got = data.get(table)
         if not isinstance(got, dict):
             raise ActuatorError(f"{where}: missing table [{table}]")
-        extra = set(got) - set(spec)
+        known = [*spec, *(_OPTIONAL if table == "control" else ())]
+        extra = set(got) - set(known)
         if extra:
             raise ActuatorError(
-                f"{where}: unknown key '{table}.{sorted(extra)[0]}' (known: {', '.join(spec)})"
+                f"{where}: unknown key '{table}.{sorted(extra)[0]}' (known: {', '.join(known)})"
             )
         out[table] = {}
         for key, kind in spec.items():
             if key not in got:
                 raise ActuatorError(f"{where}: missing '{table}.{key}'")
             out[table][key] = _value(where, f"{table}.{key}", got[key], kind)
+    opt = data["control"]
+    out["control"].update(
+        {k: _value(where, f"control.{k}", opt.get(k, v), float) for k, v in _OPTIONAL.items()}
+    )
     return out
 
 
@@ -214,6 +262,8 @@ def _check(a: Actuator, where: str) -> Actuator:
         "linkage.cb_mm": a.linkage.cb_mm,
         "pot.full_scale_deg": a.pot.full_scale_deg,
         "control.loop_hz": a.loop_hz,
+        "control.force_max_n": a.control.force_max_n,
+        "control.limit_v": a.control.limit_v,
     }
     for field, v in positive.items():
         if v <= 0:
@@ -227,6 +277,12 @@ def _check(a: Actuator, where: str) -> Actuator:
         raise ActuatorError(f"{where}: 'linkage.home_deg' must lie in [angle_min_deg, angle_max_deg]")
     if not 0.0 < lk.angle_max_deg < 90.0:
         raise ActuatorError(f"{where}: 'linkage.angle_max_deg' must lie in (0, 90) deg")
+    c = a.control
+    for field in ("kp_v_per_mm", "ki_v_per_mm_s", "kd_v_s_per_mm", "margin_mm"):
+        if getattr(c, field) < 0:
+            raise ActuatorError(f"{where}: 'control.{field}' must be >= 0, got {getattr(c, field)!r}")
+    if not 0.0 < c.d_alpha <= 1.0:
+        raise ActuatorError(f"{where}: 'control.d_alpha' must lie in (0, 1], got {c.d_alpha!r}")
     if not 8 <= a.pot.adc_bits <= 16:
         raise ActuatorError(f"{where}: 'pot.adc_bits' must be 8..16, got {a.pot.adc_bits}")
     return a
@@ -251,6 +307,7 @@ def actuator_from_dict(data: dict[str, Any], where: str = "<dict>") -> Actuator:
         linkage=Linkage(**t["linkage"]),
         pot=Pot(**t["pot"]),
         loop_hz=t["control"]["loop_hz"],
+        control=Control(**{k: t["control"][k] for k in _CONTROL_FIELDS}),
     )
     return _check(act, where)
 

@@ -40,6 +40,7 @@ class Export:
     onnx_bytes: bytes | None = None
     lines: list[str] = field(default_factory=list)
     act: ActQ | None = None  # the actuator's proven constants (its sea_act_<id> file)
+    actuator: Actuator | None = None  # its description
 
     @property
     def float_model(self) -> FloatModel:
@@ -127,7 +128,7 @@ def prepare(
         qm, prefix, model_path, options, spec, files, onnx_bytes, original, aq
     )
     lines = [*loaded.notes, *summary_lines(qm), f"actuator '{act.name}' (sha256 {aq.digest[:12]}): {aq.cid}"]
-    return Export(loaded, qm, prefix, files, rep, onnx_bytes, lines, aq)
+    return Export(loaded, qm, prefix, files, rep, onnx_bytes, lines, aq, act)
 
 
 def export_manifest(

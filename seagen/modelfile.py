@@ -50,7 +50,7 @@ class FeatureSpec:
     output_std: float = 1.0
     raw: tuple[str, ...] = ("enc", "pot")
     differences: str = DIFFERENCE_SCHEME
-    sample_rate_hz: float = 100.0
+    sample_rate_hz: float = field(default_factory=lambda: default_actuator().loop_hz)  # files before the rate
     extra: dict[str, Any] = field(default_factory=dict)
 
     def weights(self) -> tuple[float, ...]:
@@ -109,7 +109,9 @@ class FeatureSpec:
             output_std=F.positive(d.get("output_std", 1.0), where, "output_std"),
             raw=F.texts(d.get("raw", ("enc", "pot")), where, "raw"),
             differences=F.text(d.get("differences", DIFFERENCE_SCHEME), where, "differences"),
-            sample_rate_hz=F.positive(d.get("sample_rate_hz", 100.0), where, "sample_rate_hz"),
+            sample_rate_hz=F.positive(
+                d.get("sample_rate_hz", default_actuator().loop_hz), where, "sample_rate_hz"
+            ),
             extra=dict(extra),
         )
 

@@ -64,6 +64,11 @@ BAD = [
     ("pot.adc_bits", 20, "8..16"),
     ("motor.volts", 12.0, "unknown key 'motor.volts'"),
     ("kind", "rotary", "not supported"),
+    ("control.d_alpha", 1.5, "'control.d_alpha' must lie in (0, 1]"),
+    ("control.kp_v_per_mm", -1.0, "'control.kp_v_per_mm' must be >= 0"),
+    ("control.force_max_n", 0.0, "'control.force_max_n' must be positive"),
+    ("control.limit_v", "6", "'control.limit_v' must be a number"),
+    ("control.gain", 1.0, "unknown key 'control.gain'"),
 ]
 
 
@@ -84,3 +89,23 @@ def test_unreadable_files(tmp_path):
     b.write_bytes(b"\xff\xfe\x00garbage")
     with pytest.raises(ActuatorError, match="bin.toml: not valid TOML"):
         load_actuator(b)
+
+
+def test_control_fields_are_optional_and_default_to_the_papers():
+    """A description without the [control] gains and force range takes the paper's, with the same hash as
+    one that writes them out (so descriptions and model files from before the fields keep theirs); other
+    values change the hash and round-trip through a model file's record."""
+    from seagen.actuator import actuator_from_record
+
+    d = _paper()
+    bare = {k: v for k, v in d["control"].items() if k == "loop_hz"}
+    a = actuator_from_dict({**d, "control": bare}, "bare.toml")
+    assert a.control == default_actuator().control and a.digest() == default_actuator().digest()
+    assert set(a.record()["values"]["control"]) == {"loop_hz"}
+    d["control"]["kp_v_per_mm"] = 40.0
+    b = actuator_from_dict(d, "tuned.toml")
+    assert b.digest() != a.digest() and b.record()["values"]["control"] == {
+        "loop_hz": 100.0,
+        "kp_v_per_mm": 40.0,
+    }
+    assert actuator_from_record(b.record(), "m.pt") == b

@@ -12,10 +12,12 @@ import pytest
 
 from seagen.actuator import ActuatorError, actuator_from_dict, default_actuator, load_actuator
 from seagen.cli import main
+from seagen.control.experiment import contact_deg, targets_n
 from seagen.data import protocol
 from seagen.data.features import derive
 from seagen.data.logimport import import_log, load_map
 from seagen.data.protocol import Move, run_trials
+from seagen.discrepancy.candidates import box, full_scale
 from seagen.discrepancy.replay import runs_from_frames, simulate
 from seagen.fit.kinematics import compression_for, shaft_force
 from seagen.geometry import geometry
@@ -23,6 +25,8 @@ from seagen.modelfile import load_model
 from seagen.plant import Plant, PlantConfig, load_config
 from seagen.plant.config import ConfigError
 from seagen.runtime.actq import act_q
+from seagen.runtime.control import ControlConfig
+from seagen.verify.run import enc_span
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml"
 FACTORS = (1.1, 0.9, 2.0, 0.5)  # the first that gives a valid description (loop_hz must divide 1 kHz)
@@ -130,6 +134,17 @@ def _consumers(act, tmp: Path) -> dict[str, object]:
     out["logimport"] = import_log(tmp / "log.csv", load_map(tmp / "map.toml"), act).to_numpy(float)
     aq = act_q(act)  # the C side: the sea_act constants the export renders and the twins read
     out["c_act"] = (aq.link, aq.struct_fields())
+    ctl = ControlConfig.for_act(aq)  # the controller configuration an export renders (PID, limits, faults)
+    out["controller"] = (
+        ctl.pid.as_tuple(),
+        ctl.force_min,
+        ctl.force_max,
+        ctl.enc_jump_max,
+        ctl.pot_stuck_ticks,
+    )
+    out["experiment"] = (targets_n(act), contact_deg(act))  # simulate's targets and contact angles
+    out["verify"] = enc_span(act)  # verify's synthetic encoder range
+    out["discrepancy"] = box("pot_voltage_drop", "counts_per_unit_current", full_scale(cfg))  # search box
     return out
 
 
@@ -146,25 +161,45 @@ MOTOR = {"plant", "protocol", "replay"}  # the simulated motor
 # Which consumers each field of the description must move (a consumer that ignores one fails the test).
 EXPECTED = {
     "motor.supply_v": MOTOR | {"logimport", "c_act"},  # PWM % of the supply, +-supply, the C command limit
-    "motor.no_load_rpm": MOTOR | {"c_act"},  # the C encoder-jump bound
-    "motor.gear_ratio": GEOMETRY,  # nut travel per count: encoder, stairs, compression
-    "motor.counts_per_rev": GEOMETRY,
+    "motor.no_load_rpm": MOTOR | {"c_act", "controller"},  # the C encoder-jump bound
+    "motor.gear_ratio": GEOMETRY | {"verify"},  # nut travel per count: encoder, stairs, compression
+    "motor.counts_per_rev": GEOMETRY | {"controller", "verify"},  # and the encoder-jump bound
     "motor.stall_force_n": MOTOR,
     "motor.time_constant_s": MOTOR,
-    "transmission.lead_mm": GEOMETRY,
+    "transmission.lead_mm": GEOMETRY | {"verify"},
     "transmission.friction_n": {"kinematics"},
-    "spring.stiffness_n_per_mm": MOTOR | {"kinematics"},
-    "linkage.cb_mm": GEOMETRY,
-    "linkage.home_deg": GEOMETRY,
-    "linkage.angle_min_deg": MOTOR,  # R_l's origin (load cell) and the angles; not Eq. 2 or 5
-    "linkage.angle_max_deg": {"plant", "protocol", "replay"},  # linkage friction's range, train angles
+    "spring.stiffness_n_per_mm": MOTOR | {"kinematics", "verify"},
+    "linkage.cb_mm": GEOMETRY | {"verify"},
+    "linkage.home_deg": GEOMETRY | {"verify"},
+    "linkage.angle_min_deg": MOTOR
+    | {"experiment"},  # R_l's origin (load cell) and the angles; not Eq. 2 or 5
+    "linkage.angle_max_deg": {
+        "plant",
+        "protocol",
+        "replay",
+        "experiment",
+        "verify",
+    },  # friction range, angles
     "linkage.split_deg": {"plant", "protocol", "replay"},
     "linkage.h_fit": {"plant", "protocol", "replay"},  # R_l: the load cell reads tip force
     "linkage.v_fit_higher": {"plant"},  # R_l above the split: only the plant's 18 deg element is there
     "pot.full_scale_deg": GEOMETRY,
     "pot.offset_deg": GEOMETRY,
-    "pot.adc_bits": {"plant", "protocol", "features", "replay", "logimport", "c_act"},
-    "control.loop_hz": {"protocol", "features", "replay", "c_act"},  # replay: of the protocol's rows
+    "pot.adc_bits": {"plant", "protocol", "features", "replay", "logimport", "c_act", "discrepancy"},
+    "control.loop_hz": {
+        "protocol",
+        "features",
+        "replay",
+        "c_act",
+        "controller",
+    },  # replay: the protocol's rows
+    "control.force_max_n": {"controller", "experiment", "verify"},  # fault range, targets, encoder span
+    "control.kp_v_per_mm": {"controller"},
+    "control.ki_v_per_mm_s": {"controller"},
+    "control.kd_v_s_per_mm": {"controller"},
+    "control.d_alpha": {"controller"},
+    "control.margin_mm": {"controller"},
+    "control.limit_v": {"controller"},
 }
 
 
@@ -182,6 +217,22 @@ def test_every_field_moves_the_consumers_that_read_it(tmp_path):
     wrong = {f: (sorted(moved[f]), sorted(EXPECTED[f])) for f in fields if moved[f] != EXPECTED[f]}
     assert not wrong, f"field: (consumers moved, expected): {wrong}"
     assert set().union(*moved.values()) == set(base), "a threaded consumer no field moves"
+
+
+def test_pot_drop_search_box_follows_the_adc():
+    """The discrepancy search box of the pot's voltage drop is in counts of the described ADC: 5 to 600
+    counts per unit current on the paper's 12-bit ADC (unchanged), 16 times that on a 16-bit one."""
+    from seagen.discrepancy.candidates import start
+
+    d = default_actuator().to_dict()
+    d["pot"]["adc_bits"] = 16
+    paper, fine = PlantConfig(), PlantConfig(actuator=actuator_from_dict(d))
+    key = ("pot_voltage_drop", "counts_per_unit_current")
+    assert box(*key, full_scale(paper))[:2] == (5.0, 600.0)
+    assert box(*key, full_scale(fine))[:2] == (80.0, 9600.0)
+    for cfg in (paper, fine):  # a recalibration starts at the plant's own value, inside its box
+        got = start(cfg, "pot_voltage_drop").params()["pot_voltage_drop"]["counts_per_unit_current"]
+        assert got == pytest.approx(cfg.effect("pot_voltage_drop").counts_per_unit_current)
 
 
 def test_old_plant_toml_with_motor_is_refused(tmp_path):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from seagen.cli import main
-from seagen.control.experiment import CONTACT_DEG, metrics
+from seagen.control.experiment import N_CONTACT, metrics
 from seagen.control.loop import run_closed_loop
 from seagen.control.predictors import kinematic_cloud, kinematic_mcu
 from seagen.runtime import control as ct
@@ -98,7 +98,7 @@ def test_cli_simulate_seed_sweep_is_the_mean_of_single_seeds(capsys):
         one = [x[t] for x in runs]
         st = [x["settling_s"] for x in one if x["settling_s"] is not None]
         assert abs(r["error_avg_n"] - np.mean([x["error_avg_n"] for x in one])) < 1e-4
-        assert r["settled"] == sum(x["settled"] for x in one) and r["angles"] == 2 * len(CONTACT_DEG)
+        assert r["settled"] == sum(x["settled"] for x in one) and r["angles"] == 2 * N_CONTACT
         assert (r["settling_min_s"], r["settling_max_s"]) == ((min(st), max(st)) if st else (None, None))
 
 

@@ -56,11 +56,13 @@ def twin_cfg(ctl: str = "ctl_sf") -> ControlConfig:
     return ControlConfig(**{**shipped_config(qm).__dict__, "predictor": StepTwin(ctl, qm)})
 
 
-@pytest.mark.parametrize("core", CORES)
-def test_closed_loop_bit_identical(core, cal_qm):
+@pytest.mark.parametrize(("core", "shared"), [(c, True) for c in CORES] + [("cortex-m0plus", False)])
+def test_closed_loop_bit_identical(core, shared, cal_qm):
     """Every tick's command, controller state and calibrated force estimate from the board equals the twins'
-    over a short closed-loop run at three contact angles (the plant sees the board's commands)."""
-    board = PilController(fw_files(), "ctl_sf", core, "cal_mlp")
+    (each model with its own pipeline) over a short closed-loop run at three contact angles (the plant sees
+    the board's commands); the firmware runs one feature pipeline per actuator for both models, or (not
+    shared) one per model."""
+    board = PilController(fw_files(), "ctl_sf", core, "cal_mlp", shared=shared)
     try:
         problem, done = closed_loop(board, twin_cfg(), cal_qm, ANGLES, 10.0, 60, seed=1)
     finally:
@@ -70,17 +72,19 @@ def test_closed_loop_bit_identical(core, cal_qm):
 
 
 def _unicorn_ticks(core: str, enc, pot, force, tmp) -> np.ndarray:
-    """Instructions of one actuator's tick (cal_mlp_step + ctl_sf_controller_tick) traced on unicorn (with
-    the M4's IT-skipped instructions, seagen/toolchain/mcu_trace.py)."""
+    """Instructions of one actuator's tick (the shared feature pipeline, cal_mlp_step_features and
+    ctl_sf_controller_tick, as the firmware runs them) traced on unicorn (with the M4's IT-skipped
+    instructions, seagen/toolchain/mcu_trace.py)."""
     probe = (
         '#include "ctl_sf_controller.h"\n#include "cal_mlp.h"\n'
-        "typedef struct { ctl_sf_controller_t c; cal_mlp_state_t s; } probe_t;\n"
+        "typedef struct { ctl_sf_controller_t c; sea_features_state s; sea_features_out f; } probe_t;\n"
         "void probe_init(probe_t *p, int32_t e, int32_t q);\n"
         "void probe_init(probe_t *p, int32_t e, int32_t q)\n"
-        "{ cal_mlp_reset(&p->s); ctl_sf_controller_init(&p->c, e, q); }\n"
+        "{ sea_features_reset(&p->s); ctl_sf_controller_init_shared(&p->c, e, q, &p->f); }\n"
         "int32_t probe_tick(probe_t *p, int32_t e, int32_t q, int32_t f, int16_t *est);\n"
         "int32_t probe_tick(probe_t *p, int32_t e, int32_t q, int32_t f, int16_t *est)\n"
-        "{ *est = cal_mlp_step(&p->s, e, q); return ctl_sf_controller_tick(&p->c, e, q, f); }\n"
+        "{ sea_features_step(&p->s, CAL_MLP_ACT, e, q, &p->f); *est = cal_mlp_step_features(&p->f);\n"
+        "  return ctl_sf_controller_tick(&p->c, e, q, f); }\n"
     )
     from seagen.bench.run import _machine
     from seagen.toolchain import cortexm as cm

@@ -17,6 +17,7 @@ def fake_results(targets=(5.0, 10.0), n=300, angles=3, estimate=False) -> dict[s
     out = {}
     for target in targets:
         rec = {"t_s": t, "force_n": target * (1 - np.exp(-t / 0.3))}
+        rec["contact_deg"] = np.tile(np.linspace(8.0, 24.0, angles), (n, 1))  # the run's angles
         if estimate:
             rec["estimate_n"] = rec["force_n"] + 0.1
         out[f"{target:g}"] = {"trace": rec}
@@ -41,6 +42,7 @@ def test_step_figure_has_band_labelled_targets_and_estimate():
     assert "calibration model, 10 N target" in legend
     assert any(isinstance(h, Patch) for h in ax.get_legend().legend_handles)
     assert ax.get_xlabel() == "time (s)"
+    assert ax.get_title() == "mine_mcu: contact at 24 deg"  # the plotted run's own angle (index 2)
 
 
 def test_validation_axis_is_seconds(tmp_path, monkeypatch):

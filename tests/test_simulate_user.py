@@ -16,9 +16,9 @@ from seagen.control import experiment
 
 @pytest.fixture
 def short_experiment(monkeypatch):
-    """One target (10 N), two contact angles, 3 s runs."""
-    monkeypatch.setattr(experiment, "TARGETS_N", (10.0,))
-    monkeypatch.setattr(experiment, "CONTACT_DEG", (11.0, 19.0))
+    """One target (half the force range: 10 N), two contact angles (the ends of the grid), 3 s runs."""
+    monkeypatch.setattr(experiment, "TARGET_FRACTIONS", (0.5,))
+    monkeypatch.setattr(experiment, "N_CONTACT", 2)
     monkeypatch.setattr(experiment, "DURATION_S", 3.0)
 
 

@@ -5,8 +5,8 @@ void glove_init(glove_t *g, const int32_t *enc, const int32_t *pot)
 {
     int i;
     for (i = 0; i < GLOVE_N_SEA; ++i) {
-        cal_mlp_reset(&g->cal[i]);
-        ctl_mlp_controller_init(&g->ctl[i], enc[i], pot[i]);
+        sea_features_reset(&g->feat[i]);
+        ctl_mlp_controller_init_shared(&g->ctl[i], enc[i], pot[i], &g->f[i]);
     }
 }
 
@@ -15,7 +15,8 @@ void glove_tick(glove_t *g, const int32_t *enc, const int32_t *pot, const int32_
 {
     int i;
     for (i = 0; i < GLOVE_N_SEA; ++i) {
-        force_est[i] = cal_mlp_step(&g->cal[i], enc[i], pot[i]);
+        sea_features_step(&g->feat[i], CAL_MLP_ACT, enc[i], pot[i], &g->f[i]);
+        force_est[i] = cal_mlp_step_features(&g->f[i]);
         motor_mv[i] = ctl_mlp_controller_tick(&g->ctl[i], enc[i], pot[i], force_q16[i]);
     }
 }

@@ -1,7 +1,9 @@
 /* glove.h -- example firmware for the exoskeleton glove: seven SEAs served in one 100 Hz tick.
  *
- * Each actuator gets its calibrated force estimate (cal_mlp_step, the calibration MLP on raw counts) and its
- * force loop (ctl_mlp_controller_tick: the control MLP as the predictor of the tuned two-level controller).
+ * Each actuator gets its calibrated force estimate (the calibration MLP on raw counts) and its force loop
+ * (ctl_mlp_controller_tick: the control MLP as the predictor of the tuned two-level controller). Both models
+ * read one feature pipeline per actuator (sea_features_step once per tick: cal_mlp_step_features, and the
+ * controller set up by ctl_mlp_controller_init_shared), the same integers as each running its own.
  * Everything it includes comes from two seagen exports into one folder (see README.md):
  *     seagen export generated/models/mlp_calibration.pt --prefix cal_mlp [--target CORE] --out build
  *     seagen export generated/models/mlp_control.pt --prefix ctl_mlp --controller [--target CORE] --out build
@@ -17,8 +19,13 @@
 
 #define GLOVE_N_SEA 7
 
+#if CAL_MLP_ACT_KEY != CTL_MLP_ACT_KEY
+#error "cal_mlp and ctl_mlp were exported for different actuators: they cannot share a feature pipeline"
+#endif
+
 typedef struct {
-    cal_mlp_state_t cal[GLOVE_N_SEA];      /* feature pipeline of each force estimate */
+    sea_features_state feat[GLOVE_N_SEA];  /* feature pipeline of each actuator, shared by its two models */
+    sea_features_out f[GLOVE_N_SEA];       /* its output of the current tick */
     ctl_mlp_controller_t ctl[GLOVE_N_SEA]; /* force loop of each actuator */
 } glove_t;
 

@@ -254,26 +254,26 @@ def goals(cmp: list[dict], fw: list[B.Entry], glove: list[G.GloveLoad]) -> str:
             2500,
         ),
         (
-            "glove: firmware example, 7 × (cal_mlp `_step` + ctl_mlp tick) at 100 Hz, % of a 48 MHz M0+",
+            "glove: firmware example, 7 × (features + cal_mlp + ctl_mlp tick) at 100 Hz, % of a 48 MHz M0+",
             load("cal_mlp", "ctl_mlp"),
             15,
             8,
         ),
         (
-            "glove: firmware example, 7 × (cal_mlp `_step` + ctl_sf tick), %",
+            "glove: firmware example, 7 × (features + cal_mlp + ctl_sf tick), %",
             load("cal_mlp", "ctl_sf"),
             15,
             8,
         ),
         (
-            "glove: firmware example, 7 × (cal_sf `_step` + ctl_sf tick), %",
+            "glove: firmware example, 7 × (features + cal_sf + ctl_sf tick), %",
             load("cal_sf", "ctl_sf"),
             15,
             8,
         ),
     ] + [
         (
-            f"glove: 7 × (cal_mlp `_step` + ctl_mlp tick) at {w} flash wait state(s) (SAMD21-class), %",
+            f"glove: 7 × (features + cal_mlp + ctl_mlp tick) at {w} flash wait state(s) (SAMD21-class), %",
             load("cal_mlp", "ctl_mlp", w),
             15,
             None,

@@ -1,7 +1,8 @@
 """The glove's load: the firmware example (examples/firmware, seven SEAs in one 100 Hz tick) built from
 exports with a core's target kernels and run on the emulated core; average cycles of one tick.
 
-The example's glove.c/.h are taken as they are (cal_mlp + the ctl_mlp controller); for another pair of
+The example's glove.c/.h are taken as they are (per actuator one feature pipeline, read by cal_mlp and by
+the ctl_mlp controller's predictor); for another pair of
 models (e.g. the SF control predictor) the prefixes cal_mlp / ctl_mlp in their text are replaced by the
 other models' prefixes, nothing else. Sensor sequence: `sensors` (random walks of the raw counts, desired
 forces stepping every 40 ticks), the same one tests/test_firmware_example.py checks against the Python twins.
@@ -17,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from seagen.actuator import default_actuator
 from seagen.defaults import DEFAULT_PREFIX, default_model
 from seagen.toolchain import cortexm as cm
 from seagen.toolchain.host import compile_objects
@@ -24,7 +26,7 @@ from seagen.toolchain.mcu_trace import disassemble, traced_call
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "firmware"
 N_SEA, TICKS = 7, 120
-CYCLES_PER_TICK = 48_000_000 // 100  # a 48 MHz core, 100 Hz tick
+CYCLES_PER_TICK = round(48_000_000 / default_actuator().loop_hz)  # a 48 MHz core at the paper's loop rate
 MODEL_OF = {prefix: name for name, prefix in DEFAULT_PREFIX.items()}
 TRACED = range(10, 40)  # 30 ticks after 10 of warm-up: three refreshes of the pot average
 
@@ -67,7 +69,7 @@ def glove_files(target: str = "portable", cal: str = "cal_mlp", ctl: str = "ctl_
     files = {**c.files, **k.files, **controller_files(ctl, k.qmodel)}
     for f in EXAMPLE.glob("glove.[ch]"):
         files[f.name] = f.read_text().replace("cal_mlp", cal).replace("CAL_MLP", cal.upper())
-        files[f.name] = files[f.name].replace("ctl_mlp", ctl)
+        files[f.name] = files[f.name].replace("ctl_mlp", ctl).replace("CTL_MLP", ctl.upper())
     return files
 
 
@@ -156,7 +158,7 @@ def table(rows: list[GloveLoad]) -> str:
     ]
     for r in rows:
         lines.append(
-            f"| {CORE[r.cpu]} | 7 × ({r.cal} `_step` + {r.ctl} controller tick) | {r.instr_mean:,.0f} "
+            f"| {CORE[r.cpu]} | 7 × (features + {r.cal} + {r.ctl} controller tick) | {r.instr_mean:,.0f} "
             f"({r.it_skipped:,.0f}) | {r.flash_wait} | {r.cycles_mean:,.0f} ({r.cycles_max:,}) "
             f"| {r.percent:.1f} % |"
         )

@@ -44,6 +44,12 @@ def summary(c: ControlConfig) -> list[str]:
     ]
 
 
+def shares_pipeline(c: ControlConfig) -> bool:
+    """Whether NAME_controller_init_shared is emitted: a predictor called every tick reads the same samples
+    as the actuator's other models, so it can read their shared feature pipeline (bit for bit)."""
+    return c.predict_every <= 1
+
+
 def controller_files(
     prefix: str, qm: QModel, cfg: ControlConfig | None = None, act: ActQ | None = None
 ) -> dict[str, str]:
@@ -62,6 +68,7 @@ def controller_files(
         "summary": summary(c),
         "pid": c.pid.as_tuple(),
         "fields": [(f, int(getattr(c, f))) for f in FIELDS],
+        "shared": shares_pipeline(c),
     }
     env = environment()
     out = {f"{prefix}_controller{x}": env.get_template(f"controller{x}.j2").render(ctx) for x in (".h", ".c")}

@@ -155,6 +155,7 @@ def context(qm: QModel, prefix: str, act: ActQ | None = None) -> dict[str, Any]:
     """Everything the templates print, decided here (`act`: the actuator, the paper's when None)."""
     pipeline = F.has_pipeline(qm)
     prefix = assert_valid_prefix(prefix)
+    a = act or act_q_of()
     check_input_macros(prefix, [q.signal.name for q in qm.inputs])
     return {
         "P": prefix,
@@ -170,7 +171,8 @@ def context(qm: QModel, prefix: str, act: ActQ | None = None) -> dict[str, Any]:
         "pipeline": pipeline,
         "features": _features(qm) if pipeline else [],
         "externals": F.external_inputs(qm),
-        "act": (act or act_q_of()).cid,
+        "act": a.cid,
+        "act_key": a.key,
         "predictor": {"force_input": "force_n"} if F.is_predictor(qm) else None,
         **_kind_context(qm, prefix),
     }

@@ -6,13 +6,18 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
+from seagen.actuator import Actuator
 from seagen.control.loop import CloudPredictor, McuPredictor, run_closed_loop
 from seagen.control.predictors import generated_cloud, generated_mcu, kinematic_mcu
 from seagen.plant import PlantConfig
 from seagen.runtime.control import MLP_PRED_AVG, ControlConfig
 
-TARGETS_N = (5.0, 10.0, 15.0)
-CONTACT_DEG = tuple(float(a) for a in np.linspace(7.0, 25.0, 10))  # ten contact angles
+# The grid, per actuator description: targets at these fractions of its desired-force range (control.
+# force_max_n: 5, 10, 15 N on the paper's 20 N), N_CONTACT contact angles evenly over its linkage range less
+# CONTACT_MARGIN_DEG (bottom, top) (7 to 25 deg on the paper's 5 to 28 deg).
+TARGET_FRACTIONS = (0.25, 0.5, 0.75)
+N_CONTACT = 10
+CONTACT_MARGIN_DEG = (2.0, 3.0)
 BAND_N = 0.3  # settling band around the target (paper: 0.3 N)
 SMOOTH_TICKS = 5  # the reference force is judged on its 50 ms trailing mean (load-cell noise)
 ERROR_WINDOW_S = 2.0  # the average error is taken over the last 2 s of the run
@@ -32,6 +37,21 @@ PAPER_TABLE2 = {  # paper Table II: (average force error N, average settling tim
     "MLP": {"5": (0.24, 2.72), "10": (0.30, 3.22), "15": (0.10, 3.15)},
 }
 PAPER_ROW = {"sf_mcu": "SF", "mlp_cloud": "MLP", "mlp_mcu": "MLP", "kin_mcu": "SF"}
+
+
+def targets_n(act: Actuator) -> tuple[float, ...]:
+    """The experiment's force targets (N at the shaft) on actuator `act`."""
+    return tuple(f * act.control.force_max_n for f in TARGET_FRACTIONS)
+
+
+def contact_deg(act: Actuator, n: int | None = None) -> tuple[float, ...]:
+    """`n` (default N_CONTACT) contact angles (deg) evenly over `act`'s linkage range less the margins (a
+    range narrower than the margins: its middle)."""
+    lo = act.linkage.angle_min_deg + CONTACT_MARGIN_DEG[0]
+    hi = act.linkage.angle_max_deg - CONTACT_MARGIN_DEG[1]
+    if hi < lo:
+        lo = hi = 0.5 * (act.linkage.angle_min_deg + act.linkage.angle_max_deg)
+    return tuple(float(a) for a in np.linspace(lo, hi, N_CONTACT if n is None else n))
 
 
 def smoothed(force: np.ndarray, n: int = SMOOTH_TICKS) -> np.ndarray:
@@ -75,18 +95,22 @@ def runs(
 ) -> Iterator[tuple[float, dict[str, np.ndarray]]]:
     """The experiment for one predictor and controller: (target, record) per target, all contact angles
     at once, plant-noise seed `seed + i` for the i-th target, on the plant `plant_cfg` (default: the
-    paper's actuator)."""
-    for i, target in enumerate(TARGETS_N):
+    paper's actuator); the targets and angles are those of the plant's actuator. Each record also holds
+    its contact angles (`contact_deg`, ticks x actuators)."""
+    act = (plant_cfg or PlantConfig()).actuator
+    angles = np.array(contact_deg(act))
+    for i, target in enumerate(targets_n(act)):
         rec = run_closed_loop(
             pred,
             target,
-            np.array(CONTACT_DEG),
+            angles,
             impl=impl,
             duration_s=DURATION_S,
             seed=seed + i,
             plant_cfg=plant_cfg,
             control_cfg=ctl,
         )
+        rec["contact_deg"] = np.broadcast_to(angles, rec["t_s"].shape).copy()
         yield target, rec
 
 
@@ -117,6 +141,7 @@ def run_config(
             "error_avg_n": round(float(m["error_avg_n"].mean()), 4),
             "settling_s": None if np.isnan(s).all() else round(float(np.nanmean(s)), 3),
             "settled": int(np.isfinite(s).sum()),
+            "angles": len(s),
             "settling_final_s": round(float(np.nanmean(m["settling_final_s"])), 3),
             "trace": rec,
         }
@@ -188,7 +213,7 @@ def sweep(
                 "settling_min_s": round(min(st), 3) if st else None,
                 "settling_max_s": round(max(st), 3) if st else None,
                 "settled": sum(r["settled"] for r in rows),
-                "angles": seeds * len(CONTACT_DEG),
+                "angles": sum(r["angles"] for r in rows),
                 "settling_final_s": round(float(np.mean([r["settling_final_s"] for r in rows])), 3),
                 "seeds": seeds,
             }
@@ -219,8 +244,8 @@ def format_table2(table: dict[str, dict[str, dict]], paper_rows: dict[str, str] 
             if ranged:
                 lo, hi = r.get("settling_min_s"), r.get("settling_max_s")
                 rng = f"{'-' if lo is None else f'{lo:.2f}-{hi:.2f}':>12}"
-            pe, ps = paper[t]
-            settled = f"{r['settled']}/{r.get('angles', len(CONTACT_DEG))}"
+            pe, ps = paper.get(t, (np.nan, np.nan))  # a target the paper did not run: nan
+            settled = f"{r['settled']}/{r['angles']}"
             e = f"{r['estimate_error_n']:>12.2f}" if est else ""
             lines.append(
                 f"{name:<{width}}{t + ' N':>6}{r['error_avg_n']:>9.2f}{s:>12}{rng}{settled:>9}"

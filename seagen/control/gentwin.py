@@ -16,7 +16,7 @@ from seagen.runtime import features as F
 from seagen.runtime import fixed as P
 from seagen.runtime import nn as K
 from seagen.runtime.actq import ActQ, act_q_of
-from seagen.runtime.control import FORCE_FRAC
+from seagen.runtime.control import FORCE_FRAC, Predictor
 
 MODEL_FILES = {prefix: f"{name}.pt" for name, prefix in DEFAULT_PREFIX.items()}  # prefix -> model file
 
@@ -53,8 +53,22 @@ class StepTwin:
 
     def __call__(self, enc: np.ndarray, pot: np.ndarray, force_q16: np.ndarray) -> np.ndarray:
         """Desired compression (Q16 mm, int64) for raw counts and the desired force (Q16 N)."""
-        b, d, dd = self.pipeline.step(enc, pot)
-        force = np.broadcast_to(np.asarray(force_q16, np.int64), np.shape(enc))
+        return self.on_features(self.pipeline.step(enc, pot), force_q16)
+
+    def shared(self, pipeline: F.Pipeline) -> Predictor:
+        """Twin of NAME_predict_features_q16: a predictor reading `pipeline.last`, the step the actuator's
+        shared pipeline made this tick (before the controller tick), instead of stepping its own."""
+
+        def predict(enc: np.ndarray, pot: np.ndarray, force_q16: np.ndarray) -> np.ndarray:
+            assert pipeline.last is not None, "the shared pipeline has not stepped this tick"
+            return self.on_features(pipeline.last, force_q16)
+
+        return predict
+
+    def on_features(self, step: F.Step, force_q16: np.ndarray) -> np.ndarray:
+        """Twin of NAME_step_features + scaling to Q16 mm: the prediction from one pipeline step."""
+        b, d, dd = step
+        force = np.broadcast_to(np.asarray(force_q16, np.int64), b.shape[1:])
         names = F.external_inputs(self.qm)
         fr = {q.signal.name: q.frac for q in self.qm.inputs}
         ext = np.stack([K.to_s16(force, FORCE_FRAC, fr[n]) for n in names], axis=1) if names else None

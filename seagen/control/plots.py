@@ -7,6 +7,13 @@ from pathlib import Path
 from seagen.plotting import band_legend, figure, save_png, target_line
 
 
+def _angle(results: dict[str, dict], angle_index: int) -> tuple[int, float]:
+    """The plotted actuator's index (clamped to the runs') and its contact angle (deg), from the traces."""
+    rec = next(iter(results.values()))["trace"]
+    i = min(angle_index, rec["force_n"].shape[1] - 1)
+    return i, float(rec["contact_deg"][0, i])
+
+
 def step_plot(name: str, results: dict[str, dict], path: Path, angle_index: int = 2) -> None:
     """One configuration: smoothed shaft force vs time for each target at one contact angle."""
     save_png(step_figure(name, results, angle_index), path, dpi=120)
@@ -15,11 +22,11 @@ def step_plot(name: str, results: dict[str, dict], path: Path, angle_index: int 
 def step_figure(name: str, results: dict[str, dict], angle_index: int = 2):
     """The step-response figure: force per target, each target's labelled line and its settling band, and
     a calibration model's force estimate (dotted) when the runs carry one."""
-    from seagen.control.experiment import BAND_N, CONTACT_DEG, smoothed
+    from seagen.control.experiment import BAND_N, smoothed
 
     fig = figure(figsize=(6, 3.5))
     ax = fig.add_subplot()
-    angle_index = min(angle_index, len(CONTACT_DEG) - 1)
+    angle_index, angle = _angle(results, angle_index)
     for k, (target, r) in enumerate(results.items()):
         rec = r["trace"]
         f = smoothed(rec["force_n"])[:, angle_index]
@@ -30,7 +37,7 @@ def step_figure(name: str, results: dict[str, dict], angle_index: int = 2):
             ax.plot(t, est, ":", color=f"C{k}", label=f"calibration model, {target} N target")
         target_line(ax, float(target), BAND_N, "N")
     ax.set(xlabel="time (s)", ylabel="force at the SEA shaft (N)")
-    ax.set_title(f"{name}: contact at {CONTACT_DEG[angle_index]:.0f} deg")
+    ax.set_title(f"{name}: contact at {angle:.0f} deg")
     band_legend(ax, BAND_N, "N")
     fig.tight_layout()
     return fig
@@ -38,11 +45,11 @@ def step_figure(name: str, results: dict[str, dict], angle_index: int = 2):
 
 def comparison_plot(results: dict[str, dict[str, dict]], path: Path, angle_index: int = 2) -> None:
     """Paper Fig. 17 style: every configuration's force at every target, one contact angle, one panel."""
-    from seagen.control.experiment import BAND_N, CONTACT_DEG, smoothed
+    from seagen.control.experiment import BAND_N, smoothed
 
     fig = figure(figsize=(7, 4))
     ax = fig.add_subplot()
-    angle_index = min(angle_index, len(CONTACT_DEG) - 1)
+    angle_index, angle = _angle(next(iter(results.values()), {}), angle_index)
     styles = dict(zip(results, ("-", "--", ":", "-."), strict=False))
     for (name, res), color in zip(results.items(), ("C0", "C1", "C2", "C3"), strict=False):
         for k, r in enumerate(res.values()):
@@ -53,7 +60,7 @@ def comparison_plot(results: dict[str, dict[str, dict]], path: Path, angle_index
         target_line(ax, float(target), BAND_N, "N")
     ax.set(xlabel="time (s)", ylabel="force at the SEA shaft (N)", xlim=(0, 4))
     targets = " / ".join(next(iter(results.values()), {}))
-    ax.set_title(f"{targets} N, contact at {CONTACT_DEG[angle_index]:.0f} deg")
+    ax.set_title(f"{targets} N, contact at {angle:.0f} deg")
     band_legend(ax, BAND_N, "N")
     fig.tight_layout()
     save_png(fig, path, dpi=120)

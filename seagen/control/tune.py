@@ -7,14 +7,15 @@ from dataclasses import replace
 
 import numpy as np
 
+from seagen.actuator import default_actuator
 from seagen.control.experiment import (
     CONFIGS,
     DURATION_S,
     MLP_PRED_AVG,
     PAPER_TABLE2,
-    TARGETS_N,
     metrics,
     runs,
+    targets_n,
 )
 from seagen.runtime.pid import DEFAULT_PID_SI, PidParams
 
@@ -28,7 +29,7 @@ def mean_settling(name: str, pid: PidParams, pred_avg: int, seeds: tuple[int, ..
     """Per target: settling time of configuration `name` averaged over angles and seeds (NaN = the run)."""
     pred, ctl = CONFIGS[name](0.1)
     cfg = replace(ctl, pid=pid, pred_avg=pred_avg)
-    out: dict[float, list[float]] = {t: [] for t in TARGETS_N}
+    out: dict[float, list[float]] = {t: [] for t in targets_n(default_actuator())}
     for seed in seeds:
         for target, rec in runs(pred, cfg, seed=seed):
             out[target].append(float(np.nan_to_num(metrics(rec)["settling_s"], nan=NEVER_S).mean()))
@@ -38,7 +39,7 @@ def mean_settling(name: str, pid: PidParams, pred_avg: int, seeds: tuple[int, ..
 def objective(mlp: dict[float, float], sf: dict[float, float]) -> float:
     """Worst MLP-on-MCU target plus 0.3 x its mean, plus a penalty for SF outside +-50 % of the paper's."""
     paper = {float(t): s for t, (_, s) in PAPER_TABLE2["SF"].items()}
-    pen = sum(max(0.0, sf[t] - 1.5 * paper[t]) + max(0.0, 0.5 * paper[t] - sf[t]) for t in TARGETS_N)
+    pen = sum(max(0.0, sf[t] - 1.5 * paper[t]) + max(0.0, 0.5 * paper[t] - sf[t]) for t in paper)
     return max(mlp.values()) + 0.3 * float(np.mean(list(mlp.values()))) + 3.0 * pen
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -25,10 +25,17 @@ SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
     "backlash": {"half_width_mm": (0.005, 0.4, True)},
     "spring_preload": {"force_n": (-4.0, 4.0, False)},
     "spring_nonlinearity": {"k3_n_per_mm3": (0.002, 0.6, True)},
-    "pot_voltage_drop": {"counts_per_unit_current": (5.0, 600.0, True), "time_constant_s": (0.01, 0.8, True)},
+    # counts_per_unit_current: a fraction of the pot ADC's full scale here (FULL_SCALE_BOXES)
+    "pot_voltage_drop": {
+        "counts_per_unit_current": (0.001220703125, 0.146484375, True),
+        "time_constant_s": (0.01, 0.8, True),
+    },
     "load_cell_offset": {"offset_n": (-4.0, 4.0, False)},
     "transport_delay": {"delay_s": (0.001, 0.12, True)},
 }
+# Boxes given as fractions of the pot ADC's full scale: in counts they follow the description's pot.adc_bits
+# (5 to 600 counts per unit current on the paper's 12-bit ADC). Candidate.full_scale carries the counts.
+FULL_SCALE_BOXES = {("pot_voltage_drop", "counts_per_unit_current")}
 # A recalibration holds these parameters at the base's values while the named effect is on too: both move
 # the same thing (a constant friction offset on the shaft: linkage c0 and actuator friction F_c), so the
 # data cannot tell them apart and only the other one is re-fitted.
@@ -36,6 +43,18 @@ CONFOUNDED = {("linkage_friction", "c0_n"): "actuator_friction"}
 GRID = {1: 9, 2: 5, 3: 3}  # screening points per dimension
 POLISH_NFEV = 6  # least-squares evaluations per polished candidate
 STEP = 1e-3  # forward-difference step of the Jacobians (unit box)
+
+
+def full_scale(cfg: PlantConfig | None = None) -> float:
+    """Counts of the pot ADC's full scale (2^adc_bits) of cfg's actuator (the paper's when None)."""
+    return float((cfg or PlantConfig()).actuator.adc_max + 1)
+
+
+def box(effect: str, param: str, scale: float) -> tuple[float, float, bool]:
+    """(low, high, log-scaled) of a parameter's box in the plant's units, for a pot of `scale` counts."""
+    lo, hi, log = SPACE[effect][param]
+    k = scale if (effect, param) in FULL_SCALE_BOXES else 1.0
+    return lo * k, hi * k, log
 
 
 @dataclass
@@ -47,6 +66,7 @@ class Candidate:
     chi2_fit: float = np.inf
     tag: str = ""  # appended to the label (e.g. ' (joint recalibration)')
     held: frozenset[tuple[str, str]] = frozenset()  # (effect, parameter) kept at the base's value
+    full_scale: float = field(default_factory=full_scale)  # pot ADC counts (FULL_SCALE_BOXES)
 
     @property
     def keys(self) -> list[tuple[str, str]]:
@@ -58,7 +78,7 @@ class Candidate:
         u = self.u if u is None else u
         out: ParamSet = {e: {} for e in self.names}
         for (e, p), x in zip(self.keys, np.clip(u, 0, 1), strict=True):
-            lo, hi, log = SPACE[e][p]
+            lo, hi, log = box(e, p, self.full_scale)
             out[e][p] = float(lo * (hi / lo) ** x if log else lo + (hi - lo) * x)
         return out
 
@@ -78,9 +98,9 @@ def present_effects(cfg: PlantConfig) -> list[str]:
     return [e for e in CATALOGUE if cfg.on(e)]
 
 
-def to_unit(effect: str, param: str, value: float) -> float:
-    """Inverse of the unit-box mapping of SPACE (clipped to the box)."""
-    lo, hi, log = SPACE[effect][param]
+def to_unit(effect: str, param: str, value: float, scale: float) -> float:
+    """Inverse of the unit-box mapping of SPACE for a pot of `scale` counts (clipped to the box)."""
+    lo, hi, log = box(effect, param, scale)
     x = np.log(max(value, 1e-12) / lo) / np.log(hi / lo) if log else (value - lo) / (hi - lo)
     return float(np.clip(x, 0, 1))
 
@@ -94,17 +114,25 @@ def held_in(cfg: PlantConfig, names: tuple[str, ...]) -> frozenset[tuple[str, st
     )
 
 
-def at(names: tuple[str, ...], params: ParamSet, held: frozenset = frozenset(), tag: str = "") -> Candidate:
-    """A candidate of `names` at the values in params (a full set for each effect but the held ones)."""
-    c = Candidate(names, np.zeros(0), tag=tag, held=held)
-    c.u = np.array([to_unit(e, p, params[e][p]) for e, p in c.keys])
+def at(
+    names: tuple[str, ...],
+    params: ParamSet,
+    held: frozenset = frozenset(),
+    tag: str = "",
+    cfg: PlantConfig | None = None,
+) -> Candidate:
+    """A candidate of `names` at the values in params (a full set for each effect but the held ones), on
+    the plant `cfg` (its pot ADC sets the FULL_SCALE_BOXES; the paper's when None)."""
+    c = Candidate(names, np.zeros(0), tag=tag, held=held, full_scale=full_scale(cfg))
+    c.u = np.array([to_unit(e, p, params[e][p], c.full_scale) for e, p in c.keys])
     return c
 
 
-def from_params(params: ParamSet) -> Candidate:
-    """A candidate at a fitted parameter set; a parameter absent from it is held (CONFOUNDED)."""
+def from_params(params: ParamSet, cfg: PlantConfig | None = None) -> Candidate:
+    """A candidate at a fitted parameter set on the plant `cfg`; a parameter absent from it is held
+    (CONFOUNDED)."""
     held = frozenset((e, p) for e in params for p in SPACE[e] if p not in params[e])
-    return at(tuple(params), params, held)
+    return at(tuple(params), params, held, cfg=cfg)
 
 
 def values(cfg: PlantConfig, effect: str) -> dict[str, float]:
@@ -119,20 +147,22 @@ def joint_recalibration(cfg: PlantConfig) -> Candidate | None:
     present = tuple(present_effects(cfg))
     if len(present) < 2:
         return None
-    return at(present, {e: values(cfg, e) for e in present}, held_in(cfg, present), " (joint recalibration)")
+    return at(
+        present, {e: values(cfg, e) for e in present}, held_in(cfg, present), " (joint recalibration)", cfg
+    )
 
 
 def start(cfg: PlantConfig, effect: str) -> Candidate:
     """A single-effect candidate: at cfg's values when the effect is on (recalibration), else mid-box."""
     if not cfg.on(effect):
-        return Candidate((effect,), np.full(len(SPACE[effect]), 0.5))
-    return at((effect,), {effect: values(cfg, effect)}, held_in(cfg, (effect,)))
+        return Candidate((effect,), np.full(len(SPACE[effect]), 0.5), full_scale=full_scale(cfg))
+    return at((effect,), {effect: values(cfg, effect)}, held_in(cfg, (effect,)), cfg=cfg)
 
 
 def pair(cfg: PlantConfig, a: Candidate, b: Candidate) -> Candidate:
     """a and b together, each at its own best point."""
     names = a.names + b.names
-    return at(names, {**a.params(), **b.params()}, held_in(cfg, names))
+    return at(names, {**a.params(), **b.params()}, held_in(cfg, names), cfg=cfg)
 
 
 def objective(cfg: PlantConfig, sets: list[ParamSet], runs: Runs, sigma: dict) -> np.ndarray:

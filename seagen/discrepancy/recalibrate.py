@@ -8,8 +8,8 @@ import numpy as np
 from scipy import stats
 
 from seagen.discrepancy.candidates import (
-    SPACE,
     at,
+    box,
     from_params,
     held_in,
     jacobian_points,
@@ -60,7 +60,7 @@ def plausible(effect: str, param: str, value: float) -> bool:
 
 def uncertainty(base: PlantConfig, params: ParamSet, fit: Runs, sigma: dict) -> dict[str, dict[str, float]]:
     """1-sigma of every fitted parameter from the Gauss-Newton covariance of the fitting trials."""
-    cand = from_params(params)
+    cand = from_params(params, base)
     u = cand.u
     us, h = jacobian_points(u)
     r = residual_vectors(base, [(cand, us)], fit, sigma)[0]
@@ -70,7 +70,7 @@ def uncertainty(base: PlantConfig, params: ParamSet, fit: Runs, sigma: dict) -> 
     sig_u = np.sqrt(np.clip(np.diag(np.linalg.pinv(jac.T @ jac)) * scale, 0, None))
     out: dict[str, dict[str, float]] = {e: {} for e in params}
     for (e, p), s in zip(cand.keys, sig_u, strict=True):
-        lo, hi, log = SPACE[e][p]
+        lo, hi, log = box(e, p, cand.full_scale)
         out[e][p] = float(s * (params[e][p] * np.log(hi / lo) if log else hi - lo))
     return out
 
@@ -121,7 +121,7 @@ def base_check(base: PlantConfig, fit: Runs, sigma: dict) -> BaseCheck:
     present = tuple(present_effects(base))
     if not present:
         return BaseCheck()
-    cand = at(present, {e: values(base, e) for e in present}, held_in(base, present))
+    cand = at(present, {e: values(base, e) for e in present}, held_in(base, present), cfg=base)
     us, h = jacobian_points(cand.u)
     r = residual_vectors(base, [(cand, us)], fit, sigma)[0]
     jac = np.stack([(r[i + 1] - r[0]) / h[i] for i in range(len(us) - 1)], axis=1)
@@ -131,7 +131,7 @@ def base_check(base: PlantConfig, fit: Runs, sigma: dict) -> BaseCheck:
     out = BaseCheck(score=score, p_value=float(stats.chi2.sf(score, len(cand.keys))))
     params = cand.params()
     for (e, p), s in zip(cand.keys, sig_u, strict=True):
-        lo, hi, log = SPACE[e][p]
+        lo, hi, log = box(e, p, cand.full_scale)
         v = params[e][p]
         sig = float(s * (v * np.log(hi / lo) if log else hi - lo))
         out.sigma[f"{e}.{p}"] = sig

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from seagen.actuator import default_actuator
 from seagen.data.logimport import clock_resolution
 from seagen.plant import Plant, PlantConfig
 from seagen.plant.config import CATALOGUE, LEARNED_INPUTS
@@ -60,8 +61,8 @@ class Runs:
 
     def __post_init__(self) -> None:
         n, t = self.mask.shape
-        if self.t.shape != (n, t):  # seagen's 100 Hz grid
-            self.t = np.broadcast_to(np.arange(t) / 100.0, (n, t)).copy()
+        if self.t.shape != (n, t):  # rows on the paper's loop grid (runs_from_frames passes the logged t)
+            self.t = np.broadcast_to(np.arange(t) / default_actuator().loop_hz, (n, t)).copy()
         if self.lag.shape != (n,):
             self.lag = np.ones(n)
         if self.res.shape != (n,):

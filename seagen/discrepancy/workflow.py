@@ -11,9 +11,10 @@ import pandas as pd
 
 from seagen.discrepancy.candidates import (
     POLISH_NFEV,
-    SPACE,
     Candidate,
+    box,
     from_params,
+    full_scale,
     joint_recalibration,
     missing_effects,
     objective,
@@ -257,7 +258,7 @@ def _refit_all(
     base: PlantConfig, groups: list[list[Named]], fit: Runs, sig_f, nfev: int
 ) -> list[list[Named]]:
     """_refit of several alternative groups of named effects, polished together (batched replays)."""
-    cands = [from_params({n.name: n.params for n in named}) for named in groups]
+    cands = [from_params({n.name: n.params for n in named}, base) for named in groups]
     live = [c for c in cands if c.names]
     if live:  # least squares never ends above its start, so no replay of the start is needed first
         polish(base, live, fit, sig_f, nfev=nfev)
@@ -324,14 +325,16 @@ def _evidence(
     return {n.name: evidence(fp[n.name], before, after, floor, table, without[n.name]) for n in named}
 
 
-def _decide(named: list[Named], verdict: str, evid: dict[str, Evidence]) -> None:
+def _decide(
+    named: list[Named], verdict: str, evid: dict[str, Evidence], cfg: PlantConfig | None = None
+) -> None:
     """Which changes are claimed, and why not: the compensation rule (_claims), a fit at the edge of its box
     (never a value), then the evidence rule (claims.Evidence.ok): a change is claimed only when, on the
     channels it acts on, the fit closes most of the gap to the noise floor and leaves no significant region;
     otherwise the name is the closest catalogue effect, not a claim."""
     _claims(named, verdict)
     for n in named:
-        n.edge, n.evidence = _at_edge(n), evid.get(n.name)
+        n.edge, n.evidence = _at_edge(n, cfg), evid.get(n.name)
         if n.edge:
             n.why = f"not claimed: {', '.join(n.edge)} at the edge of its search box (the fit is not a value)"
         elif not n.claimed:
@@ -385,11 +388,12 @@ def _honest(base: PlantConfig, named: list[Named], held: Runs, sig_h, z0) -> tup
     return named, notes
 
 
-def _at_edge(n: Named) -> list[str]:
-    """The parameters of a named change fitted within EDGE of an end of their search box."""
+def _at_edge(n: Named, cfg: PlantConfig | None = None) -> list[str]:
+    """The parameters of a named change fitted within EDGE of an end of their search box (on the plant
+    `cfg`, whose pot ADC sets the FULL_SCALE_BOXES; the paper's when None)."""
     out = []
     for p, v in n.params.items():
-        lo, hi, log = SPACE[n.name][p]
+        lo, hi, log = box(n.name, p, full_scale(cfg))
         u = np.log(v / lo) / np.log(hi / lo) if log and v > 0 else (v - lo) / (hi - lo)
         if u <= EDGE or u >= 1 - EDGE:
             out.append(p)
@@ -460,7 +464,7 @@ def identify(
     sig_p = uncertainty(base, {n.name: n.params for n in named}, fit, sig_f) if named else {}
     for n in named:
         n.sigma = sig_p[n.name]
-    _decide(named, verdict, _evidence(base, named, held, sig_h, z0, z1, floor, labels))
+    _decide(named, verdict, _evidence(base, named, held, sig_h, z0, z1, floor, labels), base)
     added = [n for n in named if n.before is None]
     res = Result(added, verdict, cfg, held, z0, z1, floor, rounds, labels=labels)
     res.recalibrated = [n for n in named if n.before is not None]

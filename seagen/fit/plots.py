@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from seagen.actuator import default_actuator
 from seagen.fit.predict import TARGET, TASKS, UNIT, kinematics_predict, predict
 from seagen.fit.sf import eval_sf
 from seagen.geometry import Geometry
@@ -46,7 +47,7 @@ def plot_validation(
     when None) and every model of the task."""
     fig = figure(figsize=(7, 5), dpi=100)
     ax = fig.add_subplot()
-    x = validation_time(val)
+    x = validation_time(val, (geo.actuator if geo else default_actuator()).loop_hz)
     ax.plot(x, val[TARGET[task]], "k-", lw=2, label="measured")
     ax.plot(x, kinematics_predict(task, val, geo), ":", label="kinematics")
     for name, m in named.items():
@@ -61,13 +62,15 @@ def plot_validation(
     save_png(fig, path, bbox_inches="tight")
 
 
-def validation_time(val: pd.DataFrame) -> np.ndarray:
-    """Seconds along the validation set: its t_s, continued across trials, else the sample index at 100 Hz."""
+def validation_time(val: pd.DataFrame, loop_hz: float | None = None) -> np.ndarray:
+    """Seconds along the validation set: its t_s, continued across trials, else the sample index at the
+    control-loop rate `loop_hz` (the paper's actuator's when None)."""
+    period = 1.0 / (loop_hz or default_actuator().loop_hz)
     if "t_s" not in val.columns:
-        return np.arange(len(val)) / 100.0
+        return np.arange(len(val)) * period
     t = val["t_s"].to_numpy(dtype=float)
     step = np.diff(t, prepend=t[0])
-    step[step < 0] = 0.01  # a new trial restarts its clock: keep the axis running
+    step[step < 0] = period  # a new trial restarts its clock: keep the axis running
     return t[0] + np.cumsum(step) if len(t) else t
 
 

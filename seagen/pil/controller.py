@@ -21,9 +21,17 @@ class PilController:
     """A batch of actuators served by one firmware on one QEMU board (started at the first reset)."""
 
     def __init__(
-        self, files: dict[str, str], ctl: str, core: str, cal: str | None = None, onboard: bool = True
+        self,
+        files: dict[str, str],
+        ctl: str,
+        core: str,
+        cal: str | None = None,
+        onboard: bool = True,
+        shared: bool = True,
     ) -> None:
+        """`shared`: the two models of an actuator read one feature pipeline (pil_model.h's PIL_SHARED)."""
         self.files, self.ctl, self.cal, self.core, self.onboard = files, ctl, cal, core, onboard
+        self.shared = shared
         self.board = board(core)
         self.link: Link | None = None
         self.n = 0
@@ -35,7 +43,8 @@ class PilController:
         """Build the firmware for n actuators, boot it, read its SysTick calibration."""
         if not 1 <= n <= MAX_ACTUATORS:
             raise UserError(f"the firmware serves 1..{MAX_ACTUATORS} actuators, not {n}")
-        elf = build_firmware(self.files, model_header(self.ctl, self.cal, n, self.onboard), self.core)
+        header = model_header(self.ctl, self.cal, n, self.onboard, self.shared)
+        elf = build_firmware(self.files, header, self.core)
         self.link = Link(elf, self.board, self.timeout_s)
         empty, loop = struct.unpack("<II", self.link.exchange("C", 0, b"", 8, "calibration"))
         if loop <= empty:

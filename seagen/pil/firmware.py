@@ -45,10 +45,18 @@ def board(core: str) -> Board:
     return BOARDS[core]
 
 
-def model_header(ctl: str, cal: str | None, n_max: int, onboard: bool = True) -> str:
+def model_header(ctl: str, cal: str | None, n_max: int, onboard: bool = True, shared: bool = True) -> str:
     """pil_model.h: which controller (NAME_controller of an export) and calibration model the loop runs;
-    `onboard` False leaves the controller without its predictor (the setpoint comes over the link)."""
+    `onboard` False leaves the controller without its predictor (the setpoint comes over the link); `shared`
+    (with a calibration model of the same actuator) runs one feature pipeline per actuator for both models
+    (NAME_step_features, NAME_controller_init_shared), else each model its own."""
     ctl = assert_valid_prefix(ctl)
+    shared = shared and cal is not None
+    init = (
+        f"{ctl}_controller_init_shared((a), (e), (p), (f))"
+        if shared
+        else f"{ctl}_controller_init((a), (e), (p))"
+    )
     lines = [
         "/* pil_model.h -- written by seagen pil: the models of this firmware. */",
         "#ifndef PIL_MODEL_H",
@@ -57,24 +65,36 @@ def model_header(ctl: str, cal: str | None, n_max: int, onboard: bool = True) ->
         f'#include "{ctl}_controller.h"',
         f"#define PIL_N_MAX {int(n_max)}u",
         f"typedef {ctl}_controller_t pil_ctl_t;",
-        f"#define PIL_CTL_INIT(a, e, p) {ctl}_controller_init((a), (e), (p))"
+        f"#define PIL_CTL_INIT(a, e, p, f) {init}"
         if onboard
-        else f"#define PIL_CTL_INIT(a, e, p) ({ctl}_controller_init((a), (e), (p)), {NO_PREDICTOR})",
+        else f"#define PIL_CTL_INIT(a, e, p, f) ({init}, {NO_PREDICTOR})",
         f"#define PIL_CTL_TICK(a, e, p, f) {ctl}_controller_tick((a), (e), (p), (f))",
         "#define PIL_CTL_STATE(a) (&(a)->state)",
         "#define PIL_CTL_STATE_RW(a) (&(a)->state)",
     ]
+    lines.append(f"#define PIL_SHARED {int(shared)}")
     if cal is None:
         lines.append("#define PIL_HAS_CAL 0")
     else:
         cal = assert_valid_prefix(cal)
+        step = (
+            f"(sea_features_step((s), {cal.upper()}_ACT, (e), (p), (f)), {cal}_step_features(f))"
+            if shared
+            else f"{cal}_step((s), (e), (p))"
+        )
         lines += [
             f'#include "{cal}.h"',
             "#define PIL_HAS_CAL 1",
             f"typedef {cal}_state_t pil_cal_t;",
             f"#define PIL_CAL_RESET(s) {cal}_reset(s)",
-            f"#define PIL_CAL_STEP(s, e, p) {cal}_step((s), (e), (p))",
+            f"#define PIL_CAL_STEP(s, f, e, p) {step}",
         ]
+        if shared:
+            lines += [
+                f"#if {cal.upper()}_ACT_KEY != {ctl.upper()}_ACT_KEY",
+                f'#error "{cal} and {ctl} were exported for different actuators"',
+                "#endif",
+            ]
     return "\n".join([*lines, "#endif /* PIL_MODEL_H */", ""])
 
 

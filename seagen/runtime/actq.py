@@ -17,7 +17,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from seagen.actuator import Actuator, ActuatorError, default_actuator
+from seagen.actuator import Actuator, ActuatorError, Control, default_actuator
 from seagen.c_runtime import defines
 from seagen.geometry import geometry
 
@@ -54,12 +54,18 @@ class ActQ:
     pot_avg_ticks: int  # ticks per pot average (10 Hz)
     pot_stuck_ticks: int  # consecutive rail readings that make a fault (100 ms)
     loop_hz: float
+    control: Control  # the description's force range and PID gains (SI; ControlConfig.for_act quantizes them)
 
     @property
     def cid(self) -> str:
         """The C name of the constant object: sea_act_ and the digest's first 32 bits as 8 letters a-p (one
         per hex digit: no digits in file or check names)."""
         return "sea_act_" + "".join("abcdefghijklmnop"[int(h, 16)] for h in self.digest[:8])
+
+    @property
+    def key(self) -> str:
+        """NAME_ACT_KEY: the same 32 bits as a C literal; models with equal keys may share one pipeline."""
+        return f"0x{self.digest[:8]}u"
 
     @property
     def table(self) -> np.ndarray:
@@ -175,6 +181,7 @@ def act_q(act: Actuator) -> ActQ:
         pot_avg_ticks=_ticks(act, POT_AVG_HZ, "pot average"),
         pot_stuck_ticks=_ticks(act, 1.0 / POT_STUCK_S, "stuck-pot check"),
         loop_hz=act.loop_hz,
+        control=act.control,
     )
 
 

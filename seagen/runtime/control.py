@@ -12,7 +12,7 @@ from seagen.actuator import Actuator, default_actuator
 from seagen.c_runtime import defines
 from seagen.runtime.actq import ActQ, act_q_of
 from seagen.runtime.fixed import FORCE_FRAC_BITS, compression_q16, div_rne, rshift_rne, sat32
-from seagen.runtime.pid import DEFAULT_PID, DEFAULT_PID_SI, PidParams, PidState, merge, pid_reset, pid_step
+from seagen.runtime.pid import DEFAULT_PID, PidParams, PidState, merge, pid_reset, pid_si, pid_step
 
 _C = defines("sea_control.h")  # the header is the one definition of the controller's constants
 FORCE_FRAC = FORCE_FRAC_BITS  # SEA_FORCE_FRAC_BITS: desired force in Q16 N
@@ -31,7 +31,8 @@ FAULT_NAMES = {
 MLP_PRED_AVG = (
     9  # MLP predictors: desired = mean of the last 9 predictions (smooths the pot noise in its inputs)
 )
-FORCE_RANGE_N = (0.0, 20.0)  # calibrated range of the desired force at the shaft (training peaks <= 19 N)
+# The paper's calibrated range of the desired force at the shaft (its description's control.force_max_n).
+FORCE_RANGE_N = (0.0, PAPER.control.force_max_n)
 
 # (enc, pot, force_q16) int64 arrays -> desired compression, Q16 mm (int64 array)
 Predictor = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
@@ -82,10 +83,12 @@ class ControlConfig:
 
     @classmethod
     def for_act(cls, a: ActQ, **kw: Any) -> ControlConfig:
-        """A configuration of actuator `a` with its default encoder-jump and stuck-pot bounds."""
+        """A configuration of actuator `a`: its PID gains and desired-force range, its default encoder-jump
+        and stuck-pot bounds."""
         kw.setdefault(
-            "pid", PidParams.from_si(**DEFAULT_PID_SI, max_mv=a.motor_max_mv, tick_s=1.0 / a.loop_hz)
+            "pid", PidParams.from_si(**pid_si(a.control), max_mv=a.motor_max_mv, tick_s=1.0 / a.loop_hz)
         )
+        kw.setdefault("force_max", q16(a.control.force_max_n))
         return cls(act=a, enc_jump_max=a.enc_jump_max, pot_stuck_ticks=a.pot_stuck_ticks, **kw)
 
 
@@ -207,12 +210,15 @@ def sensor_walk(
     steps: tuple[int, int] = (40, 20),
     force_n: tuple[float, float] = (2.0, 18.0),
     hold: int = 100,
+    pot_max: int = PAPER.pot_max,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Test sequences for controller ticks, (n, *batch) each: raw enc and pot random walks (steps of at most
-    `steps` counts from `start`, pot kept in 1..4094) and a desired force (Q16 N) drawn in `force_n` and
-    held `hold` ticks."""
+    `steps` counts from `start`, pot kept off its rails: 1..pot_max - 1) and a desired force (Q16 N) drawn
+    in `force_n` and held `hold` ticks."""
     rng = np.random.default_rng(seed)
     enc = start[0] + np.cumsum(rng.integers(-steps[0], steps[0] + 1, (n, *batch)), axis=0)
-    pot = np.clip(start[1] + np.cumsum(rng.integers(-steps[1], steps[1] + 1, (n, *batch)), axis=0), 1, 4094)
+    pot = np.clip(
+        start[1] + np.cumsum(rng.integers(-steps[1], steps[1] + 1, (n, *batch)), axis=0), 1, pot_max - 1
+    )
     force = np.repeat(rng.uniform(force_n[0], force_n[1], (n // hold + 1, *batch)), hold, axis=0)[:n]
     return enc, pot, np.vectorize(q16, otypes=[np.int64])(force)

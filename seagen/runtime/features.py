@@ -130,16 +130,25 @@ def angle_q24(a: ActQ, pot: np.ndarray) -> np.ndarray:
     return np.asarray(pot, dtype=np.int64) * a.pot_deg_q24 + a.pot_offset_q24
 
 
+Step = tuple[np.ndarray, np.ndarray, np.ndarray]  # one sea_features_out: (b, d, dd), each (N_BASE, batch)
+
+
 class Pipeline:
-    """Twin of sea_features_state with sea_features_step, for a batch of actuators (one call per tick)."""
+    """Twin of sea_features_state with sea_features_step, for a batch of actuators (one call per tick).
+
+    `last` is the latest step's output, the twin of a sea_features_out that an actuator's models share
+    (NAME_step_features, NAME_predict_features_q16 read it instead of running a pipeline of their own).
+    """
 
     def __init__(self, a: ActQ) -> None:
         self.act, self.diff = a, Differences()
+        self.last: Step | None = None
 
-    def step(self, enc: np.ndarray, pot: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def step(self, enc: np.ndarray, pot: np.ndarray) -> Step:
         """(b, d, dd), each (N_BASE, batch), of one sample of raw counts."""
         b = bases_q(self.act, enc, pot)
-        return (b, *self.diff(b))
+        self.last = (b, *self.diff(b))
+        return self.last
 
 
 def value(a: ActQ, kind: int, index: int, b: np.ndarray, d: np.ndarray, dd: np.ndarray) -> np.ndarray:

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from seagen.actuator import Control, default_actuator
 from seagen.runtime.actq import act_q_of
 from seagen.runtime.fixed import COMP_FRAC_BITS, clamp, rshift_rne, sat32
 
@@ -62,15 +63,21 @@ class PidParams:
         return (self.kp, self.ki, self.kd, self.d_alpha, self.margin, self.out_min, self.out_max)
 
 
-# Tuned on the simulated plant (c_runtime/README.md "Tuned gains"; python -m seagen.control.tune).
-DEFAULT_PID_SI: dict[str, Any] = {
-    "kp_v_mm": 31.0,
-    "ki_v_mm_s": 6.5,
-    "kd_v_s_mm": 0.85,
-    "d_alpha": 0.95,
-    "margin_mm": 0.025,
-    "limit_v": 6.5,
-}
+def pid_si(c: Control) -> dict[str, Any]:
+    """The PID settings of a description's [control] table as PidParams.from_si arguments."""
+    return {
+        "kp_v_mm": c.kp_v_per_mm,
+        "ki_v_mm_s": c.ki_v_per_mm_s,
+        "kd_v_s_mm": c.kd_v_s_per_mm,
+        "d_alpha": c.d_alpha,
+        "margin_mm": c.margin_mm,
+        "limit_v": c.limit_v,
+    }
+
+
+# The paper's description's gains, tuned on its simulated plant (c_runtime/README.md "Tuned gains";
+# python -m seagen.control.tune).
+DEFAULT_PID_SI: dict[str, Any] = pid_si(default_actuator().control)
 DEFAULT_PID = PidParams.from_si(**DEFAULT_PID_SI)
 
 

@@ -115,6 +115,7 @@ RECORD: tuple[Deviation, ...] = (
     *_d("D4", "20.7", "sea_nn.c", r"^#define SEA_DENSE_BODY\(ACC, SHIFT_FN\)"),
     # D5 (11.5, advisory): the predictor callback's void *ctx back to its state type.
     *_d("D5", "11.5", MODEL_C, r"_step\(\(\w+_state_t \*\)ctx, enc, pot"),
+    *_d("D5", "11.5", MODEL_C, r"_step_features\(\(const sea_features_out \*\)ctx, "),
     *_d("D5", "11.5", "sea_control_extra.c", r"const sea_kin_params \*k = \(const sea_kin_params \*\)ctx;"),
     # D6 (18.4, advisory): the target kernels step their weight pointer by a constant stride.
     *_d("D6", "18.4", MODEL_C, r"^ +[uw] \+= \d+;$"),

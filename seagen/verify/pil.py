@@ -143,10 +143,11 @@ def run_pil(
     allow_pickle: bool = False,
     actuator=None,
 ) -> PilResult:
-    """The experiment (targets 5/10/15 N, `actuators` contact angles, `ticks` per run) on the board."""
+    """The experiment (the actuator's targets, `actuators` contact angles over its linkage range, `ticks`
+    per run) on the board."""
     from seagen.codegen.actfile import export_actuator
     from seagen.codegen.controller import shipped_config
-    from seagen.control.experiment import TARGETS_N
+    from seagen.control.experiment import contact_deg, targets_n
     from seagen.control.gentwin import StepTwin
     from seagen.plant import PlantConfig
 
@@ -160,18 +161,19 @@ def run_pil(
             f"{man.path}: exported without --controller (re-export with seagen export --controller)"
         )
     v.prefix = ex.prefix
-    cal_qm, cal = None, None
+    cal_qm, cal, shared = None, None, False
     if cal_model is not None:
         cal_files, cal_ex, _ = _export(root, cal_model, None, v, allow_pickle, actuator)
         cal_qm, cal = cal_ex.qmodel, cal_ex.prefix
         files = {**files, **cal_files}
-    board = PilController(files, ex.prefix, core, cal)
+        shared = cal_ex.act is not None and ex.act is not None and cal_ex.act.cid == ex.act.cid
+    board = PilController(files, ex.prefix, core, cal, shared=shared)  # one pipeline for one actuator
     res = PilResult(v, core, board.board.machine, actuators)
     cfg = shipped_config(ex.qmodel, ex.act)  # the configuration export --controller renders
     plant_cfg = PlantConfig().with_actuator(export_actuator(ex.loaded, actuator, model))  # the export's
-    angles = np.linspace(7.0, 25.0, actuators)
+    angles = np.array(contact_deg(plant_cfg.actuator, actuators))
     try:
-        for i, target in enumerate(TARGETS_N):
+        for i, target in enumerate(targets_n(plant_cfg.actuator)):
             twin_cfg = replace(cfg, predictor=StepTwin(ex.prefix, ex.qmodel, ex.act))
             problem, done = closed_loop(
                 board, twin_cfg, cal_qm, angles, target, ticks, seed=i, plant_cfg=plant_cfg

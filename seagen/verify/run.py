@@ -8,10 +8,12 @@ from pathlib import Path
 
 import numpy as np
 
+from seagen.actuator import Actuator
 from seagen.codegen.manifest import Manifest
 from seagen.datacheck import check_data_dir
 from seagen.defaults import resolve_model
 from seagen.errors import CheckFailed, UserError
+from seagen.geometry import geometry
 from seagen.reference import onnx_ref
 from seagen.toolchain.equivalence import compare, edge_inputs, random_inputs, step_problem
 from seagen.toolchain.targets import NAMES, build_target
@@ -61,13 +63,27 @@ def disk_files(folder: Path, man: Manifest) -> dict[str, str]:
     return {n: (folder / n).read_text() for n in man.files if n.endswith((".c", ".h"))}
 
 
-def synthetic_trials(qm, pot_max: int, n_trials: int = 4, n: int = 400, seed: int = 0):
-    """enc, pot, trial ids: bounded random walks inside the calibrated pot/enc ranges (or the sensors':
-    the pot's ADC range 0..pot_max)."""
+ENC_BELOW = 0.05  # the synthetic encoder range reaches this fraction of its span below zero (drift)
+
+
+def enc_span(act: Actuator) -> tuple[float, float]:
+    """Encoder counts an actuator's data can span: from home to contact at the top of its linkage range,
+    then the compression of the top of its force range (Eq. 2-3), with ENC_BELOW of it below zero."""
+    geo = geometry(act)
+    mm = (
+        float(geo.shaft_advance_mm(act.linkage.angle_max_deg)) + act.control.force_max_n / geo.spring_n_per_mm
+    )
+    hi = mm / geo.mm_per_count
+    return -ENC_BELOW * hi, hi
+
+
+def synthetic_trials(qm, act: Actuator, n_trials: int = 4, n: int = 400, seed: int = 0):
+    """enc, pot, trial ids: bounded random walks inside the calibrated pot/enc ranges (or the sensors' of
+    actuator `act`: its pot's ADC range, its encoder's span)."""
     rng = np.random.default_rng(seed)
     rng_of = {i.signal.name: (i.signal.lo, i.signal.hi) for i in qm.inputs}
-    plo, phi = rng_of.get("pot", (0.0, float(pot_max)))
-    elo, ehi = rng_of.get("enc", (-100.0, 2700.0))
+    plo, phi = rng_of.get("pot", (0.0, float(act.adc_max)))
+    elo, ehi = rng_of.get("enc", enc_span(act))
     enc, pot = [], []
     for _ in range(n_trials):
         e = np.clip(elo + np.cumsum(rng.integers(-3, 4, n)) + rng.uniform(0, ehi - elo), elo, ehi)
@@ -85,7 +101,7 @@ def check_steps(v: Verdict, ex, target, data: str | None, onnx_model) -> None:
     qm, p = ex.qmodel, ex.prefix
     ext_names = external_inputs(qm)
     if data is None:
-        enc, pot, trial = synthetic_trials(qm, ex.act.pot_max)
+        enc, pot, trial = synthetic_trials(qm, ex.actuator)
         rng = np.random.default_rng(1)
         ext = np.column_stack(
             [rng.integers(qi.lo_q, qi.hi_q + 1, len(enc)) for qi in qm.inputs if qi.signal.name in ext_names]

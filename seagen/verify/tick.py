@@ -7,12 +7,14 @@ import numpy as np
 from seagen.verify.result import Verdict
 
 
-def sequence(qm, n: int = 800, seed: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Raw enc/pot random walks and a desired force (Q16 N) stepping through the calibrated force range."""
+def sequence(qm, n: int = 800, seed: int = 3, act=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Raw enc/pot random walks (inside the pot range of the export's actuator `act`, the paper's when None)
+    and a desired force (Q16 N) stepping through the calibrated force range."""
+    from seagen.runtime.actq import act_q_of
     from seagen.runtime.control import sensor_walk
 
     force_n = next((i.signal.lo, i.signal.hi) for i in qm.inputs if i.signal.name == "force_n")
-    return sensor_walk(seed, n, force_n=force_n)
+    return sensor_walk(seed, n, force_n=force_n, pot_max=(act or act_q_of()).pot_max)
 
 
 def disk_ticks(files: dict[str, str], p: str, enc, pot, force) -> np.ndarray:
@@ -45,7 +47,7 @@ def twin_ticks(qm, prefix: str, enc, pot, force, act=None) -> np.ndarray:
 
 def check_controller(v: Verdict, files: dict[str, str], prefix: str, qm, act=None) -> None:
     """Record whether the exported controller's ticks equal the twin's on one synthetic sequence."""
-    enc, pot, force = sequence(qm)
+    enc, pot, force = sequence(qm, act=act)
     got = disk_ticks(files, prefix, enc, pot, force)
     want = twin_ticks(qm, prefix, enc, pot, force, act)
     bad = np.flatnonzero(got != want)

@@ -49,16 +49,21 @@ void tiny_mlp_reset(tiny_mlp_state_t *s)
     sea_features_reset(s);
 }
 
+int16_t tiny_mlp_step_features(const sea_features_out *f)
+{
+    int16_t in[TINY_MLP_N_IN];
+    int16_t out[TINY_MLP_N_OUT];
+    in[0] = sea_to_s16(sea_features_value(f, SEA_FEAT_BASE, SEA_FEAT_POT), 0, 3); /* pot */
+    in[1] = sea_to_s16(sea_features_value(f, SEA_FEAT_D, SEA_FEAT_ENC), 0, 9); /* d_enc */
+    in[2] = sea_to_s16(sea_features_value(f, SEA_FEAT_DD, SEA_FEAT_COMP), 16, 16); /* dd_compression_mm */
+    in[3] = sea_to_s16(sea_features_value(f, SEA_FEAT_ANGLE, 0), 24, 9); /* angle_deg */
+    tiny_mlp_infer(in, out);
+    return out[0];
+}
+
 int16_t tiny_mlp_step(tiny_mlp_state_t *s, int32_t enc, int32_t pot)
 {
     sea_features_out f;
-    int16_t in[TINY_MLP_N_IN];
-    int16_t out[TINY_MLP_N_OUT];
     sea_features_step(s, TINY_MLP_ACT, enc, pot, &f);
-    in[0] = sea_to_s16(sea_features_value(&f, SEA_FEAT_BASE, SEA_FEAT_POT), 0, 3); /* pot */
-    in[1] = sea_to_s16(sea_features_value(&f, SEA_FEAT_D, SEA_FEAT_ENC), 0, 9); /* d_enc */
-    in[2] = sea_to_s16(sea_features_value(&f, SEA_FEAT_DD, SEA_FEAT_COMP), 16, 16); /* dd_compression_mm */
-    in[3] = sea_to_s16(sea_features_value(&f, SEA_FEAT_ANGLE, 0), 24, 9); /* angle_deg */
-    tiny_mlp_infer(in, out);
-    return out[0];
+    return tiny_mlp_step_features(&f);
 }

@@ -35,8 +35,11 @@
 /* State of the feature pipeline (sea_features.h): previous pot, enc and compression for the differences. */
 typedef sea_features_state tiny_mlp_state_t;
 
-/* The actuator this model was exported for: its constants (sea_act, sea_fixed.h) in sea_act_iglhmlcd.c. */
+/* The actuator this model was exported for: its constants (sea_act, sea_fixed.h) in sea_act_iglhmlcd.c, and its
+ * key (the description's sha256, first 32 bits): models with equal keys are for the same actuator and can
+ * share one feature pipeline (tiny_mlp_step_features). */
 #define TINY_MLP_ACT (&sea_act_iglhmlcd)
+#define TINY_MLP_ACT_KEY 0x86b7cb23u
 
 /* The stateless model on already-quantized features. */
 void tiny_mlp_infer(const int16_t in[TINY_MLP_N_IN], int16_t out[TINY_MLP_N_OUT]);
@@ -47,5 +50,9 @@ void tiny_mlp_reset(tiny_mlp_state_t *s);
 /* One control-loop sample from raw sensor counts:
  * the feature pipeline, then tiny_mlp_infer. Returns force_n in Q11. */
 int16_t tiny_mlp_step(tiny_mlp_state_t *s, int32_t enc, int32_t pot);
+
+/* tiny_mlp_infer on one sample's features already computed by sea_features_step(s, TINY_MLP_ACT, enc, pot, f):
+ * the actuator's pipeline run once per tick and shared by its models (tiny_mlp_step is that call and this). */
+int16_t tiny_mlp_step_features(const sea_features_out *f);
 
 #endif /* TINY_MLP_H */

@@ -28,20 +28,33 @@ void tiny_sf_reset(tiny_sf_state_t *s)
     sea_features_reset(s);
 }
 
+int16_t tiny_sf_step_features(const sea_features_out *f, int16_t force_n_q)
+{
+    int16_t in[TINY_SF_N_IN];
+    int16_t out[TINY_SF_N_OUT];
+    in[0] = force_n_q; /* force_n */
+    in[1] = sea_to_s16(sea_features_value(f, SEA_FEAT_ANGLE, 0), 24, 10); /* angle_deg */
+    tiny_sf_infer(in, out);
+    return out[0];
+}
+
 int16_t tiny_sf_step(tiny_sf_state_t *s, int32_t enc, int32_t pot, int16_t force_n_q)
 {
     sea_features_out f;
-    int16_t in[TINY_SF_N_IN];
-    int16_t out[TINY_SF_N_OUT];
     sea_features_step(s, TINY_SF_ACT, enc, pot, &f);
-    in[0] = force_n_q; /* force_n */
-    in[1] = sea_to_s16(sea_features_value(&f, SEA_FEAT_ANGLE, 0), 24, 10); /* angle_deg */
-    tiny_sf_infer(in, out);
-    return out[0];
+    return tiny_sf_step_features(&f, force_n_q);
 }
 
 int32_t tiny_sf_predict_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q16)
 {
     int16_t y = tiny_sf_step((tiny_sf_state_t *)ctx, enc, pot, sea_to_s16(force_q16, SEA_FORCE_FRAC_BITS, TINY_SF_IN_Q_FORCE_N));
+    return sea_to_s32(y, TINY_SF_OUT_Q, SEA_COMP_FRAC_BITS);
+}
+
+int32_t tiny_sf_predict_features_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q16)
+{
+    int16_t y = tiny_sf_step_features((const sea_features_out *)ctx, sea_to_s16(force_q16, SEA_FORCE_FRAC_BITS, TINY_SF_IN_Q_FORCE_N));
+    (void)enc; /* the features of this tick are already in *ctx */
+    (void)pot;
     return sea_to_s32(y, TINY_SF_OUT_Q, SEA_COMP_FRAC_BITS);
 }

@@ -17,6 +17,12 @@ static pil_ctl_t pil_ctl[PIL_N_MAX];
 #if PIL_HAS_CAL
 static pil_cal_t pil_cal[PIL_N_MAX];
 #endif
+#if PIL_SHARED /* one feature pipeline per actuator, read by both models (pil_cal holds its state) */
+static sea_features_out pil_feat[PIL_N_MAX];
+#define PIL_FEAT(i) (&pil_feat[i])
+#else
+#define PIL_FEAT(i) 0
+#endif
 static int32_t pil_cmd[PIL_N_MAX];
 static int16_t pil_est[PIL_N_MAX];
 static uint8_t pil_in[PIL_IN_MAX];
@@ -112,7 +118,7 @@ static void pil_tick(uint32_t n, const uint8_t *in)
         const int32_t enc = pil_get32(in + 12u * i), pot = pil_get32(in + 12u * i + 4u);
         const int32_t force = pil_get32(in + 12u * i + 8u);
 #if PIL_HAS_CAL
-        pil_est[i] = PIL_CAL_STEP(&pil_cal[i], enc, pot);
+        pil_est[i] = PIL_CAL_STEP(&pil_cal[i], PIL_FEAT(i), enc, pot);
 #endif
         pil_cmd[i] = PIL_CTL_TICK(&pil_ctl[i], enc, pot, force);
     }
@@ -128,7 +134,7 @@ static int pil_frame(uint8_t type, uint32_t n, uint8_t seq, const uint8_t *in)
 #if PIL_HAS_CAL
             PIL_CAL_RESET(&pil_cal[i]);
 #endif
-            PIL_CTL_INIT(&pil_ctl[i], pil_get32(in + 8u * i), pil_get32(in + 8u * i + 4u));
+            PIL_CTL_INIT(&pil_ctl[i], pil_get32(in + 8u * i), pil_get32(in + 8u * i + 4u), PIL_FEAT(i));
             pil_cmd[i] = 0;
             pil_est[i] = 0;
         }
