@@ -82,7 +82,7 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
     else:
         named = (
             ", ".join(
-                f"{e['name']} ({e['confidence']:.0%}{'' if e['claimed'] else ', compensation only'})"
+                f"{e['name']} ({e['confidence']:.0%}{'' if e['claimed'] else ', not claimed'})"
                 for e in s["effects"]
             )
             or "nothing"

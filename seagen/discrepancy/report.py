@@ -167,10 +167,11 @@ def _timing(res: Result) -> str:
 
 
 def _claim(n) -> str:
-    """'named' for a claimed change, else why not: at the edge of its search box, or a compensation."""
-    if n.edge:
-        return f"not claimed: {', '.join(n.edge)} at the edge of its search box (the fit is not a value)"
-    return "named" if n.claimed else "compensation only (the data's form differs; not a claim)"
+    """'named' for a claimed change, else why not (workflow._decide): at the edge of its search box, a
+    compensation, or too little evidence where it acts (closest, not claimed)."""
+    if n.claimed:
+        return "named"
+    return n.why or "compensation only (the data's form differs; not a claim)"
 
 
 def _remainder(res: Result) -> str:
@@ -265,6 +266,7 @@ def summary(res: Result) -> dict:
                 "sigma": n.sigma,
                 "confidence": n.confidence,
                 "claimed": n.claimed,
+                "why": n.why,
                 "edge": n.edge,
             }
             for n in res.effects
@@ -279,6 +281,7 @@ def summary(res: Result) -> dict:
                 "plausible": plausible(n.name, p, v),
                 "confidence": n.confidence,
                 "claimed": n.claimed,
+                "why": n.why,
             }
             for n in res.recalibrated
             if n.before is not None

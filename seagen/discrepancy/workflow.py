@@ -24,6 +24,7 @@ from seagen.discrepancy.candidates import (
     screen,
     start,
 )
+from seagen.discrepancy.claims import Evidence, channel_rms_masked, evidence, footprints
 from seagen.discrepancy.learned import Learned, fit_learned, with_learned
 from seagen.discrepancy.recalibrate import PLAUSIBLE, BaseCheck, base_check, plausible, uncertainty
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
@@ -70,8 +71,10 @@ class Named:
     confidence: float
     before: dict[str, float] | None = None  # the base's values when this is a recalibration
     sigma: dict[str, float] = field(default_factory=dict)  # 1-sigma uncertainty of each parameter
-    claimed: bool = True  # False: a compensation in a case left unexplained, or a fit at its box's edge
+    claimed: bool = True  # False: a compensation, a fit at its box's edge, or too little evidence (_decide)
     edge: list[str] = field(default_factory=list)  # parameters fitted at the edge of their search box
+    evidence: Evidence | None = None  # what its fit does where it acts (claims.py)
+    why: str = ""  # why it is not claimed, in words ('' when claimed)
 
 
 @dataclass
@@ -316,6 +319,38 @@ def _claims(named: list[Named], verdict: str) -> None:
         n.claimed = n is first
 
 
+def _evidence(
+    base, named: list[Named], held: Runs, sig_h, z0, z1, floor: float, labels
+) -> dict[str, Evidence]:
+    """Each named change's evidence: its footprint (the change alone undone), the channels' RMS before and
+    after, and the significant regions the final residual leaves on the channels it acts on."""
+    if not named:
+        return {}
+    fp, without = footprints(base, {n.name: n.params for n in named}, held, sig_h)
+    before, after = channel_rms_masked(z0, held.mask), channel_rms_masked(z1, held.mask)
+    table = region_table(held, z1, labels)
+    return {n.name: evidence(fp[n.name], before, after, floor, table, without[n.name]) for n in named}
+
+
+def _decide(
+    named: list[Named], verdict: str, evid: dict[str, Evidence], cfg: PlantConfig | None = None
+) -> None:
+    """Which changes are claimed, and why not: the compensation rule (_claims), a fit at the edge of its box
+    (never a value), then the evidence rule (claims.Evidence.ok): a change is claimed only when, on the
+    channels it acts on, the fit closes most of the gap to the noise floor and leaves no significant region;
+    otherwise the name is the closest catalogue effect, not a claim."""
+    _claims(named, verdict)
+    for n in named:
+        n.edge, n.evidence = _at_edge(n, cfg), evid.get(n.name)
+        if n.edge:
+            n.why = f"not claimed: {', '.join(n.edge)} at the edge of its search box (the fit is not a value)"
+        elif not n.claimed:
+            n.why = "compensation only (the data's form differs; not a claim)"
+        elif n.evidence is not None and not n.evidence.ok:
+            n.why = f"closest, not claimed: its fit {n.evidence.words()}"
+        n.claimed = not n.why
+
+
 def channel_rms(z: dict[str, np.ndarray]) -> dict[str, float]:
     """Held-out residual RMS per scored channel (noise sigmas)."""
     return {c: float(np.sqrt(np.nanmean(z[c] ** 2))) for c in SCORE_CHANNELS}
@@ -436,10 +471,7 @@ def identify(
     sig_p = uncertainty(base, {n.name: n.params for n in named}, fit, sig_f) if named else {}
     for n in named:
         n.sigma = sig_p[n.name]
-    _claims(named, verdict)
-    for n in named:
-        n.edge = _at_edge(n, base)
-        n.claimed = n.claimed and not n.edge
+    _decide(named, verdict, _evidence(base, named, held, sig_h, z0, z1, floor, labels), base)
     added = [n for n in named if n.before is None]
     res = Result(added, verdict, cfg, held, z0, z1, floor, rounds, labels=labels)
     res.recalibrated = [n for n in named if n.before is not None]
