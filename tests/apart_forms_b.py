@@ -79,7 +79,7 @@ class DwellFriction(Plant):
     """Rate-and-state (Dieterich-Ruina aging) friction on the shaft: a contact age theta grows while the
     shaft rests (d theta = dt) and is worn away by sliding (theta -> theta exp(-|dy|/D_c)); the friction
     band gains a ln(1 + theta / t0). Break-away after a rest is stronger the longer the rest; in steady
-    sliding theta = D_c / v, a weak velocity-weakening. The shaft has rested REST_S before each trial."""
+    sliding theta = D_c / v, a weak velocity-weakening. The shaft has rested rest_s before each trial."""
 
     a, t0, dc = 0.45, 0.02, 0.02  # N, s, mm
     rest_s = 2.0  # s at rest before the trial starts
