@@ -48,6 +48,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="bench --families: quick moves (about half the time); bench --rig: nothing-hidden cases only",
     )
     p.add_argument("--jobs", type=int, default=2, help="bench: worker processes")
+    p.add_argument(
+        "--cases",
+        metavar="NAMES",
+        help="bench: only these cases, comma-separated: a hidden effect (the cases hiding it), a kind "
+        "(single, pair, control; --rig: misset) or, with --families, a family name",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_discrepancy)
 
@@ -119,11 +125,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
     act = given_actuator(args)  # None: the paper's
     if act is not None:
         sample_every(PlantConfig(actuator=act))  # a loop rate the plant cannot log is refused first
+    args.only = _cases(args)
     if args.families:
         return _print_families(args, act)
     if args.rig:
         return _print_rig(args, act)
-    out = bench(args.seeds, jobs=max(1, args.jobs), act=act)
+    out = bench(args.seeds, jobs=max(1, args.jobs), act=act, only=args.only)
     return _print_bench(
         out,
         args.json,
@@ -133,6 +140,28 @@ def cmd_bench(args: argparse.Namespace) -> int:
             f"({row['seconds']:.0f} s)"
         ),
     )
+
+
+def _cases(args: argparse.Namespace) -> tuple[str, ...]:
+    """The --cases names, checked against what the chosen benchmark can run (none: every case)."""
+    from seagen.discrepancy.bench import HIDEABLE
+    from seagen.discrepancy.families import FAMILIES
+    from seagen.errors import UserError
+
+    if args.cases is None:
+        return ()
+    names = tuple(n.strip() for n in args.cases.split(",") if n.strip())
+    known = (
+        (*FAMILIES, "misset", "control")
+        if args.families
+        else (*HIDEABLE, "single", "control", *(("misset",) if args.rig else ("pair",)))
+    )
+    bad = [n for n in names if n not in known]
+    if bad or not names:
+        raise UserError(
+            f"--cases: unknown case name(s) {', '.join(bad) or '(none given)'}; known: {', '.join(known)}"
+        )
+    return names
 
 
 def _print_bench(out: dict, as_json: bool, case_line, table=None) -> int:
@@ -154,7 +183,7 @@ def _print_families(args: argparse.Namespace, act: Actuator | None) -> int:
     """Run the family benchmark and print its per-family table and goal numbers."""
     from seagen.discrepancy.famibench import bench_families
 
-    out = bench_families(args.seeds, jobs=max(1, args.jobs), fast=args.quick, act=act)
+    out = bench_families(args.seeds, jobs=max(1, args.jobs), fast=args.quick, act=act, only=args.only)
 
     def per_family() -> None:
         print("family            cases first_ok spurious recovered gap_cut (physics) s/dataset")
@@ -181,7 +210,7 @@ def _print_rig(args: argparse.Namespace, act: Actuator | None) -> int:
     from seagen.discrepancy.rigbench import bench_rig
 
     kinds = ("control",) if args.quick else ("control", "single", "misset")
-    out = bench_rig(args.seeds, jobs=max(1, args.jobs), kinds=kinds, act=act)
+    out = bench_rig(args.seeds, jobs=max(1, args.jobs), kinds=kinds, act=act, only=args.only)
     return _print_bench(
         out,
         args.json,

@@ -115,10 +115,12 @@ def summarize(rows: pd.DataFrame) -> dict:
     }
 
 
-def bench_families(seeds: int, jobs: int = 2, fast: bool = False, act: Actuator | None = None) -> dict:
-    """Run every planned family case on actuator `act` (the paper's when None) in `jobs` processes and
-    summarize."""
-    rows = run_all(_run, [(n, s, fast, act) for n, s in plan(seeds)], jobs)
+def bench_families(
+    seeds: int, jobs: int = 2, fast: bool = False, act: Actuator | None = None, only: tuple[str, ...] = ()
+) -> dict:
+    """Run every planned family case (those named in `only`, when given) on actuator `act` (the paper's
+    when None) in `jobs` processes and summarize."""
+    rows = run_all(_run, [(n, s, fast, act) for n, s in plan(seeds) if not only or n in only], jobs)
     return {"actuator": (act or default_actuator()).name, **summarize(pd.DataFrame(rows))}
 
 

@@ -36,6 +36,9 @@ NEUTRAL: dict[str, dict[str, float]] = {
 ParamSet = dict[str, dict[str, float]]
 SWITCH_V = 0.5  # a command change this large is a switch (its instant's uncertainty moves the encoder)
 SETTLE_S = 0.03  # the speed after a switch is read this long after it (motor time constant ~ 10 ms)
+# A command instant this close to a plant step's edge is on it: far below any log clock's resolution
+# (1 us at the finest), far above the rounding of times summed in floating point (a simulator's t += dt).
+SNAP_S = 1e-9
 
 
 @dataclass
@@ -173,6 +176,11 @@ def drive(runs: Runs, dt: float) -> np.ndarray:
         s[0] = -1.0
         s[1:] = t[1:] - runs.lag[i] * np.diff(t)
         s = np.maximum.accumulate(s)
+        # an instant on a step edge up to the clock's float rounding takes effect from that edge: held
+        # exactly, not a time-weighted mean across a 1e-18 s sliver (whose cancellation error, ~1e-9 V, a
+        # stick-slip plant amplifies into encoder counts)
+        k = np.rint(s / dt)
+        s = np.where(np.abs(s - k * dt) < SNAP_S, k * dt, s)
         # integral of the piecewise-constant command at every step edge
         seg = np.diff(np.r_[s, np.inf])
         cum = np.r_[0.0, np.cumsum(v[:-1] * seg[:-1])]

@@ -13,7 +13,7 @@ import pandas as pd
 
 from seagen.actuator import Actuator, default_actuator
 from seagen.data.logimport import import_log, load_map
-from seagen.discrepancy.bench import FAST_MOVES, HIDEABLE, case_moves, draw, run_all
+from seagen.discrepancy.bench import FAST_MOVES, HIDEABLE, case_moves, chosen, draw, run_all
 from seagen.discrepancy.families import misset_case
 from seagen.discrepancy.replay import runs_from_frames
 from seagen.discrepancy.riglog import CONVENTIONS, RIG_MAP, rig_csv, rig_trials
@@ -138,9 +138,11 @@ def bench_rig(
     jobs: int = 2,
     kinds: tuple[str, ...] = ("control", "single", "misset"),
     act: Actuator | None = None,
+    only: tuple[str, ...] = (),
 ) -> dict:
-    """Run the planned rig cases on actuator `act` (the paper's when None; in `jobs` processes), summarize."""
-    todo = [(*c, act) for c in plan(seeds) if c[0] in kinds]
+    """Run the planned rig cases (of `kinds`, those `chosen` by `only`) on actuator `act` (the paper's when
+    None; in `jobs` processes), summarize."""
+    todo = [(*c, act) for c in plan(seeds) if c[0] in kinds and chosen(c, only)]
     return {
         "actuator": (act or default_actuator()).name,
         **summarize(pd.DataFrame(run_all(_run, todo, jobs))),

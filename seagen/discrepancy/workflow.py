@@ -424,6 +424,7 @@ def identify(
     labels = region_labels(held, base.motor)
     named: list[Named] = []
     cfg, rounds, verdict = base, [], "none"
+    refits: list[str] = []  # the command timing fitted again once physics was named (said in words)
     z0 = z1 = _residual(base, held, sig_h)
     floor = noise_floor(held, sig_h)
     feats = features(held, base.motor)
@@ -451,6 +452,17 @@ def identify(
         if len(named) > len(winner.names):
             named = _refit(base, named, fit, sig_f)
         cfg = _apply(base, {n.name: n.params for n in named})
+        if pinned is None:  # the lag was fitted without the physics now named: fit it again with it
+            again = fit_timing(cfg, fit, sig_f["enc"])
+            if again.lag != tim.lag:
+                refits.append(
+                    f"command timing re-fitted with {', '.join(n.name for n in named)} on: lag "
+                    f"{tim.lag:.2f} -> {again.lag:.2f}"
+                )
+                tim = again
+                fit, held = (dataclasses.replace(r, lag=np.full(len(r.angle), tim.lag)) for r in (fit, held))
+                named = _refit(base, named, fit, sig_f)
+                cfg = _apply(base, {n.name: n.params for n in named})
         z1 = _residual(cfg, held, sig_h)
     else:
         verdict = "unexplained" if max_rounds else verdict
@@ -480,6 +492,6 @@ def identify(
     if verdict == "unexplained" and not base.on("learned_residual"):
         res.learned = fit_learned(cfg, fit, held, sig_f, sig_h)
         res.config = with_learned(cfg, res.learned) if res.learned else cfg
-    res.timing, res.notes, res.check = tim, notes, check
+    res.timing, res.notes, res.check = tim, refits + notes, check
     res.seconds = time.perf_counter() - t0
     return res
