@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 import pytest
 from apart_forms import FORMS, form_case, rates, run_form
@@ -47,10 +49,12 @@ def test_form_law_differs_from_base_above_noise(name):
     assert max(change.values()) > 2.0, change
 
 
-def test_form_parameters_are_drawn_within_ranges():
-    """Parameters differ between seeds and stay in their stated ranges."""
-    for name, form in FORMS.items():
-        p0, p1 = form_case(name, 0)[2], form_case(name, 1)[2]
+@pytest.mark.parametrize("forms", ["apart_forms", "apart_forms_b"])
+def test_form_parameters_are_drawn_within_ranges(forms):
+    """Parameters differ between seeds and stay in their stated ranges (both sets)."""
+    mod = importlib.import_module(forms)
+    for name, form in mod.FORMS.items():
+        p0, p1 = mod.form_case(name, 0)[2], mod.form_case(name, 1)[2]
         assert p0 != p1
         for k, (lo, hi) in form.ranges.items():
             assert lo <= p0[k] <= hi and lo <= p1[k] <= hi
