@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from seagen.data.protocol import PUSH_MOVES, Move, train_angles
+from seagen.data.protocol import PUSH_MOVES, scaled_move, train_angles
 from seagen.discrepancy import riglog
 from seagen.geometry import geometry
 from seagen.plant import Plant, PlantConfig, save_config
@@ -41,7 +41,10 @@ def main(argv: list[str]) -> None:
     out.mkdir(parents=True, exist_ok=True)
     truth = PlantConfig()
     angles = train_angles(geometry(truth.actuator))
-    moves = [Move(angles[i % len(angles)], *PUSH_MOVES[i % len(PUSH_MOVES)]) for i in range(61)]
+    moves = [
+        scaled_move(angles[i % len(angles)], PUSH_MOVES[i % len(PUSH_MOVES)], truth.actuator)
+        for i in range(61)
+    ]
     if kind == "lugre":
         riglog.Plant = LuGrePlant  # type: ignore[misc]  # the rig loop steps this plant
         truth = truth.with_effect("actuator_friction", False)

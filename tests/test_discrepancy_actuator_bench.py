@@ -12,6 +12,7 @@ import pytest
 
 from seagen.actuator import default_actuator, load_actuator
 from seagen.cli import main
+from seagen.data.protocol import volts_scale
 from seagen.discrepancy import bench as dbench
 from seagen.discrepancy import rigbench
 
@@ -83,7 +84,7 @@ def test_moves_reach_their_peak_on_both_designs() -> None:
     22-26 deg and crept at stall to the cap)."""
     from seagen.plant import PlantConfig
 
-    assert dbench.volts_scale() == 1.0
+    assert volts_scale() == 1.0
     paper = dbench.case_moves()
     assert [(m.push_v, m.retract_v) for m in paper] == [
         (dbench.PUSH_MOVES[(i + k) % 5][0], dbench.PUSH_MOVES[(i + k) % 5][2])
@@ -154,3 +155,20 @@ def test_fine_encoder_single_cases_end_explained(effect: str) -> None:
     row = dbench.run_case("single", (effect,), CATALOGUE.index(effect), act=load_actuator(STIFF))
     assert row["named"] == effect and row["recalibrated"] == "-", row
     assert row["verdict"] == "explained" and row["rms_after"] <= 1.1 * row["noise_floor"], row
+
+
+def test_calibration_protocol_pushes_reach_their_peak_on_both_designs() -> None:
+    """`data generate`'s pushes (and the friction measurement's) are scaled to the motor like the bench's:
+    at the highest train angle every push of the calibration protocol reaches its peak force well before
+    the cap on both designs (unscaled, the 24 V motor stalled below it), and on the paper's actuator the
+    moves are its volts exactly."""
+    from seagen.data.protocol import PUSH_MOVES, run_trials, scaled_move, train_angles
+    from seagen.geometry import geometry
+    from seagen.plant import PlantConfig
+
+    assert [scaled_move(9.0, m) for m in PUSH_MOVES] == [dbench.Move(9.0, *m) for m in PUSH_MOVES]
+    for act in (default_actuator(), load_actuator(STIFF)):
+        top = train_angles(geometry(act))[-1]
+        moves = [scaled_move(top, m, act) for m in PUSH_MOVES]
+        for mv, df in zip(moves, run_trials(PlantConfig(actuator=act), moves, seed=2), strict=True):
+            assert df.force_n.max() >= mv.peak_n and df.t_s.iloc[-1] < 4.0, (act.name, mv)

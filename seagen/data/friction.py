@@ -38,14 +38,14 @@ def friction_angles(geo: Geometry) -> tuple[float, float, float]:
 def measure_friction(
     cfg: PlantConfig, angles_deg: tuple[float, ...] | None = None, seed: int = 0, push_v: float = 1.5
 ) -> dict[float, float]:
-    """Push slowly into the load cell at each angle (friction_angles by default) and report the friction
-    measured the paper's way."""
+    """Push slowly into the load cell at each angle (friction_angles by default; `push_v` on the paper's
+    motor, scaled to the actuator's) and report the friction measured the paper's way."""
     from seagen.data.features import derive
-    from seagen.data.protocol import Move, run_trials
+    from seagen.data.protocol import run_trials, scaled_move
 
     geo = geometry(cfg.actuator)
     angles_deg = friction_angles(geo) if angles_deg is None else angles_deg
-    moves = [Move(a, push_v, 6.0, -4.0) for a in angles_deg]
+    moves = [scaled_move(a, (push_v, 6.0, -4.0), cfg.actuator) for a in angles_deg]
     out = {}
     for a, df in zip(angles_deg, run_trials(cfg, moves, seed=seed), strict=True):
         df = df.assign(trial=0)

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from seagen.actuator import Actuator, default_actuator
 from seagen.errors import UserError
 from seagen.geometry import Geometry, geometry
 from seagen.plant import Plant, PlantConfig
@@ -41,6 +42,24 @@ class Move:
     peak_n: float
     retract_v: float
     stair_mm: float = 0.0
+
+
+def volts_scale(act: Actuator | None = None) -> float:
+    """Factor on the moves' volts for `act`: the same stall force per volt as the paper's motor (1 for it).
+
+    The moves' volts were chosen for the paper's motor (12 V, 150 N stall: 12.5 N per volt); a push that
+    stalls below its peak force holds the motor at stall to the trial's time cap (8 s of creep instead of
+    a move; on a 24 V, 200 N design a 2.5 V push stalls near 21 N, under a 17 N peak plus friction)."""
+    m, p = (act or default_actuator()).motor, default_actuator().motor
+    return (m.supply_v / m.stall_force_n) / (p.supply_v / p.stall_force_n)
+
+
+def scaled_move(angle_deg: float, move: tuple[float, ...], act: Actuator | None = None) -> Move:
+    """The move (push volts, peak N, retract volts[, stair mm]) at `angle_deg`, its volts scaled to the
+    motor of `act` (volts_scale)."""
+    f = volts_scale(act)
+    push, peak, back, *stair = move
+    return Move(angle_deg, push * f, peak, back * f, *stair)
 
 
 STAIR_S = 0.3  # one stair: move and hold (s)
@@ -161,7 +180,7 @@ def collect(
     round_ = 0
     while any(h < q for h, q in zip(have, quotas, strict=True)):
         todo = [i for i, (h, q) in enumerate(zip(have, quotas, strict=True)) if h < q]
-        batch = [Move(angles[i], *moves[(round_ + i) % len(moves)]) for i in todo]
+        batch = [scaled_move(angles[i], moves[(round_ + i) % len(moves)], cfg.actuator) for i in todo]
         for i, df in zip(todo, run_trials(cfg, batch, seed=seed * 1000 + round_), strict=True):
             take = min(len(df), quotas[i] - have[i])
             per_angle[i].append(df.iloc[:take])

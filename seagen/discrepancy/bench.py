@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 from seagen.actuator import Actuator, default_actuator
-from seagen.data.protocol import PUSH_MOVES, Move, run_trials
+from seagen.data.protocol import PUSH_MOVES, Move, run_trials, scaled_move
 from seagen.discrepancy.replay import ParamSet, Runs, runs_from_frames, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS, noise_sigma, zscores
 from seagen.discrepancy.workflow import Result, identify
@@ -71,24 +71,13 @@ def case_angles(act: Actuator | None = None) -> tuple[float, ...]:
     return tuple(float(a) for a in np.linspace(lo, hi, N_CASE_ANGLES))
 
 
-def volts_scale(act: Actuator | None = None) -> float:
-    """Factor on the moves' volts for `act`: the same stall force per volt as the paper's motor (1 for it).
-
-    The moves' volts were chosen for the paper's motor (12 V, 150 N stall: 12.5 N per volt); a push that
-    stalls below its peak force holds the motor at stall to the trial's time cap (8 s of creep instead of
-    a move; on a 24 V, 200 N design a 2.5 V push stalls near 21 N, under a 17 N peak plus friction)."""
-    m, p = (act or default_actuator()).motor, default_actuator().motor
-    return (m.supply_v / m.stall_force_n) / (p.supply_v / p.stall_force_n)
-
-
 def case_moves(
     moves: tuple[tuple[float, float, float], ...] = PUSH_MOVES, act: Actuator | None = None
 ) -> list[Move]:
     """The reduced protocol: two trials at each of the six case_angles of `act`, cycling through `moves`,
     their volts scaled to its motor (volts_scale)."""
-    n, f = len(moves), volts_scale(act)
-    scaled = [(push * f, peak, back * f) for push, peak, back in moves]
-    return [Move(a, *scaled[(i + k) % n]) for i, a in enumerate(case_angles(act)) for k in (0, 1)]
+    n = len(moves)
+    return [scaled_move(a, moves[(i + k) % n], act) for i, a in enumerate(case_angles(act)) for k in (0, 1)]
 
 
 def case_frames(cfg: PlantConfig, seed: int, fast: bool = False, plant_cls=None) -> list[pd.DataFrame]:
