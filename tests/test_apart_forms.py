@@ -30,16 +30,21 @@ def _change(name: str) -> dict[str, float]:
     return out
 
 
-def test_forms_are_well_formed():
-    """8-10 forms, expected names from the catalogue, each replaced effect one the default plant enables."""
-    assert 8 <= len(FORMS) <= 10
-    for name, form in FORMS.items():
+@pytest.mark.parametrize("forms", ["apart_forms", "apart_forms_b"])
+def test_forms_are_well_formed(forms):
+    """8-10 forms in each set, expected names from the catalogue, replaced effects switched off, at least one
+    form no catalogue effect is close to; no form name in both sets."""
+    mod = importlib.import_module(forms)
+    assert 8 <= len(mod.FORMS) <= 10
+    for name, form in mod.FORMS.items():
         assert form.expected <= set(CATALOGUE), name
         assert form.why
         if form.replaces:
-            _, cfg, _ = form_case(name, 0)
+            _, cfg, _ = mod.form_case(name, 0)
             assert not cfg.on(form.replaces), name
-    assert any(not f.expected for f in FORMS.values())  # at least one form no catalogue effect is close to
+    assert any(not f.expected for f in mod.FORMS.values())
+    sets = [importlib.import_module(m).FORMS for m in ("apart_forms", "apart_forms_b")]
+    assert not set(sets[0]) & set(sets[1])
 
 
 @pytest.mark.parametrize("name", list(FORMS))
