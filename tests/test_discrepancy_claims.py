@@ -10,11 +10,11 @@ from seagen.discrepancy.claims import (
     CUT,
     OWN,
     Evidence,
-    channel_rms_masked,
     evidence,
     footprints,
     left_structure,
 )
+from seagen.discrepancy.residuals import channel_rms
 from seagen.discrepancy.workflow import Named, _decide
 
 FLOOR = 1.0
@@ -132,7 +132,7 @@ def test_footprints_undo_one_change_at_a_time() -> None:
     assert cell.min() - 1e-6 <= fp["load_cell_offset"]["load_cell_n"] <= cell.max() + 1e-6
     assert fp["spring_preload"]["enc"] > 1.0
     z = {c: np.ones_like(runs.t) * 2.0 for c in CH}
-    assert channel_rms_masked(z, runs.mask) == _d(2.0, 2.0, 2.0)
+    assert channel_rms(z, runs.mask) == _d(2.0, 2.0, 2.0)
 
 
 def test_a_rider_on_the_other_changes_is_not_claimed() -> None:

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
-from seagen.discrepancy.residuals import SCORE_CHANNELS, zscores
+from seagen.discrepancy.residuals import SCORE_CHANNELS, channel_rms, zscores
 from seagen.plant import PlantConfig
 
 ACT_SHARE = 0.3  # a channel an effect acts on: its footprint there is >= this share of its largest channel's
@@ -93,14 +93,7 @@ def footprints(
         n: {c: float(np.sqrt(np.mean((z[c][i + 1] - z[c][0])[m] ** 2))) for c in SCORE_CHANNELS}
         for i, n in enumerate(names)
     }
-    return fp, {
-        n: channel_rms_masked({c: z[c][i + 1] for c in SCORE_CHANNELS}, m) for i, n in enumerate(names)
-    }
-
-
-def channel_rms_masked(z: dict[str, np.ndarray], mask: np.ndarray) -> dict[str, float]:
-    """Residual RMS per scored channel over the real samples."""
-    return {c: float(np.sqrt(np.mean(np.nan_to_num(z[c][mask]) ** 2))) for c in SCORE_CHANNELS}
+    return fp, {n: channel_rms({c: z[c][i + 1] for c in SCORE_CHANNELS}, m) for i, n in enumerate(names)}
 
 
 def left_structure(table: pd.DataFrame, channels: list[str]) -> list[str]:

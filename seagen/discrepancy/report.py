@@ -11,8 +11,8 @@ import numpy as np
 import pandas as pd
 
 from seagen.discrepancy.recalibrate import PIN_SHARE, PIN_SIGMAS, change_lines, plausible
-from seagen.discrepancy.residuals import SCORE_CHANNELS, region_labels, region_table, rms
-from seagen.discrepancy.workflow import DRIVE, Result, channel_rms, worse_channels
+from seagen.discrepancy.residuals import SCORE_CHANNELS, channel_rms, region_labels, region_table, rms
+from seagen.discrepancy.workflow import DRIVE, Result, worse_channels
 from seagen.plant import save_config
 
 NOISE_TEXT = (

@@ -55,6 +55,14 @@ def rms(z: dict[str, np.ndarray], where: np.ndarray | None = None) -> float:
     return float(np.sqrt(np.nanmean(np.concatenate([v.ravel() for v in vals]) ** 2)))
 
 
+def channel_rms(z: dict[str, np.ndarray], where: np.ndarray | None = None) -> dict[str, float]:
+    """Residual RMS per scored channel (noise sigmas): over the non-NaN samples, or over the samples
+    `where` is true (a NaN there counts as 0)."""
+    if where is None:
+        return {c: float(np.sqrt(np.nanmean(z[c] ** 2))) for c in SCORE_CHANNELS}
+    return {c: float(np.sqrt(np.mean(np.nan_to_num(z[c][where]) ** 2))) for c in SCORE_CHANNELS}
+
+
 def noise_floor(runs: Runs, sigma: dict[str, np.ndarray]) -> float:
     """Data-derived floor: RMS of the high-pass part (second differences / sqrt 6), in noise sigmas.
 

@@ -24,12 +24,12 @@ from seagen.discrepancy.candidates import (
     screen,
     start,
 )
-from seagen.discrepancy.claims import Evidence, channel_rms_masked, evidence, footprints
+from seagen.discrepancy.claims import Evidence, evidence, footprints
 from seagen.discrepancy.learned import Learned, fit_learned, with_learned
 from seagen.discrepancy.recalibrate import PLAUSIBLE, BaseCheck, base_check, plausible, uncertainty
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
 from seagen.discrepancy.residuals import (
-    SCORE_CHANNELS,
+    channel_rms,
     n_scored,
     noise_floor,
     noise_sigma,
@@ -327,7 +327,7 @@ def _evidence(
     if not named:
         return {}
     fp, without = footprints(base, {n.name: n.params for n in named}, held, sig_h)
-    before, after = channel_rms_masked(z0, held.mask), channel_rms_masked(z1, held.mask)
+    before, after = channel_rms(z0, held.mask), channel_rms(z1, held.mask)
     table = region_table(held, z1, labels)
     return {n.name: evidence(fp[n.name], before, after, floor, table, without[n.name]) for n in named}
 
@@ -349,11 +349,6 @@ def _decide(
         elif n.evidence is not None and not n.evidence.ok:
             n.why = f"closest, not claimed: its fit {n.evidence.words()}"
         n.claimed = not n.why
-
-
-def channel_rms(z: dict[str, np.ndarray]) -> dict[str, float]:
-    """Held-out residual RMS per scored channel (noise sigmas)."""
-    return {c: float(np.sqrt(np.nanmean(z[c] ** 2))) for c in SCORE_CHANNELS}
 
 
 def worse_channels(before: dict[str, float], after: dict[str, float]) -> list[str]:
