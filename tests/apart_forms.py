@@ -66,26 +66,9 @@ class SealDrag(Plant):
 
     c = 0.008  # N s^2 / mm^2
 
-    def _move_shaft(self, dt: float) -> None:
-        """The plant's quasi-static shaft with the speed-squared drag as a lagged viscous coefficient."""
-        e = self.cfg.effects
-        y0 = self.shaft_mm
-        angle = self.geo.angle_from_shaft(np.minimum(y0, self.y_contact))
-        fwd, rev = self.friction_limits(angle)
-        if e.stribeck_friction.enabled:
-            sf = e.stribeck_friction
-            boost = sf.extra_static_n * np.exp(-((self.v_shaft / sf.v_s_mm_s) ** 2))
-            fwd, rev = fwd + boost, rev + boost * (rev > 0)
-        n0, s0 = self._net_force(y0)
-        b0 = e.viscous_friction.b_n_s_per_mm if e.viscous_friction.enabled else 0.0
-        b = (b0 + self.c * np.abs(self.v_shaft)) / dt
-        target = np.where(n0 > fwd, fwd, np.where(n0 < -rev, -rev, n0))
-        moving = target != n0
-        y = y0.copy()
-        if moving.any():
-            y = self._solve(y0, (n0, s0), target, b, moving)
-        self.v_shaft = (y - y0) / dt
-        self.shaft_mm = y
+    def viscous_n_s_per_mm(self) -> float | np.ndarray:
+        """The plant's viscous coefficient plus the speed-squared drag as a lagged viscous coefficient."""
+        return super().viscous_n_s_per_mm() + self.c * np.abs(self.v_shaft)
 
 
 class LoadedBacklash(Plant):

@@ -196,6 +196,11 @@ class Plant:
         fl, sl = self.structure_force(y, idx)
         return self.spring_force(d, idx) - fl, -self._spring_slope(d, idx) - sl
 
+    def viscous_n_s_per_mm(self) -> float | np.ndarray:
+        """The shaft's viscous drag coefficient this step (N s/mm; 0 without viscous friction)."""
+        vf = self.cfg.effects.viscous_friction
+        return vf.b_n_s_per_mm if vf.enabled else 0.0
+
     def _move_shaft(self, dt: float) -> None:
         """Quasi-static massless shaft: stick inside the friction band, else slide to its edge."""
         e = self.cfg.effects
@@ -207,7 +212,7 @@ class Plant:
             boost = sf.extra_static_n * np.exp(-((self.v_shaft / sf.v_s_mm_s) ** 2))
             fwd, rev = fwd + boost, rev + boost * (rev > 0)
         n0, s0 = self._net_force(y0)
-        b = e.viscous_friction.b_n_s_per_mm / dt if e.viscous_friction.enabled else 0.0
+        b = self.viscous_n_s_per_mm() / dt
         target = np.where(n0 > fwd, fwd, np.where(n0 < -rev, -rev, n0))
         moving = target != n0
         y = y0.copy()
