@@ -193,14 +193,19 @@ _TABLES: dict[str, dict[str, type]] = {
 _CONTROL_FIELDS = tuple(Control.__dataclass_fields__)
 
 
-def _paper_control() -> dict[str, float]:
-    """The optional [control] fields' defaults: the paper's values, read from its description file."""
+PAPER_FILE = "seagen/actuators/paper.toml"
+
+
+def _paper_toml() -> dict[str, Any]:
+    """The paper's description file (package data), parsed."""
     text = resources.files("seagen.actuators").joinpath("paper.toml").read_text(encoding="utf-8")
-    table = tomllib.loads(text)["control"]
-    return {k: float(table[k]) for k in _CONTROL_FIELDS}
+    return tomllib.loads(text)
 
 
-_OPTIONAL: dict[str, float] = _paper_control()
+# The optional [control] fields' defaults: the paper's values, from its description file.
+_OPTIONAL: dict[str, float] = {
+    k: float(v) for k, v in _paper_toml()["control"].items() if k in _CONTROL_FIELDS
+}
 
 
 def _value(where: str, field: str, value: Any, kind: type) -> Any:
@@ -328,8 +333,7 @@ def load_actuator(path: str | os.PathLike[str]) -> Actuator:
 @lru_cache(maxsize=1)
 def default_actuator() -> Actuator:
     """The paper's actuator, shipped as package data (`seagen/actuators/paper.toml`)."""
-    text = resources.files("seagen.actuators").joinpath("paper.toml").read_text(encoding="utf-8")
-    return actuator_from_dict(tomllib.loads(text), "seagen/actuators/paper.toml")
+    return actuator_from_dict(_paper_toml(), PAPER_FILE)
 
 
 def actuator_from_record(record: Any, where: str) -> Actuator:
