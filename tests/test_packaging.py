@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import shutil
@@ -17,14 +18,17 @@ ROOT = Path(__file__).resolve().parent.parent
 
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory) -> Path:
-    """The wheel built from this checkout (no dependencies, no isolation: fast)."""
+    """The wheel built from this checkout (no dependencies, no isolation: fast). The build writes build/ and
+    *.egg-info in the checkout, so test workers build one at a time (a lock beside their temp folders)."""
     out = tmp_path_factory.mktemp("wheel")
-    subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", str(ROOT), "--no-deps", "--no-build-isolation", "-q"]
-        + ["-w", str(out)],
-        check=True,
-        capture_output=True,
-    )
+    with open(tmp_path_factory.getbasetemp().parent / "wheel-build.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        subprocess.run(
+            [sys.executable, "-m", "pip", "wheel", str(ROOT), "--no-deps", "--no-build-isolation", "-q"]
+            + ["-w", str(out)],
+            check=True,
+            capture_output=True,
+        )
     return next(out.glob("seagen-*.whl"))
 
 
