@@ -150,3 +150,45 @@ def test_a_pair_member_sharing_a_channel_is_claimed() -> None:
     1.55 sigma, with it 0.99 (floor 1): it closes 98 % of that itself: claimed."""
     ev = _ev(_d(0.0, 1.27, 0.0), _d(25.6, 3.9, 2.7), _d(1.0, 0.99, 0.95), without=_d(1.0, 1.55, 0.91))
     assert ev.channels == ["pot"] and ev.own >= OWN and ev.ok
+
+
+def test_closest_single_is_the_best_single_even_when_a_pair_or_a_joint_wins() -> None:
+    """closest_single reads a round's table: the best fit (chi-square on the fitting trials) among single
+    catalogue effects (added or recalibrated; the pairs' anchor), not the pair or the joint recalibration
+    that won, nor '(none)', whatever their held-out scores."""
+    from seagen.discrepancy.workflow import closest_single
+
+    table = pd.DataFrame(
+        {
+            "candidate": [
+                "(none)",
+                "spring_preload",
+                "series_compliance",
+                "spring_preload+backlash",
+                "actuator_friction+series_compliance (joint recalibration)",
+            ],
+            "chi2_fit": [float("nan"), 500.0, 400.0, 300.0, 200.0],
+            "bic_held_out": [900.0, 350.0, 400.0, 300.0, 200.0],
+        }
+    )
+    assert closest_single(table) == "series_compliance"
+    assert closest_single(table[table["candidate"].str.contains(r"\(|\+")]) is None
+
+
+def test_headline_and_claims_follow_the_closest_single_change() -> None:
+    """The name given first is the closest single change when it is among the changes (a recalibration
+    included), else the first added, else the first change; in an unexplained case only that name may be
+    claimed."""
+    from seagen.discrepancy.workflow import _claims, headline
+
+    assert headline("series_compliance", ["spring_preload", "series_compliance"]) == "series_compliance"
+    assert headline("stribeck_friction", ["load_cell_offset", "linkage_friction"]) == "load_cell_offset"
+    assert headline("stribeck_friction", []) is None and headline(None, ["backlash"]) == "backlash"
+    named = [
+        Named("series_compliance", {"k_n_per_mm": 21.0}, 1.0, {"k_n_per_mm": 30.0}),
+        Named("spring_preload", {"force_n": 0.3}, 0.96),
+    ]
+    _claims(named, "unexplained", closest="series_compliance")
+    assert [n.claimed for n in named] == [True, False]
+    _claims(named, "unexplained", closest="stribeck_friction")  # not among the changes: the first added
+    assert [n.claimed for n in named] == [False, True]

@@ -97,6 +97,8 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
             f"{r['effect']}.{r['param']} {r['before']:.4g} -> {r['after']:.4g}" for r in s["recalibrated"]
         )
         print(f"verdict: {s['verdict']}; added: {named}; recalibrated: {recal or 'nothing'}")
+        if s["named_first"]:
+            print(f"named first: {s['named_first']} (closest single change: {s['closest_single'] or '-'})")
         if unpinned_words(res):
             print(f"note: {unpinned_words(res)}")
         if res.timing is not None:

@@ -103,6 +103,7 @@ def markdown(res: Result, source: str, before: pd.DataFrame, after: pd.DataFrame
         "is not changed: plant.toml holds only the effects).",
         f"**Verdict: {res.verdict}.** Added: {', '.join(n.name for n in res.effects) or 'nothing'}. "
         f"Recalibrated: {', '.join(n.name for n in res.recalibrated) or 'nothing'}.",
+        _closest(res),
         f"Held-out residual RMS {res.rms_before:.3g} -> {res.rms_after:.3g} noise sigmas "
         f"(noise floor {res.noise_floor:.3g}; {res.rms_after / res.noise_floor:.2f} x floor).",
         _timing(res),
@@ -172,6 +173,20 @@ def _claim(n) -> str:
     if n.claimed:
         return "named"
     return n.why or "compensation only (the data's form differs; not a claim)"
+
+
+def _closest(res: Result) -> str:
+    """The name given first and the closest single change, in words ('' when nothing changed)."""
+    if res.first is None:
+        return ""
+    alone = (
+        f"; of the catalogue's effects alone, {res.closest} fits the data best"
+        if res.closest and res.closest != res.first
+        else " (of the catalogue's effects alone, it fits the data best)"
+        if res.closest
+        else ""
+    )
+    return f"Named first: **{res.first}**{alone}."
 
 
 def _remainder(res: Result) -> str:
@@ -288,6 +303,8 @@ def summary(res: Result) -> dict:
             for p, v in n.params.items()
         ],
         "verdict": res.verdict,
+        "named_first": res.first,
+        "closest_single": res.closest,
         "notes": res.notes,
         "channels": channel_table(res).to_dict(orient="records"),
         "timing": None

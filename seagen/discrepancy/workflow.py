@@ -42,6 +42,7 @@ from seagen.discrepancy.signature import describe, features, profile, rank
 from seagen.discrepancy.timing import Timing, fit_timing, timing_problem
 from seagen.errors import UserError
 from seagen.plant import PlantConfig
+from seagen.plant.config import CATALOGUE
 
 DRIVE = (
     "measured motor command, each logged value taking effect at its own instant on the plant's 1 ms steps "
@@ -100,11 +101,13 @@ class Result:
     timing: Timing | None = None  # the command timing the replay used (fitted or declared)
     notes: list[str] = field(default_factory=list)  # changes refused or flagged, in words (see _honest)
     check: BaseCheck | None = None  # the base's own parameters: which the data cannot pin, score test
+    closest: str | None = None  # the single change fitting the data best (closest_single)
 
     @property
     def first(self) -> str | None:
-        """The first effect added (the name given), else the first recalibrated; None when nothing changed."""
-        return next(iter([n.name for n in self.effects] + self.order), None)
+        """The name given first: the closest single change when it is among the changes, else the first
+        effect added, else the first recalibrated; None when nothing changed (headline)."""
+        return headline(self.closest, [n.name for n in self.effects] + self.order)
 
     @property
     def rms_learned(self) -> float:
@@ -241,6 +244,19 @@ def best_addition(cfg: PlantConfig, fit: Runs, held: Runs, sig_f, sig_h, rng, no
     return (winner, conf), table
 
 
+def closest_single(table: pd.DataFrame) -> str | None:
+    """The catalogue effect that alone (added, or its parameters re-fitted) fits the fitting trials best in
+    a round's table (the pairs' anchor): the closest catalogue effect, whatever wins with partners."""
+    singles = table[table["candidate"].isin(CATALOGUE)]
+    return None if singles.empty else str(singles.sort_values("chi2_fit")["candidate"].iloc[0])
+
+
+def headline(closest: str | None, changed: list[str]) -> str | None:
+    """The name given first: `closest` when it is among the changes (added ones before recalibrated ones
+    in `changed`), else the first of them; None when nothing changed."""
+    return closest if closest in changed else next(iter(changed), None)
+
+
 def _base_bic(table: pd.DataFrame) -> float:
     """BIC of the unchanged plant."""
     return float(table.loc[table["candidate"] == "(none)", "bic_held_out"].iloc[0])
@@ -307,16 +323,17 @@ def _residual(cfg: PlantConfig, runs: Runs, sig) -> dict[str, np.ndarray]:
     return {c: v[0] for c, v in zscores(runs, simulate(cfg, [{}], runs), sig).items()}
 
 
-def _claims(named: list[Named], verdict: str) -> None:
+def _claims(named: list[Named], verdict: str, closest: str | None = None) -> None:
     """When a structured residual is left (verdict unexplained) the data's form is not the catalogue's:
-    only the first effect added (else the first change) is claimed, as the closest catalogue effect; the
-    other changes only compensate for the form that differs, and their bootstrap confidence says they
-    help, not that they exist (on the family benchmark every such name given at >= 0.9 was wrong)."""
+    only the name given first (headline: the closest single change, else the first effect added, else
+    the first change) may be claimed, as the closest catalogue effect; the other changes only compensate
+    for the form that differs, and their bootstrap confidence says they help, not that they exist (on the
+    family benchmark every such name given at >= 0.9 was wrong)."""
     if verdict != "unexplained" or not named:
         return
-    first = next((n for n in named if n.before is None), named[0])
+    first = headline(closest, [n.name for n in named if n.before is None] + [n.name for n in named])
     for n in named:
-        n.claimed = n is first
+        n.claimed = n.name == first
 
 
 def _evidence(
@@ -333,13 +350,17 @@ def _evidence(
 
 
 def _decide(
-    named: list[Named], verdict: str, evid: dict[str, Evidence], cfg: PlantConfig | None = None
+    named: list[Named],
+    verdict: str,
+    evid: dict[str, Evidence],
+    cfg: PlantConfig | None = None,
+    closest: str | None = None,
 ) -> None:
     """Which changes are claimed, and why not: the compensation rule (_claims), a fit at the edge of its box
     (never a value), then the evidence rule (claims.Evidence.ok): a change is claimed only when, on the
     channels it acts on, the fit closes most of the gap to the noise floor and leaves no significant region;
     otherwise the name is the closest catalogue effect, not a claim."""
-    _claims(named, verdict)
+    _claims(named, verdict, closest)
     for n in named:
         n.edge, n.evidence = _at_edge(n, cfg), evid.get(n.name)
         if n.edge:
@@ -478,7 +499,8 @@ def identify(
     sig_p = uncertainty(base, {n.name: n.params for n in named}, fit, sig_f) if named else {}
     for n in named:
         n.sigma = sig_p[n.name]
-    _decide(named, verdict, _evidence(base, named, held, sig_h, z0, z1, floor, labels), base)
+    closest = closest_single(rounds[0]) if rounds else None
+    _decide(named, verdict, _evidence(base, named, held, sig_h, z0, z1, floor, labels), base, closest)
     added = [n for n in named if n.before is None]
     res = Result(added, verdict, cfg, held, z0, z1, floor, rounds, labels=labels)
     res.recalibrated = [n for n in named if n.before is not None]
@@ -487,6 +509,6 @@ def identify(
     if verdict == "unexplained" and not base.on("learned_residual"):
         res.learned = fit_learned(cfg, fit, held, sig_f, sig_h)
         res.config = with_learned(cfg, res.learned) if res.learned else cfg
-    res.timing, res.notes, res.check = tim, refits + notes, check
+    res.timing, res.notes, res.check, res.closest = tim, refits + notes, check, closest
     res.seconds = time.perf_counter() - t0
     return res
