@@ -372,3 +372,19 @@ def test_demo_end_to_end_on_both_designs(tmp_path, actuator, capsys):
     name = load_actuator(EXAMPLE).name if actuator == "example" else default_actuator().name
     assert name in out and "bit for bit" in out and "verdict: explained" in out
     assert (tmp_path / "discrepancy" / "report" / "report.md").is_file()
+
+
+def test_protocol_peaks_follow_the_force_range():
+    """The calibration protocol's peak forces are the paper's shares of the described force range (its volts
+    scaled with them, within the supply): exactly the paper's moves on its actuator; on a 30 N range every
+    push at the top train angle reaches its 1.5x peak well before the time cap (~2 s)."""
+    assert [scaled_move(9.0, m) for m in PUSH_MOVES] == [Move(9.0, *m) for m in PUSH_MOVES]
+    d = default_actuator().to_dict()
+    d["control"]["force_max_n"] = 30.0
+    act = actuator_from_dict(d, "30 N")
+    top = protocol.train_angles(geometry(act))[-1]
+    moves = [scaled_move(top, m, act) for m in PUSH_MOVES]
+    for mv, m in zip(moves, PUSH_MOVES, strict=True):
+        assert mv.peak_n == pytest.approx(1.5 * m[1]) and abs(mv.retract_v) <= act.motor.supply_v
+    for mv, df in zip(moves, run_trials(PlantConfig(actuator=act), moves, seed=2), strict=True):
+        assert df.force_n.max() >= mv.peak_n and df.t_s.iloc[-1] < 4.0, mv
