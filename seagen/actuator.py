@@ -25,6 +25,8 @@ Fields and units (the paper's actuator, `seagen/actuators/paper.toml`, is the de
     [pot] full_scale_deg         deg    angle change over the whole ADC range (2^adc_bits counts)
           offset_deg             deg    angle at ADC count 0
           adc_bits               bit    ADC resolution (8..16)
+          vref_mv                mV     the ADC's reference: the pot's voltage at full scale (optional;
+                                        a rig that logs the pot in mV reads it as counts with it)
     [control] loop_hz            Hz     controller tick rate
               force_max_n        N      top of the calibrated desired-force range at the output shaft (the
                                         controller faults above it; the experiment's targets are fractions)
@@ -34,8 +36,10 @@ Fields and units (the paper's actuator, `seagen/actuators/paper.toml`, is the de
               d_alpha            -          derivative filter coefficient in (0, 1] (1: no filter)
               margin_mm          mm         control margin: no P action, integrator held within it
               limit_v            V          command limit (within +-motor.supply_v)
-    The [control] fields after loop_hz are optional: a file without one takes the paper's value
-    (seagen/actuators/paper.toml: gains tuned on its simulated plant; retune yours with
+              pot_avg_hz         Hz         rate at which the controller refreshes its block average of
+                                            the pot (the average spans loop_hz / pot_avg_hz ticks)
+    pot.vref_mv and the [control] fields after loop_hz are optional: a file without one takes the paper's
+    value (seagen/actuators/paper.toml: gains tuned on its simulated plant; retune yours with
     `python -m seagen.control.tune`). A value equal to that default is left out of the recorded values and
     the hash, so descriptions and model files written before these fields existed keep their hash.
 
@@ -94,6 +98,7 @@ class Pot:
     full_scale_deg: float
     offset_deg: float
     adc_bits: int
+    vref_mv: float
 
 
 @dataclass(frozen=True)
@@ -107,6 +112,7 @@ class Control:
     d_alpha: float
     margin_mm: float
     limit_v: float
+    pot_avg_hz: float
 
 
 @dataclass(frozen=True)
@@ -153,9 +159,10 @@ class Actuator:
         }
 
     def recorded(self) -> dict[str, Any]:
-        """to_dict without the optional [control] values that equal their defaults (what the hash covers)."""
+        """to_dict without the optional values that equal their defaults (what the hash covers)."""
         d = self.to_dict()
-        d["control"] = {k: v for k, v in d["control"].items() if k not in _OPTIONAL or v != _OPTIONAL[k]}
+        for table, opt in _OPTIONAL.items():
+            d[table] = {k: v for k, v in d[table].items() if k not in opt or v != opt[k]}
         return d
 
     def digest(self) -> str:
@@ -191,6 +198,7 @@ _TABLES: dict[str, dict[str, type]] = {
     "control": {"loop_hz": float},
 }
 _CONTROL_FIELDS = tuple(Control.__dataclass_fields__)
+_POT_FIELDS = tuple(Pot.__dataclass_fields__)
 
 
 PAPER_FILE = "seagen/actuators/paper.toml"
@@ -202,9 +210,10 @@ def _paper_toml() -> dict[str, Any]:
     return tomllib.loads(text)
 
 
-# The optional [control] fields' defaults: the paper's values, from its description file.
-_OPTIONAL: dict[str, float] = {
-    k: float(v) for k, v in _paper_toml()["control"].items() if k in _CONTROL_FIELDS
+# The optional fields' defaults per table: the paper's values, from its description file.
+_OPTIONAL: dict[str, dict[str, float]] = {
+    table: {k: float(v) for k, v in _paper_toml()[table].items() if k in names and k not in _TABLES[table]}
+    for table, names in (("pot", _POT_FIELDS), ("control", _CONTROL_FIELDS))
 }
 
 
@@ -235,7 +244,7 @@ def _tables(data: dict[str, Any], where: str) -> dict[str, dict[str, Any]]:
         got = data.get(table)
         if not isinstance(got, dict):
             raise ActuatorError(f"{where}: missing table [{table}]")
-        known = [*spec, *(_OPTIONAL if table == "control" else ())]
+        known = [*spec, *_OPTIONAL.get(table, ())]
         extra = set(got) - set(known)
         if extra:
             raise ActuatorError(
@@ -246,10 +255,9 @@ def _tables(data: dict[str, Any], where: str) -> dict[str, dict[str, Any]]:
             if key not in got:
                 raise ActuatorError(f"{where}: missing '{table}.{key}'")
             out[table][key] = _value(where, f"{table}.{key}", got[key], kind)
-    opt = data["control"]
-    out["control"].update(
-        {k: _value(where, f"control.{k}", opt.get(k, v), float) for k, v in _OPTIONAL.items()}
-    )
+    for table, opt in _OPTIONAL.items():
+        got = data[table]
+        out[table].update({k: _value(where, f"{table}.{k}", got.get(k, v), float) for k, v in opt.items()})
     return out
 
 
@@ -266,7 +274,9 @@ def _check(a: Actuator, where: str) -> Actuator:
         "spring.stiffness_n_per_mm": a.stiffness_n_per_mm,
         "linkage.cb_mm": a.linkage.cb_mm,
         "pot.full_scale_deg": a.pot.full_scale_deg,
+        "pot.vref_mv": a.pot.vref_mv,
         "control.loop_hz": a.loop_hz,
+        "control.pot_avg_hz": a.control.pot_avg_hz,
         "control.force_max_n": a.control.force_max_n,
         "control.limit_v": a.control.limit_v,
     }

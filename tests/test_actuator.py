@@ -69,6 +69,10 @@ BAD = [
     ("control.force_max_n", 0.0, "'control.force_max_n' must be positive"),
     ("control.limit_v", "6", "'control.limit_v' must be a number"),
     ("control.gain", 1.0, "unknown key 'control.gain'"),
+    ("pot.vref_mv", 0.0, "'pot.vref_mv' must be positive"),
+    ("pot.vref_mv", "3.3 V", "'pot.vref_mv' must be a number"),
+    ("pot.vref", 3300.0, "unknown key 'pot.vref'"),
+    ("control.pot_avg_hz", -10.0, "'control.pot_avg_hz' must be positive"),
 ]
 
 
@@ -109,3 +113,27 @@ def test_control_fields_are_optional_and_default_to_the_papers():
         "kp_v_per_mm": 40.0,
     }
     assert actuator_from_record(b.record(), "m.pt") == b
+
+
+def test_pot_reference_and_pot_average_are_optional_and_default_to_the_papers():
+    """pot.vref_mv and control.pot_avg_hz: left out, the paper's (3.3 V, 10 Hz) with the same hash as the
+    paper's file; another value is recorded, changes the hash and reaches its reader (the rig log's pot in
+    mV, the controller's pot-average ticks)."""
+    from seagen.discrepancy.riglog import rig_map
+    from seagen.runtime.actq import act_q
+
+    d = _paper()
+    del d["pot"]["vref_mv"], d["control"]["pot_avg_hz"]
+    a = actuator_from_dict(d, "bare.toml")
+    assert a == default_actuator() and a.digest() == default_actuator().digest()
+    assert (
+        "vref_mv" not in a.record()["values"]["pot"] and "pot_avg_hz" not in a.record()["values"]["control"]
+    )
+    d["pot"]["vref_mv"], d["control"]["pot_avg_hz"] = 5000.0, 25.0
+    b = actuator_from_dict(d, "other.toml")
+    assert b.digest() != a.digest() and b.record()["values"]["pot"]["vref_mv"] == 5000.0
+    assert "full_scale = 5000.0" in rig_map(b) and "full_scale = 3300.0" in rig_map(a)
+    assert (act_q(a).pot_avg_ticks, act_q(b).pot_avg_ticks) == (10, 4)
+    d["control"]["pot_avg_hz"] = 200.0  # faster than the 100 Hz loop: the C constants are refused
+    with pytest.raises(ActuatorError, match="below the 200 Hz of the pot average \\(control.pot_avg_hz\\)"):
+        act_q(actuator_from_dict(d, "fast.toml"))

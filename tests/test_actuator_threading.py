@@ -16,16 +16,20 @@ from seagen.control.experiment import contact_deg, targets_n
 from seagen.data import protocol
 from seagen.data.features import derive
 from seagen.data.logimport import import_log, load_map
-from seagen.data.protocol import Move, run_trials
+from seagen.data.protocol import PUSH_MOVES, Move, run_trials, scaled_move
+from seagen.discrepancy.bench import draw
 from seagen.discrepancy.candidates import box, full_scale
+from seagen.discrepancy.families import family_case
+from seagen.discrepancy.recalibrate import plausible_range
 from seagen.discrepancy.replay import runs_from_frames, simulate
+from seagen.discrepancy.riglog import rig_csv, rig_map
 from seagen.fit.kinematics import compression_for, shaft_force
 from seagen.geometry import geometry
 from seagen.modelfile import load_model
 from seagen.plant import Plant, PlantConfig, load_config
 from seagen.plant.config import ConfigError
 from seagen.runtime.actq import act_q
-from seagen.runtime.control import ControlConfig
+from seagen.runtime.control import ControlConfig, sensor_walk
 from seagen.verify.run import enc_span
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml"
@@ -120,6 +124,7 @@ def _consumers(act, tmp: Path) -> dict[str, object]:
         frame.to_numpy(float),
         protocol.train_angles(geo),
         protocol.rows("train", act.loop_hz),
+        scaled_move(12.0, PUSH_MOVES[0], act),  # the moves' volts and peak force, scaled to the actuator
     )
     try:
         out["features"] = derive(RAW, geo).to_numpy(float)
@@ -143,8 +148,18 @@ def _consumers(act, tmp: Path) -> dict[str, object]:
         ctl.pot_stuck_ticks,
     )
     out["experiment"] = (targets_n(act), contact_deg(act))  # simulate's targets and contact angles
-    out["verify"] = enc_span(act)  # verify's synthetic encoder range
+    walk = sensor_walk(1, 4, pot_max=aq.pot_max)[1]  # verify's tick sequence: the pot's start, its range
+    out["verify"] = (enc_span(act), walk)  # and verify's synthetic encoder range
     out["discrepancy"] = box("pot_voltage_drop", "counts_per_unit_current", full_scale(cfg))  # search box
+    fx = PlantConfig(actuator=act).effects  # the catalogue's pot effects: shares of the pot's full scale
+    out["catalogue"] = (
+        fx.pot_voltage_drop.counts_per_unit_current,
+        fx.pot_noise.sigma_counts,
+        plausible_range("pot_voltage_drop", "counts_per_unit_current", full_scale(cfg)),
+        draw("pot_voltage_drop", np.random.default_rng(1), act)["counts_per_unit_current"],  # bench truths
+        family_case("lagged_pot_bias", 1, act)[0].gain,  # the lagged pot bias family
+    )
+    out["riglog"] = (rig_csv([RAW], act=act), rig_map(act))  # the rig log: PWM %, pot mV of its reference
     return out
 
 
@@ -160,7 +175,7 @@ GEOMETRY = {"plant", "protocol", "features", "replay", "c_act"}  # Eq. 2-6 (feat
 MOTOR = {"plant", "protocol", "replay"}  # the simulated motor
 # Which consumers each field of the description must move (a consumer that ignores one fails the test).
 EXPECTED = {
-    "motor.supply_v": MOTOR | {"logimport", "c_act"},  # PWM % of the supply, +-supply, the C command limit
+    "motor.supply_v": MOTOR | {"logimport", "c_act", "riglog"},  # PWM %, +-supply, the C command limit
     "motor.no_load_rpm": MOTOR | {"c_act", "controller"},  # the C encoder-jump bound
     "motor.gear_ratio": GEOMETRY | {"verify"},  # nut travel per count: encoder, stairs, compression
     "motor.counts_per_rev": GEOMETRY | {"controller", "verify"},  # and the encoder-jump bound
@@ -185,7 +200,19 @@ EXPECTED = {
     "linkage.v_fit_higher": {"plant"},  # R_l above the split: only the plant's 18 deg element is there
     "pot.full_scale_deg": GEOMETRY,
     "pot.offset_deg": GEOMETRY,
-    "pot.adc_bits": {"plant", "protocol", "features", "replay", "logimport", "c_act", "discrepancy"},
+    "pot.adc_bits": {
+        "plant",
+        "protocol",
+        "features",
+        "replay",
+        "logimport",
+        "c_act",
+        "discrepancy",
+        "catalogue",
+        "riglog",
+        "verify",
+    },
+    "pot.vref_mv": {"riglog"},  # the pot in mV of a rig log
     "control.loop_hz": {
         "protocol",
         "features",
@@ -193,13 +220,14 @@ EXPECTED = {
         "c_act",
         "controller",
     },  # replay: the protocol's rows
-    "control.force_max_n": {"controller", "experiment", "verify"},  # fault range, targets, encoder span
+    "control.force_max_n": {"controller", "experiment", "verify", "protocol"},  # faults, targets, peaks
     "control.kp_v_per_mm": {"controller"},
     "control.ki_v_per_mm_s": {"controller"},
     "control.kd_v_s_per_mm": {"controller"},
     "control.d_alpha": {"controller"},
     "control.margin_mm": {"controller"},
     "control.limit_v": {"controller"},
+    "control.pot_avg_hz": {"c_act"},  # the ticks of the controller's pot average
 }
 
 
@@ -344,3 +372,19 @@ def test_demo_end_to_end_on_both_designs(tmp_path, actuator, capsys):
     name = load_actuator(EXAMPLE).name if actuator == "example" else default_actuator().name
     assert name in out and "bit for bit" in out and "verdict: explained" in out
     assert (tmp_path / "discrepancy" / "report" / "report.md").is_file()
+
+
+def test_protocol_peaks_follow_the_force_range():
+    """The calibration protocol's peak forces are the paper's shares of the described force range (its volts
+    scaled with them, within the supply): exactly the paper's moves on its actuator; on a 30 N range every
+    push at the top train angle reaches its 1.5x peak well before the time cap (~2 s)."""
+    assert [scaled_move(9.0, m) for m in PUSH_MOVES] == [Move(9.0, *m) for m in PUSH_MOVES]
+    d = default_actuator().to_dict()
+    d["control"]["force_max_n"] = 30.0
+    act = actuator_from_dict(d, "30 N")
+    top = protocol.train_angles(geometry(act))[-1]
+    moves = [scaled_move(top, m, act) for m in PUSH_MOVES]
+    for mv, m in zip(moves, PUSH_MOVES, strict=True):
+        assert mv.peak_n == pytest.approx(1.5 * m[1]) and abs(mv.retract_v) <= act.motor.supply_v
+    for mv, df in zip(moves, run_trials(PlantConfig(actuator=act), moves, seed=2), strict=True):
+        assert df.force_n.max() >= mv.peak_n and df.t_s.iloc[-1] < 4.0, mv

@@ -18,7 +18,8 @@ def test_family_departs_from_its_base_and_expects_catalogue_names(name: str) -> 
     fam = FAMILIES[name]
     assert fam.expected and fam.expected <= set(CATALOGUE)
     cls, truth, base, params = family_case(name, 1)
-    assert set(params) == set(fam.ranges) and all(lo <= params[k] <= hi for k, (lo, hi) in fam.ranges.items())
+    bounds = fam.bounds()  # the ranges in the plant's units (pot counts: shares of the pot's full scale)
+    assert set(params) == set(fam.ranges) and all(lo <= params[k] <= hi for k, (lo, hi) in bounds.items())
     runs = measure(truth, seed=1, fast=True, plant_cls=cls)
     assert rms(_residual(base, runs, noise_sigma(runs))) > 1.05
 

@@ -16,6 +16,16 @@ import pytest
 
 from seagen.actuator import Actuator, default_actuator
 from seagen.control.experiment import CONTACT_MARGIN_DEG, TARGET_FRACTIONS
+from seagen.discrepancy.bench import TRUTH
+from seagen.discrepancy.families import FAMILIES
+from seagen.discrepancy.recalibrate import PLAUSIBLE_SHARES
+
+# The ranges of pot counts (as shares of full scale) the catalogue's benchmarks and checks use.
+POT_RANGES = (
+    TRUTH["pot_voltage_drop"]["counts_per_unit_current"],
+    PLAUSIBLE_SHARES["pot_voltage_drop"]["counts_per_unit_current"],
+    FAMILIES["lagged_pot_bias"].ranges["gain"],
+)
 
 REPO = Path(__file__).resolve().parents[1]
 SCANNED = ("seagen", "c_runtime", "templates")
@@ -26,9 +36,6 @@ ALLOWED: dict[tuple[str, float], str] = {
     ("seagen/plant/config.py", 2.7): "the effect catalogue's default Coulomb friction (plant.toml's effect, "
     "separate from the description by design; the description's friction_n is what the estimate subtracts)",
     ("seagen/plant/config.py", 0.55): "actuator_friction.reverse_ratio, an effect parameter (not h_fit[0])",
-    ("seagen/discrepancy/families.py", 2.7): "a candidate family's default bristle band (a fitted effect)",
-    ("seagen/toolchain/cortexm.py", 4096): "the emulator's 4 KiB memory page (0x1000)",
-    ("seagen/toolchain/cortexm.py", 4095): "the emulator's page mask (0xFFF)",
     ("seagen/pil/fw/pil_common.c", 28): "interrupt vector 28 in the PIL firmware's vector table",
 }
 
@@ -60,6 +67,7 @@ def forbidden(act: Actuator) -> dict[float, str]:
         round(m.supply_v * 1000): "motor.supply_v in mV",
         c.kd_v_s_per_mm: "control.kd_v_s_per_mm",
         c.margin_mm: "control.margin_mm",
+        act.pot.vref_mv: "pot.vref_mv (the pot's ADC reference, mV)",
     }
     for i, h in enumerate(lk.h_fit):
         out.setdefault(abs(h), f"linkage.h_fit[{i}]")
@@ -73,7 +81,13 @@ def groups(act: Actuator) -> dict[tuple[float, ...], str]:
     lk = act.linkage
     lo, hi = lk.angle_min_deg + CONTACT_MARGIN_DEG[0], lk.angle_max_deg - CONTACT_MARGIN_DEG[1]
     targets = tuple(f * act.control.force_max_n for f in TARGET_FRACTIONS)
-    return {(lo, hi): "the experiment's contact-angle range", targets: "the experiment's force targets"}
+    fs = act.adc_max + 1.0  # the catalogue's pot counts: shares of the pot's full scale
+    pot = {(lo * fs, hi * fs) for lo, hi in POT_RANGES}
+    return {
+        (lo, hi): "the experiment's contact-angle range",
+        targets: "the experiment's force targets",
+        **{r: "a range of pot counts of the effect catalogue (a share of the pot's full scale)" for r in pot},
+    }
 
 
 def same(v: float, target: float) -> bool:
@@ -206,6 +220,10 @@ def test_allow_list_is_not_stale():
         ("seagen/x.py", "k = -0.0031\n", True),
         ("seagen/x.py", "ANGLES = np.linspace(7.0, 25.0, 10)\n", True),
         ("seagen/x.py", "TARGETS = (5.0, 10.0, 15.0)\n", True),
+        ("seagen/x.py", "VREF_MV = 3300.0\n", True),
+        ("seagen/x.py", 'P = {"pot_voltage_drop": {"counts_per_unit_current": (20.0, 400.0)}}\n', True),
+        ("seagen/x.py", 'R = {"gain": (80.0, 200.0), "tau": (0.04, 0.12)}\n', True),
+        ("seagen/x.py", "TRUTH = (60.0, 200.0)\n", True),
         ("c_runtime/x.h", "#define SEA_POT_MAX 4095\n", True),
         ("c_runtime/x.h", "#define Q 73584u\n", True),
         ("templates/x.c.j2", "x = 1 << 12;\n", True),
@@ -214,6 +232,7 @@ def test_allow_list_is_not_stale():
         ("seagen/x.py", "X = 4095.5 + 14.2 + 0.38\n", False),
         ("c_runtime/x.h", "/* 4095 */ int x = 4095000; /* 12000 mV */\n", False),
         ("seagen/x.py", "LIMIT = 7.0\nTOP = 25.0\n", False),
+        ("seagen/x.py", "LO = 60.0\nHI = 200.0\n", False),
     ],
 )
 def test_scanner_catches_a_re_added_number(rel, text, hit):

@@ -54,9 +54,10 @@ class GloveLoad:
 
 def sensors(seed: int, ticks: int = TICKS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(enc, pot, desired force Q16) per tick and actuator: random walks, forces stepping within range."""
-    from seagen.runtime.control import sensor_walk
+    from seagen.runtime.control import pot_at, sensor_walk
 
-    return sensor_walk(seed, ticks, (N_SEA,), start=(300, 1200), force_n=(1.0, 15.0), hold=40)
+    start = (300, pot_at(0.29296875))  # the pot at 1,200 counts of the paper's 12-bit ADC
+    return sensor_walk(seed, ticks, (N_SEA,), start=start, force_n=(1.0, 15.0), hold=40)
 
 
 def glove_files(target: str = "portable", cal: str = "cal_mlp", ctl: str = "ctl_mlp") -> dict[str, str]:

@@ -23,9 +23,15 @@ NOTES = {
     "pot_offset_q24": "Eq. 5 deg at pot 0, Q24",
     "motor_max_mv": "command limit, mV",
     "enc_jump_max": "default encoder-jump bound, counts per tick",
-    "pot_avg_ticks": "ticks per pot average (10 Hz)",
     "pot_stuck_ticks": "default stuck-pot ticks (100 ms)",
 }
+
+
+def _note(field: str, a: ActQ) -> str:
+    """The comment of one sea_act field (the pot average's rate is the description's)."""
+    if field == "pot_avg_ticks":
+        return f"ticks per pot average ({a.control.pot_avg_hz:g} Hz)"
+    return NOTES[field]
 
 
 def act_files(a: ActQ) -> dict[str, str]:
@@ -39,7 +45,7 @@ def act_files(a: ActQ) -> dict[str, str]:
         "digest": a.digest,
         "link_shift": a.link_shift,
         "link": a.link,
-        "fields": [(n, c_int(v, 32), NOTES[n]) for n, v in a.struct_fields()],
+        "fields": [(n, c_int(v, 32), _note(n, a)) for n, v in a.struct_fields()],
     }
     env = environment()
     return {f"{a.cid}{x}": env.get_template(f"sea_act{x}.j2").render(ctx) for x in (".h", ".c")}

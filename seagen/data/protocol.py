@@ -19,7 +19,8 @@ from seagen.plant import Plant, PlantConfig
 N_ANGLES = 12  # the contact angles of train and test, 1 deg above the range's minimum to 2 deg below its top
 # seconds of each split: paper §VIII-A's 10,400 / 2,416 / 140 rows at its 100 Hz
 SECONDS = {"train": 104.0, "test": 24.16, "validation": 1.4}
-# (push volts, peak force at the shaft N, retract volts): "several speeds" (chosen)
+# (push volts, peak force at the shaft N, retract volts): "several speeds" (chosen), for the paper's motor and
+# force range; scaled_move scales them to another actuator's (volts_scale, force_scale)
 PUSH_MOVES = ((2.5, 17.0, -5.0), (4.0, 12.0, -7.0), (3.0, 19.0, -6.0), (5.0, 9.0, -8.0), (2.0, 14.0, -4.0))
 # The calibration protocol: the third push climbs in 0.5 mm position-controlled stairs instead ("PID
 # position control is used to drive the SEA", paper §IV), so the data also hold the actuator at rest on
@@ -54,12 +55,20 @@ def volts_scale(act: Actuator | None = None) -> float:
     return (m.supply_v / m.stall_force_n) / (p.supply_v / p.stall_force_n)
 
 
+def force_scale(act: Actuator | None = None) -> float:
+    """Factor on the moves' peak forces for `act`: the same share of its calibrated force range
+    (control.force_max_n) as of the paper's (exactly 1 for it: its 17 N peak is 85 % of its 20 N)."""
+    return (act or default_actuator()).control.force_max_n / default_actuator().control.force_max_n
+
+
 def scaled_move(angle_deg: float, move: tuple[float, ...], act: Actuator | None = None) -> Move:
-    """The move (push volts, peak N, retract volts[, stair mm]) at `angle_deg`, its volts scaled to the
-    motor of `act` (volts_scale)."""
-    f = volts_scale(act)
+    """The move (push volts, peak N, retract volts[, stair mm]) at `angle_deg` for `act`: its peak force
+    scaled to its force range (force_scale) and its volts to its motor and that range (volts_scale x
+    force_scale: the same stall margin at the peak), within +-its supply. The paper's moves on its own."""
+    g = force_scale(act)
+    f, top = volts_scale(act) * g, (act or default_actuator()).motor.supply_v
     push, peak, back, *stair = move
-    return Move(angle_deg, push * f, peak, back * f, *stair)
+    return Move(angle_deg, min(push * f, top), peak * g, max(back * f, -top), *stair)
 
 
 STAIR_S = 0.3  # one stair: move and hold (s)

@@ -15,9 +15,10 @@ from seagen.discrepancy.residuals import SCORE_CHANNELS, noise_sigma, zscores
 from seagen.discrepancy.workflow import Result, identify
 from seagen.geometry import geometry
 from seagen.plant import PlantConfig
-from seagen.plant.config import CATALOGUE
+from seagen.plant.config import CATALOGUE, POT_SHARES, pot_full_scale
 
-# Ranges the hidden parameters are drawn from (realistic for the paper's actuator).
+# Ranges the hidden parameters are drawn from (realistic for the paper's actuator). Those of pot counts
+# (POT_SHARES' keys) are shares of the pot's full scale here: 60 to 200 counts on a 12-bit pot.
 TRUTH: dict[str, dict[str, tuple[float, float]]] = {
     "actuator_friction": {"force_n": (1.5, 4.0), "reverse_ratio": (0.4, 0.9)},
     "linkage_friction": {"c0_n": (-0.3, 0.3), "c1_n": (0.8, 1.8), "c2_n": (0.8, 1.8)},
@@ -27,7 +28,10 @@ TRUTH: dict[str, dict[str, tuple[float, float]]] = {
     "backlash": {"half_width_mm": (0.03, 0.15)},
     "spring_preload": {"force_n": (0.5, 2.0)},
     "spring_nonlinearity": {"k3_n_per_mm3": (0.03, 0.12)},
-    "pot_voltage_drop": {"counts_per_unit_current": (60.0, 200.0), "time_constant_s": (0.05, 0.25)},
+    "pot_voltage_drop": {
+        "counts_per_unit_current": (0.0146484375, 0.048828125),
+        "time_constant_s": (0.05, 0.25),
+    },
     "load_cell_offset": {"offset_n": (0.3, 1.0)},
     "transport_delay": {"delay_s": (0.01, 0.06)},
 }
@@ -55,9 +59,14 @@ class Case:
     hidden: ParamSet
 
 
-def draw(effect: str, rng: np.random.Generator) -> dict[str, float]:
-    """Random parameters for a hidden effect (offset sign random)."""
-    p = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in TRUTH[effect].items()}
+def draw(effect: str, rng: np.random.Generator, act: Actuator | None = None) -> dict[str, float]:
+    """Random parameters for a hidden effect of actuator `act` (the paper's when None; pot counts in its
+    ADC's), offset sign random."""
+    fs = pot_full_scale(act or default_actuator())
+    p = {
+        k: float(rng.uniform(lo * fs, hi * fs) if (effect, k) in POT_SHARES else rng.uniform(lo, hi))
+        for k, (lo, hi) in TRUTH[effect].items()
+    }
     if effect == "load_cell_offset":
         p["offset_n"] *= float(rng.choice([-1.0, 1.0]))
     return p
@@ -102,7 +111,7 @@ def make_case(
     the base has them switched off."""
     rng = np.random.default_rng(seed)
     default = default or PlantConfig(actuator=act or default_actuator())
-    hidden = {e: draw(e, rng) for e in effects}
+    hidden = {e: draw(e, rng, default.actuator) for e in effects}
     truth, base = default, default
     for e, p in hidden.items():
         truth, base = truth.with_effect(e, True, **p), base.with_effect(e, False)

@@ -15,13 +15,15 @@ import numpy as np
 
 from seagen.actuator import Actuator, default_actuator
 from seagen.plant import Plant, PlantConfig, pick
+from seagen.plant.config import pot_full_scale
 
 
 class MemoryFriction(Plant):
     """Friction with a bristle state: the Coulomb band builds up as 1 - exp(-s/x0) with travel s since the
     last reversal of the shaft (a force loss that opens at reversals)."""
 
-    fc, x0 = 2.7, 0.03
+    fc: float  # N, the band's height (drawn per case: FAMILIES' range)
+    x0: float  # mm, the travel over which it builds up
 
     def friction_limits(self, angle_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The plant's other friction plus the memory band."""
@@ -101,7 +103,8 @@ class DriftingOffset(Plant):
 class LaggedPotBias(Plant):
     """A pot bias that follows |motor current| through two cascaded lags (the catalogue's has one)."""
 
-    gain, tau = 120.0, 0.08
+    gain: float  # pot counts per unit current (drawn per case, FAMILIES' range: shares of full scale)
+    tau: float  # s
 
     def read(self):
         """The reading plus the doubly lagged bias (updated per sample)."""
@@ -123,6 +126,14 @@ class Family:
     replaces: str | None
     ranges: dict[str, tuple[float, float]]
     expected: frozenset[str]
+    pot_counts: frozenset[str] = frozenset()  # parameters in pot counts: ranges as shares of full scale
+
+    def bounds(self, act: Actuator | None = None) -> dict[str, tuple[float, float]]:
+        """The parameter ranges in the plant's units on actuator `act` (the paper's when None)."""
+        fs = pot_full_scale(act or default_actuator())
+        return {
+            k: (lo * fs, hi * fs) if k in self.pot_counts else (lo, hi) for k, (lo, hi) in self.ranges.items()
+        }
 
 
 FAMILIES: dict[str, Family] = {
@@ -148,8 +159,9 @@ FAMILIES: dict[str, Family] = {
     "lagged_pot_bias": Family(
         LaggedPotBias,
         "pot_voltage_drop",
-        {"gain": (80.0, 200.0), "tau": (0.04, 0.12)},
+        {"gain": (0.01953125, 0.048828125), "tau": (0.04, 0.12)},  # gain: 80 to 200 counts of 12 bits
         frozenset({"pot_voltage_drop"}),
+        frozenset({"gain"}),
     ),
 }
 # Mis-set bases: (effect, parameter) pairs a base may get wrong; one or two per case, off by 20-60 %.
@@ -168,9 +180,9 @@ def family_case(
     `act` (the paper's when None)."""
     rng = np.random.default_rng(seed)
     fam = FAMILIES[name]
-    params = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in fam.ranges.items()}
-    cls = type(f"{fam.cls.__name__}_{seed}", (fam.cls,), params)
     default = PlantConfig(actuator=act or default_actuator())
+    params = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in fam.bounds(default.actuator).items()}
+    cls = type(f"{fam.cls.__name__}_{seed}", (fam.cls,), params)
     truth = default if fam.replaces is None else default.with_effect(fam.replaces, False)
     return cls, truth, truth, params
 

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
+from seagen.actuator import default_actuator
 from seagen.discrepancy.candidates import (
     at,
     box,
@@ -19,10 +20,12 @@ from seagen.discrepancy.candidates import (
 )
 from seagen.discrepancy.replay import ParamSet, Runs
 from seagen.plant import PlantConfig
+from seagen.plant.config import POT_SHARES, pot_full_scale
 
 # Plausible values for a compact SEA like the paper's (documented in the README). The fit may move a
 # parameter anywhere in its wider SPACE box; a value outside these ranges is reported as implausible.
-PLAUSIBLE: dict[str, dict[str, tuple[float, float]]] = {
+# Parameters in pot counts (POT_SHARES' keys) are shares of the pot's full scale here (plausible_range).
+PLAUSIBLE_SHARES: dict[str, dict[str, tuple[float, float]]] = {
     "actuator_friction": {"force_n": (0.5, 6.0), "reverse_ratio": (0.3, 1.0)},
     "linkage_friction": {"c0_n": (-1.0, 1.5), "c1_n": (-2.5, 2.5), "c2_n": (-2.5, 2.5)},
     "viscous_friction": {"b_n_s_per_mm": (0.01, 0.6)},
@@ -31,9 +34,26 @@ PLAUSIBLE: dict[str, dict[str, tuple[float, float]]] = {
     "backlash": {"half_width_mm": (0.01, 0.3)},
     "spring_preload": {"force_n": (-3.0, 3.0)},
     "spring_nonlinearity": {"k3_n_per_mm3": (0.005, 0.3)},
-    "pot_voltage_drop": {"counts_per_unit_current": (20.0, 400.0), "time_constant_s": (0.02, 0.5)},
+    "pot_voltage_drop": {
+        "counts_per_unit_current": (0.0048828125, 0.09765625),  # 20 to 400 counts of a 12-bit pot
+        "time_constant_s": (0.02, 0.5),
+    },
     "load_cell_offset": {"offset_n": (-3.0, 3.0)},
     "transport_delay": {"delay_s": (0.002, 0.1)},
+}
+PAPER_FULL_SCALE = pot_full_scale(default_actuator())
+
+
+def plausible_range(effect: str, param: str, scale: float = PAPER_FULL_SCALE) -> tuple[float, float]:
+    """(low, high) of a parameter's plausible range, for a pot of `scale` counts (the paper's by default)."""
+    lo, hi = PLAUSIBLE_SHARES[effect][param]
+    k = scale if (effect, param) in POT_SHARES else 1.0
+    return lo * k, hi * k
+
+
+# The ranges in the plant's units on the paper's pot (20 to 400 counts per unit current on its 12-bit ADC).
+PLAUSIBLE: dict[str, dict[str, tuple[float, float]]] = {
+    e: {p: plausible_range(e, p) for p in ps} for e, ps in PLAUSIBLE_SHARES.items()
 }
 _UNIT_SUFFIX = (
     ("_n_s_per_mm", "N s/mm"),
@@ -52,9 +72,9 @@ def unit_of(param: str) -> str:
     return next((u for suffix, u in _UNIT_SUFFIX if param.endswith(suffix)), "")
 
 
-def plausible(effect: str, param: str, value: float) -> bool:
-    """Whether value lies in the documented plausible range."""
-    lo, hi = PLAUSIBLE[effect][param]
+def plausible(effect: str, param: str, value: float, scale: float = PAPER_FULL_SCALE) -> bool:
+    """Whether value lies in the documented plausible range (for a pot of `scale` counts)."""
+    lo, hi = plausible_range(effect, param, scale)
     return lo <= value <= hi
 
 
@@ -75,14 +95,21 @@ def uncertainty(base: PlantConfig, params: ParamSet, fit: Runs, sigma: dict) -> 
     return out
 
 
-def change_lines(effect: str, before: dict[str, float], after: dict[str, float], sig: dict) -> list[str]:
-    """'actuator_friction.force_n 3.60 -> 2.71 N, ±0.02' per parameter, flagged when implausible."""
+def change_lines(
+    effect: str,
+    before: dict[str, float],
+    after: dict[str, float],
+    sig: dict,
+    scale: float = PAPER_FULL_SCALE,
+) -> list[str]:
+    """'actuator_friction.force_n 3.60 -> 2.71 N, ±0.02' per parameter, flagged when implausible (for a
+    pot of `scale` counts)."""
     out = []
     for p, v in after.items():
         u = unit_of(p)
         line = f"{effect}.{p} {before[p]:.4g} -> {v:.4g}{' ' + u if u else ''}, ±{sig.get(p, np.nan):.2g}"
-        if not plausible(effect, p, v):
-            lo, hi = PLAUSIBLE[effect][p]
+        if not plausible(effect, p, v, scale):
+            lo, hi = plausible_range(effect, p, scale)
             line += f" (OUTSIDE the plausible range {lo:g}..{hi:g})"
         out.append(line)
     return out

@@ -14,6 +14,7 @@ from seagen.discrepancy.recalibrate import PIN_SHARE, PIN_SIGMAS, change_lines, 
 from seagen.discrepancy.residuals import SCORE_CHANNELS, channel_rms, region_labels, region_table, rms
 from seagen.discrepancy.workflow import DRIVE, Result, worse_channels
 from seagen.plant import save_config
+from seagen.plant.config import pot_full_scale
 
 NOISE_TEXT = (
     "noise sigma per trial and channel from the measured data: robust (1.4826 MAD) spread of second "
@@ -89,6 +90,7 @@ def _md_table(df: pd.DataFrame) -> str:
 
 def markdown(res: Result, source: str, before: pd.DataFrame, after: pd.DataFrame, gap: pd.DataFrame) -> str:
     """The one-minute report."""
+    fs = pot_full_scale(res.config.actuator)
     eff = pd.DataFrame(
         [
             (n.name, ", ".join(f"{k}={v:.4g}" for k, v in n.params.items()), n.confidence, _claim(n))
@@ -116,7 +118,7 @@ def markdown(res: Result, source: str, before: pd.DataFrame, after: pd.DataFrame
         _remainder(res),
         _learned(res),
         "## Parameter changes of the base (recalibrated)\n"
-        + ("\n".join(f"- {line}" for n in res.recalibrated for line in _changes(n)) or "none"),
+        + ("\n".join(f"- {line}" for n in res.recalibrated for line in _changes(n, fs)) or "none"),
         _pinning(res),
         "## Effects added\n" + (_md_table(eff) if len(eff) else "none"),
         "![residual maps](residual_maps.png)",
@@ -216,11 +218,12 @@ def gap_cut(before: float, after: float, floor: float) -> float:
     return float(1 - max(after - floor, 0.0) / max(before - floor, 1e-12))
 
 
-def _changes(n) -> list[str]:
-    """Change lines of one recalibrated effect, with its bootstrap confidence (and claim)."""
+def _changes(n, full_scale: float) -> list[str]:
+    """Change lines of one recalibrated effect, with its bootstrap confidence (and claim); `full_scale`: the
+    pot's counts (the plausible ranges of pot counts scale with it)."""
     return [
         f"{line} (confidence {n.confidence:.0%}{'' if n.claimed else '; ' + _claim(n)})"
-        for line in change_lines(n.name, n.before, n.params, n.sigma)
+        for line in change_lines(n.name, n.before, n.params, n.sigma, full_scale)
     ]
 
 
@@ -293,7 +296,7 @@ def summary(res: Result) -> dict:
                 "before": n.before[p],
                 "after": v,
                 "sigma": n.sigma.get(p),
-                "plausible": plausible(n.name, p, v),
+                "plausible": plausible(n.name, p, v, pot_full_scale(res.config.actuator)),
                 "confidence": n.confidence,
                 "claimed": n.claimed,
                 "why": n.why,

@@ -16,19 +16,23 @@ from seagen.data.logimport import import_log, load_map
 from seagen.discrepancy.bench import FAST_MOVES, HIDEABLE, case_moves, chosen, draw, run_all
 from seagen.discrepancy.families import misset_case
 from seagen.discrepancy.replay import runs_from_frames
-from seagen.discrepancy.riglog import CONVENTIONS, RIG_MAP, rig_csv, rig_trials
+from seagen.discrepancy.riglog import CONVENTIONS, rig_csv, rig_map, rig_trials
 from seagen.discrepancy.workflow import identify
 from seagen.plant import PlantConfig
 
 # Loop periods (integer ms, drawn per sample) of the clocks tried: 200, 250, 500 Hz jittered; 1 kHz steady.
 CLOCKS = {200: (4, 5, 6), 250: (3, 4, 5), 500: (1, 2, 3), 1000: (1,)}
 RECOVERED = 0.05  # a mis-set parameter counts as recovered within 5 % of the truth
-# A second dialect: seconds, volts, lbf, other column names, a trial column, no gaps needed.
-ALT_MAP = (
-    RIG_MAP.replace('column = "millis"\nunit = "ms"', 'column = "time_s"\nunit = "s"')
-    .replace('column = "pwm_pct"\nunit = "%"', 'column = "u_V"\nunit = "V"')
-    .replace('column = "shaft_kgf"\nunit = "kgf"', 'column = "F_shaft_lbf"\nunit = "lbf"')
-)
+
+
+def alt_map(act: Actuator | None = None) -> str:
+    """A second dialect's map (for `act`, the paper's when None): seconds, volts, lbf, other column names."""
+    return (
+        rig_map(act)
+        .replace('column = "millis"\nunit = "ms"', 'column = "time_s"\nunit = "s"')
+        .replace('column = "pwm_pct"\nunit = "%"', 'column = "u_V"\nunit = "V"')
+        .replace('column = "shaft_kgf"\nunit = "kgf"', 'column = "F_shaft_lbf"\nunit = "lbf"')
+    )
 
 
 def _dialect(text: str, act: Actuator) -> str:
@@ -70,7 +74,7 @@ def run_case(
     act = act or default_actuator()
     rng = np.random.default_rng(seed)
     truth = base = PlantConfig(actuator=act)
-    hidden = {e: draw(e, rng) for e in effects}
+    hidden = {e: draw(e, rng, act) for e in effects}
     for e, p in hidden.items():
         truth, base = truth.with_effect(e, True, **p), base.with_effect(e, False)
     wrong: dict[str, tuple[float, float]] = {}
@@ -83,7 +87,7 @@ def run_case(
     with tempfile.TemporaryDirectory() as tmp:
         log, mp = Path(tmp) / "rig.csv", Path(tmp) / "map.toml"
         log.write_text(_dialect(text, act) if dialect else text)
-        mp.write_text(ALT_MAP if dialect else RIG_MAP)
+        mp.write_text(alt_map(act) if dialect else rig_map(act))
         df = import_log(log, load_map(mp), act)
     t0 = time.perf_counter()
     res = identify(runs_from_frames([("rig", df)]), base)

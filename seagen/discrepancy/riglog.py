@@ -70,8 +70,8 @@ def rig_csv(
     frames: list[pd.DataFrame], start_ms: int = 12_345, gap_ms: int = 2_000, act: Actuator | None = None
 ) -> str:
     """The trials as one log a rig writes: integer-ms clock from power-on, gaps between trials, PWM in % of
-    the supply of `act` (the paper's when None), pot in mV of its ADC, forces in kgf, angle in rad, an extra
-    column, CRLF line ends, no trial column."""
+    the supply of `act` (the paper's when None), pot in mV of its ADC (pot.vref_mv at full scale), forces
+    in kgf, angle in rad, an extra column, CRLF line ends, no trial column."""
     act = act or default_actuator()
     parts, t0 = [], start_ms
     for df in frames:
@@ -83,7 +83,7 @@ def rig_csv(
                     "contact_rad": np.radians(df["angle_set_deg"].to_numpy(float)),
                     "pwm_pct": df["motor_v"].to_numpy(float) / act.motor.supply_v * 100.0,
                     "enc": df["enc"].to_numpy(),
-                    "pot_mV": df["pot"].to_numpy(float) * 3300.0 / float(act.adc_max),
+                    "pot_mV": df["pot"].to_numpy(float) * act.pot.vref_mv / float(act.adc_max),
                     "tip_kgf": df["load_cell_n"].to_numpy(float) / 9.80665,
                     "shaft_kgf": df["force_n"].to_numpy(float) / 9.80665,
                     "temp_C": 24.5,
@@ -94,7 +94,7 @@ def rig_csv(
     return pd.concat(parts, ignore_index=True).to_csv(index=False, lineterminator="\r\n", float_format="%.9g")
 
 
-RIG_MAP = """\
+_RIG_MAP = """\
 [columns.t_s]
 column = "millis"
 unit = "ms"
@@ -109,7 +109,7 @@ column = "enc"
 [columns.pot]
 column = "pot_mV"
 unit = "mV"
-full_scale = 3300.0
+full_scale = {vref_mv!r}
 [columns.load_cell_n]
 column = "tip_kgf"
 unit = "kgf"
@@ -119,3 +119,11 @@ unit = "kgf"
 [trials]
 gap_s = 1.0
 """
+
+
+def rig_map(act: Actuator | None = None) -> str:
+    """The `data import` map of rig_csv's log for `act` (the paper's when None): its pot reference in mV."""
+    return _RIG_MAP.format(vref_mv=float((act or default_actuator()).pot.vref_mv))
+
+
+RIG_MAP = rig_map()  # the paper's actuator's

@@ -139,21 +139,40 @@ class SpringNonlinearity(Effect):
     k3_n_per_mm3: float = 0.06
 
 
+def pot_full_scale(act: Actuator) -> float:
+    """Counts of the pot ADC's full scale (2^adc_bits) of an actuator description."""
+    return float(act.adc_max + 1)
+
+
+# Effect parameters in pot ADC counts, with their defaults as shares of the pot's full scale: a default
+# plant of any design has the same pot non-idealities relative to its range (on the paper's 12-bit pot: 120
+# counts per unit current, sigma 10 counts; both shares are exact binary fractions, so the products are
+# exactly those numbers there). A value given in plant.toml is in counts of that actuator's ADC.
+POT_SHARES: dict[tuple[str, str], float] = {
+    ("pot_voltage_drop", "counts_per_unit_current"): 0.029296875,
+    ("pot_noise", "sigma_counts"): 0.00244140625,
+}
+_PAPER_POT = pot_full_scale(default_actuator())
+
+
 @dataclass
 class PotVoltageDrop(Effect):
-    """Pot reads high while the motor draws current (|i| normalised to stall at the supply), decays after."""
+    """Pot reads high while the motor draws current (|i| normalised to stall at the supply), decays after.
+
+    counts_per_unit_current is in pot counts (its default: POT_SHARES of the described pot's full scale)."""
 
     enabled: bool = True
-    counts_per_unit_current: float = 120.0
+    counts_per_unit_current: float = POT_SHARES[("pot_voltage_drop", "counts_per_unit_current")] * _PAPER_POT
     time_constant_s: float = 0.12
 
 
 @dataclass
 class PotNoise(Effect):
-    """Reference-voltage fluctuation: zero-mean Gaussian noise on the pot counts."""
+    """Reference-voltage fluctuation: zero-mean Gaussian noise on the pot counts (default: POT_SHARES of the
+    described pot's full scale)."""
 
     enabled: bool = True
-    sigma_counts: float = 10.0
+    sigma_counts: float = POT_SHARES[("pot_noise", "sigma_counts")] * _PAPER_POT
 
 
 @dataclass
@@ -219,6 +238,17 @@ class Effects:
     transport_delay: TransportDelay = field(default_factory=TransportDelay)
     learned_residual: LearnedResidual = field(default_factory=LearnedResidual)
 
+    @classmethod
+    def of(cls, act: Actuator) -> Effects:
+        """The default catalogue for an actuator: its pot effects at their shares of its pot's full scale."""
+        out, fs = cls(), pot_full_scale(act)
+        for (name, param), share in POT_SHARES.items():
+            setattr(out, name, dataclasses.replace(getattr(out, name), **{param: share * fs}))
+        return out
+
+
+_UNRESOLVED = Effects()  # PlantConfig's marker for "the default catalogue of its actuator" (never kept)
+
 
 EFFECT_NAMES: tuple[str, ...] = tuple(f.name for f in fields(Effects))
 # The physical catalogue a discrepancy search names from (pot_noise is a noise model, learned_residual a fit).
@@ -229,12 +259,17 @@ CATALOGUE: tuple[str, ...] = tuple(e for e in EFFECT_NAMES if e not in ("pot_noi
 class PlantConfig:
     """Everything the simulated SEA needs: the actuator description (its geometry and motor; not part of
     plant.toml, which says what is non-ideal about it) and the effect catalogue. The defaults reproduce
-    the paper's actuator."""
+    the paper's actuator; without `effects`, the catalogue's defaults for `actuator` (Effects.of)."""
 
     actuator: Actuator = field(default_factory=default_actuator)
     load_cells: LoadCells = field(default_factory=LoadCells)
-    effects: Effects = field(default_factory=Effects)
+    effects: Effects = field(default_factory=lambda: _UNRESOLVED)
     dt_s: float = 0.001  # internal step (1 kHz)
+
+    def __post_init__(self) -> None:
+        """Resolve the default catalogue for the actuator (its pot effects scale with its pot)."""
+        if self.effects is _UNRESOLVED:
+            self.effects = Effects.of(self.actuator)
 
     @property
     def motor(self) -> Motor:
@@ -242,7 +277,7 @@ class PlantConfig:
         return Motor.of(self.actuator)
 
     def with_actuator(self, act: Actuator) -> PlantConfig:
-        """A copy simulating another actuator description (same effects)."""
+        """A copy simulating another actuator description (the same effects, pot counts unchanged)."""
         return dataclasses.replace(self, actuator=act)
 
     def effect(self, name: str) -> Effect:
@@ -271,18 +306,19 @@ class PlantConfig:
 MOVED_MOTOR_KEYS = ("supply_v", "no_load_rpm", "counts_per_rev", "time_constant_s", "stall_force_n")
 
 
-def _fill(cls: type, data: dict[str, Any], where: str, path: str) -> Any:
-    """Build dataclass `cls` from `data`, rejecting unknown keys and wrong types with their location."""
-    known = {f.name: f for f in fields(cls) if f.name != "actuator"}  # the description is its own file
+def _fill(base: Any, data: dict[str, Any], where: str, path: str) -> Any:
+    """Dataclass instance `base` with the values of `data`, rejecting unknown keys and wrong types with their
+    location (keys not given keep base's values: the defaults for the actuator)."""
+    known = {f.name: f for f in fields(base) if f.name != "actuator"}  # the description is its own file
     kwargs: dict[str, Any] = {}
     for key, value in data.items():
         if key not in known:
             raise ConfigError(f"{where}: unknown key '{path}{key}' (known: {', '.join(known)})")
-        default = getattr(cls(), key)
+        default = getattr(base, key)
         if dataclasses.is_dataclass(default):
             if not isinstance(value, dict):
                 raise ConfigError(f"{where}: '{path}{key}' must be a table")
-            kwargs[key] = _fill(type(default), value, where, f"{path}{key}.")
+            kwargs[key] = _fill(default, value, where, f"{path}{key}.")
         elif isinstance(default, str):
             if not isinstance(value, str):
                 raise ConfigError(f"{where}: '{path}{key}' must be a string, got {value!r}")
@@ -297,7 +333,7 @@ def _fill(cls: type, data: dict[str, Any], where: str, path: str) -> Any:
             if isinstance(value, bool) or not isinstance(value, int | float):
                 raise ConfigError(f"{where}: '{path}{key}' must be a number, got {value!r}")
             kwargs[key] = type(default)(value)
-    obj = cls(**kwargs)
+    obj = dataclasses.replace(base, **kwargs)
     problem = obj.problem() if hasattr(obj, "problem") and obj.enabled else None
     if problem:
         raise ConfigError(f"{where}: '{path.rstrip('.')}': {problem}")
@@ -319,7 +355,8 @@ def config_from_dict(
     data: dict[str, Any], where: str = "<dict>", actuator: Actuator | None = None
 ) -> PlantConfig:
     """PlantConfig of `actuator` (the paper's when None) from a nested dict; missing keys take their
-    defaults. A [motor] table (plant.toml before the actuator description) is refused with how to move it."""
+    defaults for that actuator (pot counts: shares of its pot's full scale). A [motor] table (plant.toml
+    before the actuator description) is refused with how to move it."""
     if "motor" in data:
         moved = ", ".join(f"motor.{k}" for k in MOVED_MOTOR_KEYS)
         raise ConfigError(
@@ -329,8 +366,7 @@ def config_from_dict(
         )
     if "actuator" in data:
         raise ConfigError(f"{where}: unknown key 'actuator' (the description is its own file: --actuator)")
-    cfg = _fill(PlantConfig, data, where, "")
-    return cfg if actuator is None else cfg.with_actuator(actuator)
+    return _fill(PlantConfig(actuator=actuator or default_actuator()), data, where, "")
 
 
 def load_config(path: str | os.PathLike[str], actuator: Actuator | None = None) -> PlantConfig:

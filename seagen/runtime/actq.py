@@ -27,7 +27,6 @@ ANGLE_FRAC = defines("sea_features.h")["SEA_FEAT_ANGLE_FRAC_BITS"]  # angle: Q24
 LINK_INDEX_BITS = (defines("sea_fixed.h")["SEA_LINK_TABLE_LEN"] - 1).bit_length() - 1
 TRAVEL_SIG_BITS = 16  # the travel constant keeps at least 16 significant bits (Q24 at the least)
 TRAVEL_FRAC_MIN, TRAVEL_FRAC_MAX = 24, 46
-POT_AVG_HZ = 10.0  # the controller refreshes its pot average at 10 Hz
 POT_STUCK_S = 0.1  # a pot at a rail this long is stuck
 ENC_JUMP_MARGIN = 2.0  # the encoder-jump bound: twice the no-load count rate per tick
 CMD_MAX_MV = 2**31 - 1  # the PID command is int32 mV, its integrator Q16 in int64 (sea_pid.h)
@@ -51,7 +50,7 @@ class ActQ:
     pot_offset_q24: int  # Eq. 5: deg at pot 0, Q24
     motor_max_mv: int  # the command limit, mV
     enc_jump_max: int  # counts per tick
-    pot_avg_ticks: int  # ticks per pot average (10 Hz)
+    pot_avg_ticks: int  # ticks per pot average (control.pot_avg_hz)
     pot_stuck_ticks: int  # consecutive rail readings that make a fault (100 ms)
     loop_hz: float
     control: Control  # the description's force range and PID gains (SI; ControlConfig.for_act quantizes them)
@@ -178,7 +177,7 @@ def act_q(act: Actuator) -> ActQ:
         pot_offset_q24=offset,
         motor_max_mv=supply_mv,
         enc_jump_max=jump,
-        pot_avg_ticks=_ticks(act, POT_AVG_HZ, "pot average"),
+        pot_avg_ticks=_ticks(act, act.control.pot_avg_hz, "pot average (control.pot_avg_hz)"),
         pot_stuck_ticks=_ticks(act, 1.0 / POT_STUCK_S, "stuck-pot check"),
         loop_hz=act.loop_hz,
         control=act.control,

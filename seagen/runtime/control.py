@@ -202,19 +202,29 @@ def control_run(c: ControlConfig, enc: np.ndarray, pot: np.ndarray, force_q16: n
     return np.array(out, dtype=np.int64)
 
 
+def pot_at(share: float, pot_max: int = PAPER.pot_max) -> int:
+    """The pot reading at `share` of the ADC's full scale (pot_max + 1 counts), rounded."""
+    return round(share * (pot_max + 1))
+
+
+WALK_POT_START = 0.3662109375  # sensor_walk's first pot reading, share of full scale (1,500 of 12 bits)
+
+
 def sensor_walk(
     seed: int,
     n: int,
     batch: tuple[int, ...] = (),
-    start: tuple[int, int] = (400, 1500),
+    start: tuple[int, int] | None = None,
     steps: tuple[int, int] = (40, 20),
     force_n: tuple[float, float] = (2.0, 18.0),
     hold: int = 100,
     pot_max: int = PAPER.pot_max,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Test sequences for controller ticks, (n, *batch) each: raw enc and pot random walks (steps of at most
-    `steps` counts from `start`, pot kept off its rails: 1..pot_max - 1) and a desired force (Q16 N) drawn
-    in `force_n` and held `hold` ticks."""
+    `steps` counts from `start`, by default encoder 400 and the pot at WALK_POT_START of its full scale; pot
+    kept off its rails: 1..pot_max - 1) and a desired force (Q16 N) drawn in `force_n` and held `hold`
+    ticks."""
+    start = (400, pot_at(WALK_POT_START, pot_max)) if start is None else start
     rng = np.random.default_rng(seed)
     enc = start[0] + np.cumsum(rng.integers(-steps[0], steps[0] + 1, (n, *batch)), axis=0)
     pot = np.clip(

@@ -17,7 +17,6 @@ OUT_FRAC = 16  # SEA_PID_OUT_FRAC
 TERM_SHIFT = GAIN_FRAC + COMP_FRAC_BITS - OUT_FRAC
 MOTOR_MAX_MV = act_q_of().motor_max_mv  # the paper's actuator: its supply (sea_act.motor_max_mv)
 TICK_S = 1.0 / act_q_of().loop_hz  # its controller tick (100 Hz)
-PAPER_MARGIN_MM = 0.1  # the paper's control margin (its compression came from the noisy pot at 10 Hz)
 
 
 @dataclass(frozen=True)
@@ -39,7 +38,7 @@ class PidParams:
         ki_v_mm_s: float,
         kd_v_s_mm: float,
         d_alpha: float,
-        margin_mm: float = PAPER_MARGIN_MM,
+        margin_mm: float = default_actuator().control.margin_mm,
         limit_v: float = MOTOR_MAX_MV / 1000,
         max_mv: int = MOTOR_MAX_MV,
         tick_s: float = TICK_S,

@@ -192,8 +192,13 @@ def build_image(
     return Image((out / "fw.bin").read_bytes(), desc["symbols"], desc["objects"], sections, data)
 
 
+PAGE_BITS = 12  # unicorn maps memory in 4 KiB pages
+
+
 def _page(n: int) -> int:
-    return max(0x1000, (n + 0xFFF) & ~0xFFF)
+    """n bytes rounded up to whole emulator pages (at least one)."""
+    page = 1 << PAGE_BITS
+    return max(page, (n + page - 1) & ~(page - 1))
 
 
 class Machine:

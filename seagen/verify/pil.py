@@ -170,7 +170,7 @@ def run_pil(
     board = PilController(files, ex.prefix, core, cal, shared=shared)  # one pipeline for one actuator
     res = PilResult(v, core, board.board.machine, actuators)
     cfg = shipped_config(ex.qmodel, ex.act)  # the configuration export --controller renders
-    plant_cfg = PlantConfig().with_actuator(export_actuator(ex.loaded, actuator, model))  # the export's
+    plant_cfg = PlantConfig(actuator=export_actuator(ex.loaded, actuator, model))  # the export's
     angles = np.array(contact_deg(plant_cfg.actuator, actuators))
     try:
         for i, target in enumerate(targets_n(plant_cfg.actuator)):
