@@ -13,7 +13,7 @@ from seagen.discrepancy.rendezvous import Rendezvous
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS, chi2_per_trial, zscores
 from seagen.plant import PlantConfig
-from seagen.plant.config import CATALOGUE
+from seagen.plant.config import CATALOGUE, pot_full_scale
 
 # Fit box per effect parameter: (low, high, log-scaled). Realistic for a compact SEA; wide on purpose.
 SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
@@ -47,7 +47,7 @@ STEP = 1e-3  # forward-difference step of the Jacobians (unit box)
 
 def full_scale(cfg: PlantConfig | None = None) -> float:
     """Counts of the pot ADC's full scale (2^adc_bits) of cfg's actuator (the paper's when None)."""
-    return float((cfg or PlantConfig()).actuator.adc_max + 1)
+    return pot_full_scale((cfg or PlantConfig()).actuator)
 
 
 def box(effect: str, param: str, scale: float) -> tuple[float, float, bool]:

@@ -26,7 +26,7 @@ from seagen.discrepancy.candidates import (
 )
 from seagen.discrepancy.claims import Evidence, evidence, footprints
 from seagen.discrepancy.learned import Learned, fit_learned, with_learned
-from seagen.discrepancy.recalibrate import PLAUSIBLE, BaseCheck, base_check, plausible, uncertainty
+from seagen.discrepancy.recalibrate import BaseCheck, base_check, plausible, plausible_range, uncertainty
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
 from seagen.discrepancy.residuals import (
     channel_rms,
@@ -42,7 +42,7 @@ from seagen.discrepancy.signature import describe, features, profile, rank
 from seagen.discrepancy.timing import Timing, fit_timing, timing_problem
 from seagen.errors import UserError
 from seagen.plant import PlantConfig
-from seagen.plant.config import CATALOGUE
+from seagen.plant.config import CATALOGUE, pot_full_scale
 
 DRIVE = (
     "measured motor command, each logged value taking effect at its own instant on the plant's 1 ms steps "
@@ -384,9 +384,10 @@ def _honest(base: PlantConfig, named: list[Named], held: Runs, sig_h, z0) -> tup
     notes: list[str] = []
     kept: list[Named] = []
     for n in named:
-        bad = [p for p, v in n.params.items() if n.before is not None and not plausible(n.name, p, v)]
+        fs = pot_full_scale(base.actuator)
+        bad = [p for p, v in n.params.items() if n.before is not None and not plausible(n.name, p, v, fs)]
         for p in bad:
-            lo, hi = PLAUSIBLE[n.name][p]
+            lo, hi = plausible_range(n.name, p, fs)
             notes.append(
                 f"{n.name}.{p} fitted {n.params[p]:.4g}, outside the plausible range {lo:g}..{hi:g}: "
                 f"not written to plant.toml (the base's {n.before[p]:.4g} kept)"  # type: ignore[index]
