@@ -68,9 +68,9 @@ def test_form_parameters_are_drawn_within_ranges(forms):
 @pytest.mark.slow
 @pytest.mark.xfail(
     strict=True,
-    reason="the naming rule misses the first goal on these forms (7/9 named first; wrong claims at >= 0.9 "
-    "went 3/10 -> 0/10 with the evidence rule, tuned on them; docs/discrepancy.md): a known failure of the "
-    "rule, kept as the check it must pass",
+    reason="the naming rule misses the first goal on these forms (7/9 named first, also with the closest "
+    "single change named first; wrong claims at >= 0.9 went 3/10 -> 0/10 with the evidence rule, tuned on "
+    "them; docs/discrepancy.md): a known failure of the rule, kept as the check it must pass",
 )
 def test_naming_rule_on_forms_written_apart():
     """The issue's goal on forms not used to tune the rule: the closest effect named first in >= 90 % of the

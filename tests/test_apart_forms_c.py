@@ -7,7 +7,7 @@ import apart_forms
 import apart_forms_b
 import numpy as np
 import pytest
-from apart_forms_c import FORMS, TRIAL_GAP_S, form_case, rates
+from apart_forms_c import FORMS, TRIAL_GAP_S, form_case, rates, run_form
 from test_apart_forms import MOVES, NOISE  # set A's moves and noise units
 
 from seagen.data.protocol import Move, run_trials
@@ -193,3 +193,20 @@ def test_pot_dropouts_only_while_the_wiper_moves_and_deterministic():
         drops += int((diff > 300).sum())
         rows += n
     assert 0 < drops < 0.1 * rows
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="set C is the held-out check of the name given first (the closest single change): measured 4/8 "
+    "named first (goal >= 90 %), 0/10 wrong names claimed at >= 0.9 (docs/discrepancy.md): a known failure "
+    "of the search, kept as the check it must pass",
+)
+def test_naming_goal_on_set_c():
+    """The issue's goal on forms never used to tune the rule or the name given first: the closest effect
+    named first in >= 90 % of the named cases, a wrong name claimed at >= 0.9 in <= 5 % (one seed each)."""
+    rows = [run_form(name, 0) for name in FORMS]
+    k = rates(rows)
+    assert k["closest_first_rate"] >= 0.9 and k["wrong_sure_rate"] <= 0.05, [
+        (r["form"], r["first"], r["wrong_sure"]) for r in rows
+    ]
