@@ -24,6 +24,8 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -412,6 +414,40 @@ def main(argv: list[str] | None = None) -> int:
                 tmp.replace(a.json)
     print(table(rows))
     return 0
+
+
+class Harness:
+    """This harness (form_case, run_form, main) run on another set's forms (sets B, C, D): FORMS is theirs
+    while inside, set A's again afterwards (the functions above read FORMS at call time)."""
+
+    def __init__(self, forms: dict[str, Form]) -> None:
+        """The harness for `forms`."""
+        self.forms = forms
+
+    @contextmanager
+    def _active(self) -> Iterator[None]:
+        """This set's forms as FORMS while inside."""
+        global FORMS
+        saved, FORMS = FORMS, self.forms
+        try:
+            yield
+        finally:
+            FORMS = saved
+
+    def form_case(self, name: str, seed: int) -> tuple[type[Plant], PlantConfig, dict[str, float]]:
+        """form_case for a form of this set."""
+        with self._active():
+            return form_case(name, seed)
+
+    def run_form(self, name: str, seed: int, fast: bool = False) -> dict:
+        """run_form for a form of this set."""
+        with self._active():
+            return run_form(name, seed, fast)
+
+    def main(self, argv: list[str] | None = None) -> int:
+        """main on this set's forms."""
+        with self._active():
+            return main(argv)
 
 
 if __name__ == "__main__":

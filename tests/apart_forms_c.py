@@ -30,8 +30,6 @@ The harness (form_case, run_form, rates, table, main) is set A's, run on this se
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
 from typing import Any
 
 import apart_forms as _a
@@ -48,6 +46,20 @@ def _duty(plant: Plant, motor_v: Any) -> np.ndarray:
     m = plant.motor
     volts = np.abs(np.broadcast_to(np.asarray(motor_v, dtype=float), plant.nut_mm.shape))
     return np.minimum(volts, m.supply_v) / m.supply_v
+
+
+class _DutyPlant(Plant):
+    """A plant that keeps its current command's PWM duty D (self._d) for its laws (Dither, Ripple)."""
+
+    def __init__(self, cfg: PlantConfig, contact_deg: Any, seed: int = 0) -> None:
+        """The plant, the motor at rest (D = 0)."""
+        super().__init__(cfg, contact_deg, seed)
+        self._d = np.zeros_like(self.nut_mm)
+
+    def step(self, motor_v: Any) -> None:
+        """Step with this command's duty."""
+        self._d = _duty(self, motor_v)
+        super().step(motor_v)
 
 
 class ReturnSpring(Plant):
@@ -179,23 +191,13 @@ class PotCouplingPlay(Plant):
         return s
 
 
-class DitherFriction(Plant):
+class DitherFriction(_DutyPlant):
     """Dither: the H-bridge's PWM shakes the screw and the shaft's guide, which lowers the guide's Coulomb
     friction while the motor is driven: the catalogue's actuator friction times (1 - r D), D = |V| / V_supply
     the duty (pushes run at lower duty than retracts, so the two directions are lowered differently). The
     linkage's pivot is not reached by the vibration."""
 
     r = 0.45
-
-    def __init__(self, cfg: PlantConfig, contact_deg: Any, seed: int = 0) -> None:
-        """The plant, the motor at rest (D = 0)."""
-        super().__init__(cfg, contact_deg, seed)
-        self._d = np.zeros_like(self.nut_mm)
-
-    def step(self, motor_v: Any) -> None:
-        """Step with this command's duty."""
-        self._d = _duty(self, motor_v)
-        super().step(motor_v)
 
     def friction_limits(self, angle_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The plant's friction less the dithered share of the actuator friction."""
@@ -207,22 +209,12 @@ class DitherFriction(Plant):
         return np.maximum(fwd - cut, 0.0), np.maximum(rev - cut * af.reverse_ratio, 0.0)
 
 
-class RippleOffset(Plant):
+class RippleOffset(_DutyPlant):
     """The PWM ripple current in the motor leads couples into the load cell's leads and the amplifier's input
     stage rectifies it: a DC offset g 4 D (1 - D) on the reading (ripple amplitude ~ D (1 - D), D the duty),
     present while the motor is driven, largest at half duty, zero at rest."""
 
     g = 0.45  # N at D = 0.5
-
-    def __init__(self, cfg: PlantConfig, contact_deg: Any, seed: int = 0) -> None:
-        """The plant, the motor at rest (D = 0)."""
-        super().__init__(cfg, contact_deg, seed)
-        self._d = np.zeros_like(self.nut_mm)
-
-    def step(self, motor_v: Any) -> None:
-        """Step with this command's duty."""
-        self._d = _duty(self, motor_v)
-        super().step(motor_v)
 
     def read(self):
         """The reading plus the rectified ripple."""
@@ -354,36 +346,9 @@ FORMS: dict[str, Form] = {
 }
 
 
-@contextmanager
-def _these_forms() -> Iterator[None]:
-    """Set A's harness, run on this set's FORMS while inside (it reads apart_forms.FORMS at call time)."""
-    saved = _a.FORMS
-    _a.FORMS = FORMS
-    try:
-        yield
-    finally:
-        _a.FORMS = saved
-
-
-def form_case(name: str, seed: int) -> tuple[type[Plant], PlantConfig, dict[str, float]]:
-    """apart_forms.form_case for a form of this set."""
-    with _these_forms():
-        return _a.form_case(name, seed)
-
-
-def run_form(name: str, seed: int, fast: bool = False) -> dict:
-    """apart_forms.run_form for a form of this set."""
-    with _these_forms():
-        return _a.run_form(name, seed, fast)
-
-
+HARNESS = _a.Harness(FORMS)  # set A's harness on this set's forms
+form_case, run_form, main = HARNESS.form_case, HARNESS.run_form, HARNESS.main
 rates, table = _a.rates, _a.table
-
-
-def main(argv: list[str] | None = None) -> int:
-    """apart_forms.main on this set's forms."""
-    with _these_forms():
-        return _a.main(argv)
 
 
 if __name__ == "__main__":
