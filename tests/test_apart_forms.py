@@ -30,7 +30,7 @@ def _change(name: str) -> dict[str, float]:
     return out
 
 
-@pytest.mark.parametrize("forms", ["apart_forms", "apart_forms_b", "apart_forms_c"])
+@pytest.mark.parametrize("forms", ["apart_forms", "apart_forms_b", "apart_forms_c", "apart_forms_d"])
 def test_forms_are_well_formed(forms):
     """8-10 forms in each set, expected names from the catalogue, replaced effects switched off, at least one
     form no catalogue effect is close to; no form name in both sets."""
@@ -54,7 +54,7 @@ def test_form_law_differs_from_base_above_noise(name):
     assert max(change.values()) > 2.0, change
 
 
-@pytest.mark.parametrize("forms", ["apart_forms", "apart_forms_b", "apart_forms_c"])
+@pytest.mark.parametrize("forms", ["apart_forms", "apart_forms_b", "apart_forms_c", "apart_forms_d"])
 def test_form_parameters_are_drawn_within_ranges(forms):
     """Parameters differ between seeds and stay in their stated ranges (both sets)."""
     mod = importlib.import_module(forms)
