@@ -31,8 +31,6 @@ The harness (form_case, run_form, rates, table, main) is set A's, run on this se
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
 from typing import Any
 
 import apart_forms as _a
@@ -357,36 +355,9 @@ FORMS: dict[str, Form] = {
 }
 
 
-@contextmanager
-def _these_forms() -> Iterator[None]:
-    """Set A's harness, run on this set's FORMS while inside (it reads apart_forms.FORMS at call time)."""
-    saved = _a.FORMS
-    _a.FORMS = FORMS
-    try:
-        yield
-    finally:
-        _a.FORMS = saved
-
-
-def form_case(name: str, seed: int) -> tuple[type[Plant], PlantConfig, dict[str, float]]:
-    """apart_forms.form_case for a form of this set."""
-    with _these_forms():
-        return _a.form_case(name, seed)
-
-
-def run_form(name: str, seed: int, fast: bool = False) -> dict:
-    """apart_forms.run_form for a form of this set."""
-    with _these_forms():
-        return _a.run_form(name, seed, fast)
-
-
+HARNESS = _a.Harness(FORMS)  # set A's harness on this set's forms
+form_case, run_form, main = HARNESS.form_case, HARNESS.run_form, HARNESS.main
 rates, table = _a.rates, _a.table
-
-
-def main(argv: list[str] | None = None) -> int:
-    """apart_forms.main on this set's forms."""
-    with _these_forms():
-        return _a.main(argv)
 
 
 if __name__ == "__main__":

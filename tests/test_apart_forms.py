@@ -47,6 +47,19 @@ def test_forms_are_well_formed(forms):
     assert not set(sets[0]) & set(sets[1])
 
 
+@pytest.mark.parametrize("forms", ["apart_forms_b", "apart_forms_c", "apart_forms_d"])
+def test_other_sets_run_set_as_harness_and_leave_it_unchanged(forms):
+    """Sets B-D run set A's harness (apart_forms.Harness) on their forms and put set A's forms back."""
+    import apart_forms
+
+    mod = importlib.import_module(forms)
+    before, name = apart_forms.FORMS, list(mod.FORMS)[-1]
+    cls, _, _ = mod.form_case(name, 0)
+    assert apart_forms.FORMS is before and name not in before
+    assert cls.__mro__[1] is mod.FORMS[name].cls
+    assert mod.rates is apart_forms.rates and mod.HARNESS.forms is mod.FORMS
+
+
 @pytest.mark.parametrize("name", list(FORMS))
 def test_form_law_differs_from_base_above_noise(name):
     """Each form's plant runs, and its law moves some measured channel by more than twice the noise (RMS)."""

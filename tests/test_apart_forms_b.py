@@ -3,7 +3,6 @@ docstring says, without running the discrepancy workflow."""
 
 from __future__ import annotations
 
-import apart_forms
 import numpy as np
 import pytest
 from apart_forms_b import FORMS, TRIAL_GAP_S, form_case, rates, run_form
@@ -44,15 +43,6 @@ def _pair(name: str, angles: list[float]) -> tuple[Plant, Plant, dict[str, float
 def test_set_b_has_ten_forms():
     """Set B has ten forms (the shared checks of both sets are in test_apart_forms.py)."""
     assert len(FORMS) == 10
-
-
-def test_harness_is_set_as_and_left_unchanged():
-    """The wrappers run set A's harness on set B and put set A's forms back afterwards."""
-    before = apart_forms.FORMS
-    cls, _, _ = form_case("pot_bow", 0)
-    assert apart_forms.FORMS is before and "pot_bow" not in before
-    assert cls.__mro__[1] is FORMS["pot_bow"].cls
-    assert rates is apart_forms.rates
 
 
 @pytest.mark.parametrize("name", list(FORMS))
