@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from seagen.discrepancy.replay import Runs, simulate
+from seagen.discrepancy.replay import SNAP_S, Runs, simulate
 
 STEP_S = 0.015  # the lag is read from the encoder residual's step from just before a switch to this after
 COARSE = np.linspace(0.0, 1.0, 11)  # lag grid, then a fine one around the best
@@ -117,7 +117,8 @@ def fit_timing(base, runs: Runs, sig_enc: np.ndarray, pinned: float | None = Non
     # pulling the lag far
     half = POLISH_S / max(period, 1e-6)
     band = np.unique(np.round(np.clip(best + np.linspace(-half, half, POLISH_N), 0.0, 1.0), 4))
-    if period <= POLISH_MAX_PERIOD_S and len(band) > 1:
+    # a 500 Hz log's period summed in floating point (t += 1 ms) is 2.0000000000000018 ms: still 500 Hz
+    if period <= POLISH_MAX_PERIOD_S + SNAP_S and len(band) > 1:
         best = float(band[int(np.argmin(_whole(base, runs, sig_enc, band)))])
     out = Timing(best if pinned is None else float(pinned), best, pinned, period, chi)
     if pinned is not None:
