@@ -81,8 +81,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    """Run each configuration at 5, 10, 15 N over the contact angles; print Table II or JSON."""
-    from seagen.control.experiment import TABLE2_CONFIGS, format_table2, simulate, sweep
+    """Run each configuration at its actuator's targets over the contact angles; print Table II or JSON."""
+    from seagen.actuator import default_actuator
+    from seagen.control.experiment import CONFIGS, TABLE2_CONFIGS, format_table2, simulate, sweep
+    from seagen.data.protocol import sample_every
     from seagen.plant import PlantConfig
 
     if not 0.0 <= args.latency <= 3600.0:  # NaN fails too
@@ -91,11 +93,17 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise UserError(f"--seed must be >= 0, got {args.seed}")
     if args.seeds < 1:
         raise UserError(f"--seeds must be >= 1, got {args.seeds}")
-    from seagen.control.experiment import CONFIGS
-
-    plant_cfg = PlantConfig(actuator=plant_actuator(args))  # refused before anything is built
+    act = plant_actuator(args)  # refused before anything is built
+    plant_cfg = PlantConfig(actuator=act)
+    sample_every(plant_cfg)  # a loop rate the plant cannot run is refused, naming the description's file
+    paper = act.digest() == default_actuator().digest()
     setups, rows, estimator = dict(CONFIGS), {}, None
-    names = tuple(args.config or (() if args.model else TABLE2_CONFIGS))
+    names = tuple(args.config or (() if args.model else TABLE2_CONFIGS if paper else model_free(act)))
+    if not paper:
+        from seagen.control.experiment import model_free_setups
+
+        setups |= model_free_setups(act)
+        refuse_shipped(names, act, bool(args.model))
     if args.model:
         from seagen.control.user import control_setups
 
@@ -106,7 +114,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.calibration:
         from seagen.control.user import force_estimator
 
-        estimator = force_estimator(args.calibration, args.allow_pickle)
+        estimator = force_estimator(args.calibration, args.allow_pickle, act)
     impl = f"pil:{args.core}" if args.impl == "pil" else args.impl
     if args.seeds == 1:
         table = simulate(names, args.latency, impl, args.seed, args.plots, setups, estimator, plant_cfg)
@@ -126,17 +134,54 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                 estimator,
                 plant_cfg,
             )
-    print(json.dumps(table, indent=2) if args.json else format_table2(table, rows))
+    print(json.dumps(table, indent=2) if args.json else format_table2(table, rows, paper_figures=paper))
     return 0
+
+
+def model_free(act: Actuator) -> tuple[str, ...]:
+    """The default configurations on a design other than the paper's: the model-free ones, with a note on
+    stderr that the others need a model trained for the design."""
+    import sys
+
+    from seagen.control.experiment import MODEL_FREE, NEEDS_SHIPPED
+
+    print(
+        f"seagen simulate: {act.source}: running {', '.join(MODEL_FREE)} (needs no model); "
+        f"{', '.join(NEEDS_SHIPPED)} run the shipped models of the paper's actuator: for this design pass "
+        "--model (a control model trained on its data)",
+        file=sys.stderr,
+    )
+    return MODEL_FREE
+
+
+def refuse_shipped(names: tuple[str, ...], act: Actuator, have_model: bool) -> None:
+    """A configuration running a shipped (paper) model on another design: refused naming it (exit 2)."""
+    from seagen.actuator import ActuatorError, default_actuator
+    from seagen.control.experiment import MODEL_FREE, NEEDS_SHIPPED
+
+    free = " / ".join(MODEL_FREE)
+    for n in names:
+        if n in NEEDS_SHIPPED:
+            paper = default_actuator()
+            hint = (
+                f"--model runs as NAME_mcu and NAME_cloud: leave out --config {n} (--config {free} needs no "
+                "model)"
+                if have_model
+                else f"for this design pass --model with a control model trained on its data, or --config "
+                f"{free} (needs no model)"
+            )
+            raise ActuatorError(
+                f"--config {n}: runs the shipped model default:{NEEDS_SHIPPED[n]}, trained for actuator "
+                f"'{paper.name}' (sha256 {paper.digest()[:12]}), not the simulated '{act.name}' (sha256 "
+                f"{act.digest()[:12]}, from {act.source}); {hint}"
+            )
 
 
 def plant_actuator(args: argparse.Namespace) -> Actuator:
     """The simulated actuator: the one --model was trained for (a bare network: --actuator, else the
-    paper's), or for the default configurations the shipped models' (the paper's); a disagreeing
-    --actuator is refused (exit 2)."""
-    from seagen.actuator import ActuatorError, default_actuator
+    paper's), else --actuator's, else the paper's; an --actuator disagreeing with --model's is refused."""
+    from seagen.actuator import default_actuator
     from seagen.cli.data import given_actuator
-    from seagen.defaults import shipped
     from seagen.modelfile import load_model, model_actuator
 
     given = given_actuator(args)
@@ -146,11 +191,4 @@ def plant_actuator(args: argparse.Namespace) -> Actuator:
         except UserError:  # a bare network: it records no actuator
             return given or default_actuator()
         return model_actuator(model, args.model, given)
-    for name, path in sorted(shipped().items()):  # the default configurations run the shipped models
-        try:
-            model_actuator(load_model(path), f"{path} (the default configurations' model {name})", given)
-        except ActuatorError as e:
-            raise ActuatorError(
-                f"{e}; train a control model on your actuator's data and pass --model"
-            ) from None
     return given or default_actuator()
