@@ -36,8 +36,8 @@ Fields and units (the paper's actuator, `seagen/actuators/paper.toml`, is the de
               kd_v_s_per_mm      V s/mm     derivative gain, on the filtered compression rate
               d_alpha            -          derivative filter coefficient in (0, 1] (1: no filter)
               margin_mm          mm         control margin: no P action, integrator held within it
-              limit_v            V          command limit (at most motor.supply_v; left out: the
-                                            paper's 6.5 V, capped at the supply by the controller)
+              limit_v            V          command limit (at most motor.supply_v; left out, or equal to
+                                            the paper's 6.5 V: capped at the supply by the controller)
               pot_avg_hz         Hz         rate at which the controller refreshes its block average of
                                             the pot (the average spans loop_hz / pot_avg_hz ticks)
     pot.vref_mv and the [control] fields after loop_hz are optional: a file without one takes the paper's
@@ -304,7 +304,7 @@ def _check(a: Actuator, where: str) -> Actuator:
         if getattr(c, field) < 0:
             raise ActuatorError(f"{where}: 'control.{field}' must be >= 0, got {getattr(c, field)!r}")
     if c.force_max_n > a.motor.stall_force_n:
-        dflt = "" if c.force_max_n != _OPTIONAL["control"]["force_max_n"] else " (left out: the paper's)"
+        dflt = "" if c.force_max_n != _OPTIONAL["control"]["force_max_n"] else " (the paper's default)"
         raise ActuatorError(
             f"{where}: 'control.force_max_n' {c.force_max_n:g} N{dflt} is above 'motor.stall_force_n' "
             f"{a.motor.stall_force_n:g} N: the motor cannot push that hard, so the calibration data and the "
@@ -327,7 +327,7 @@ def actuator_from_dict(data: dict[str, Any], where: str = "<dict>") -> Actuator:
         raise ActuatorError(f"{where}: 'name' must be a string")
     t = _tables(data, where)
     supply, limit = t["motor"]["supply_v"], t["control"]["limit_v"]
-    if "limit_v" in data["control"] and limit > supply:  # a left-out limit is capped at the supply
+    if limit > supply and limit != _OPTIONAL["control"]["limit_v"]:  # the default is capped at the supply
         raise ActuatorError(
             f"{where}: 'control.limit_v' {limit:g} V is above 'motor.supply_v' {supply:g} V (the command "
             "limit must lie within +-supply_v)"

@@ -97,19 +97,21 @@ def test_shipped_descriptions_pass_the_plausibility_checks_with_unchanged_hashes
 
 
 def test_command_limit_and_force_range_must_fit_the_motor():
-    """An explicit limit_v above the supply is refused; a left-out one (the paper's 6.5 V) is capped by the
-    controller on a 6 V motor and accepted; a force range above the stall force is refused, written or not."""
+    """A limit_v above the supply is refused; the paper's 6.5 V (left out, or written out as data folders'
+    actuator.toml do) is capped by the controller on a 6 V motor and accepted; a force range above the stall
+    force is refused, written or not."""
     d = _edit("motor.supply_v", 6.0)
     del d["control"]["limit_v"]
-    assert actuator_from_dict(d, "six.toml").control.limit_v == 6.5
-    d["control"]["limit_v"] = 6.5
+    act = actuator_from_dict(d, "six.toml")
+    assert act.control.limit_v == 6.5 and actuator_from_dict(act.to_dict(), "actuator.toml") == act
+    d["control"]["limit_v"] = 7.0
     with pytest.raises(
-        ActuatorError, match=r"^six.toml: 'control.limit_v' 6.5 V is above 'motor.supply_v' 6 V"
+        ActuatorError, match=r"^six.toml: 'control.limit_v' 7 V is above 'motor.supply_v' 6 V"
     ):
         actuator_from_dict(d, "six.toml")
     d = _edit("motor.stall_force_n", 15.0)
     del d["control"]["force_max_n"]
-    with pytest.raises(ActuatorError, match=r"force_max_n' 20 N \(left out: the paper's\) is above"):
+    with pytest.raises(ActuatorError, match=r"force_max_n' 20 N \(the paper's default\) is above"):
         actuator_from_dict(d, "weak.toml")
 
 

@@ -20,13 +20,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "simulate",
         help="closed-loop force control on the simulated SEA (paper Table II)",
-        description="The paper's force-control experiment on the simulated SEA: start at 5 deg, close on the "
-        "load cell at ten contact angles, targets 5/10/15 N, 6 s runs, for sf_mcu (the generated SF in C at "
-        "100 Hz), mlp_cloud (the float MLP behind a 10 Hz Bluetooth link) and mlp_mcu (the generated MLP in "
-        "C at 100 Hz); prints the average error and settling time per configuration and target. With "
-        "--model, the same experiment on your own control model: NAME_mcu (exported to C, 100 Hz) and "
-        "NAME_cloud (its float model behind the 10 Hz link); --calibration adds your calibration model's "
-        "force estimate from the recorded sensors and its error.",
+        description="The paper's force-control experiment on the simulated SEA: start at rest "
+        "(linkage.home_deg), close on the load cell at ten contact angles over the linkage's range, "
+        "targets 1/4, 1/2 and 3/4 of control.force_max_n (5/10/15 N on the paper's actuator), 6 s runs, "
+        "one controller tick per control.loop_hz (100 Hz on the paper's); prints the average error and "
+        "settling time per configuration and target. Configurations: sf_mcu (the shipped SF in C), "
+        "mlp_cloud (the shipped float MLP behind a 10 Hz Bluetooth link) and mlp_mcu (the shipped MLP "
+        "in C) run the shipped models, trained for the paper's actuator; kin_mcu (the kinematics "
+        "baseline) needs no model and runs on any actuator. Default: sf_mcu, mlp_cloud, mlp_mcu on the "
+        "paper's actuator; with another --actuator, kin_mcu only (the others are refused there: they need "
+        "--model). With --model, the same experiment on your own control model: NAME_mcu (exported to C, "
+        "at the loop rate) and NAME_cloud (its float model behind the 10 Hz link); --calibration adds "
+        "your calibration model's force estimate from the recorded sensors and its error. Every model "
+        "must be trained for the simulated actuator.",
     )
     p.add_argument(
         "--model",
@@ -39,7 +45,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--calibration",
         metavar="CAL_MODEL",
         type=model_arg,
-        help="your calibration model: estimates the force of every run from its sensors (est. err column)",
+        help="your calibration model: estimates the force of every run from its sensors (est. err column); "
+        "one trained for another actuator than the simulated one is refused",
     )
     p.add_argument("--features", metavar="SPEC", help="feature specification of --model (bare networks)")
     p.add_argument(
@@ -55,7 +62,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--json", action="store_true", help="print one JSON object keyed by configuration")
     p.add_argument("--plots", metavar="DIR", help="write a step-response plot per configuration (first seed)")
-    p.add_argument("--config", action="append", choices=sorted(CONFIGS), help="configurations (default all)")
+    p.add_argument(
+        "--config", action="append", choices=sorted(CONFIGS), help="configurations (default: see above)"
+    )
     p.add_argument("--latency", type=float, default=0.1, help="cloud round-trip latency, s (default 0.1)")
     p.add_argument(
         "--impl",
@@ -103,7 +112,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         from seagen.control.experiment import model_free_setups
 
         setups |= model_free_setups(act)
-        refuse_shipped(names, act, bool(args.model))
+        refuse_shipped(names, act, args.model)
     if args.model:
         from seagen.control.user import control_setups
 
@@ -154,19 +163,20 @@ def model_free(act: Actuator) -> tuple[str, ...]:
     return MODEL_FREE
 
 
-def refuse_shipped(names: tuple[str, ...], act: Actuator, have_model: bool) -> None:
+def refuse_shipped(names: tuple[str, ...], act: Actuator, model: str | None) -> None:
     """A configuration running a shipped (paper) model on another design: refused naming it (exit 2)."""
     from seagen.actuator import ActuatorError, default_actuator
     from seagen.control.experiment import MODEL_FREE, NEEDS_SHIPPED
+    from seagen.control.user import prefix_of
 
     free = " / ".join(MODEL_FREE)
     for n in names:
         if n in NEEDS_SHIPPED:
             paper = default_actuator()
             hint = (
-                f"--model runs as NAME_mcu and NAME_cloud: leave out --config {n} (--config {free} needs no "
-                "model)"
-                if have_model
+                f"--model {model} runs as {prefix_of(model)}_mcu and {prefix_of(model)}_cloud: leave out "
+                f"--config {n} (--config {free} needs no model)"
+                if model
                 else f"for this design pass --model with a control model trained on its data, or --config "
                 f"{free} (needs no model)"
             )

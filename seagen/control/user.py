@@ -55,11 +55,16 @@ def exported(
     )
     if not rep.ok:
         raise CheckFailed(f"{model}: {rep.line()}")
-    stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(model).stem)
-    prefix = assert_valid_prefix(stem if stem[:1].isalpha() and not stem.startswith("sea") else f"m_{stem}")
+    prefix = assert_valid_prefix(prefix_of(model))
     aq = act_q(act)
     files = {**render(qm, prefix, act=aq), **runtime_sources(*RUNTIME)}
     return Exported(loaded.model, qm, prefix, files, aq)
+
+
+def prefix_of(model: str) -> str:
+    """The C prefix of a model file's in-memory export (and of its NAME_mcu / NAME_cloud configurations)."""
+    stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(model).stem)
+    return stem if stem[:1].isalpha() and not stem.startswith("sea") else f"m_{stem}"
 
 
 def control_setups(
