@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from typing import TYPE_CHECKING
 
 from seagen.defaults import model_arg
@@ -92,7 +93,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Run each configuration at its actuator's targets over the contact angles; print Table II or JSON."""
     from seagen.actuator import default_actuator
-    from seagen.control.experiment import CONFIGS, TABLE2_CONFIGS, format_table2, simulate, sweep
+    from seagen.control.experiment import CONFIGS, MODEL_FREE, TABLE2_CONFIGS, format_table2, simulate, sweep
     from seagen.data.protocol import sample_every
     from seagen.plant import PlantConfig
 
@@ -107,12 +108,17 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     sample_every(plant_cfg)  # a loop rate the plant cannot run is refused, naming the description's file
     paper = act.digest() == default_actuator().digest()
     setups, rows, estimator = dict(CONFIGS), {}, None
-    names = tuple(args.config or (() if args.model else TABLE2_CONFIGS if paper else model_free(act)))
+    free_only = not (args.config or args.model or paper)  # another design, nothing chosen: kin_mcu
+    names = tuple(args.config or (() if args.model else TABLE2_CONFIGS if paper else MODEL_FREE))
     if not paper:
         from seagen.control.experiment import model_free_setups
 
         setups |= model_free_setups(act)
         refuse_shipped(names, act, args.model)
+    if args.calibration:  # first: one for another actuator is refused before the control model's export
+        from seagen.control.user import force_estimator
+
+        estimator = force_estimator(args.calibration, args.allow_pickle, act)
     if args.model:
         from seagen.control.user import control_setups
 
@@ -120,10 +126,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         setups |= mine
         rows = dict.fromkeys(mine, row)
         names = (*names, *mine)
-    if args.calibration:
-        from seagen.control.user import force_estimator
-
-        estimator = force_estimator(args.calibration, args.allow_pickle, act)
+    if free_only:  # said once everything is accepted
+        print(model_free_note(act), file=sys.stderr)
     impl = f"pil:{args.core}" if args.impl == "pil" else args.impl
     if args.seeds == 1:
         table = simulate(names, args.latency, impl, args.seed, args.plots, setups, estimator, plant_cfg)
@@ -147,20 +151,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def model_free(act: Actuator) -> tuple[str, ...]:
-    """The default configurations on a design other than the paper's: the model-free ones, with a note on
-    stderr that the others need a model trained for the design."""
-    import sys
-
+def model_free_note(act: Actuator) -> str:
+    """What the default configurations are on a design other than the paper's, and how to run the others."""
     from seagen.control.experiment import MODEL_FREE, NEEDS_SHIPPED
 
-    print(
+    return (
         f"seagen simulate: {act.source}: running {', '.join(MODEL_FREE)} (needs no model); "
         f"{', '.join(NEEDS_SHIPPED)} run the shipped models of the paper's actuator: for this design pass "
-        "--model (a control model trained on its data)",
-        file=sys.stderr,
+        "--model (a control model trained on its data)"
     )
-    return MODEL_FREE
 
 
 def refuse_shipped(names: tuple[str, ...], act: Actuator, model: str | None) -> None:
