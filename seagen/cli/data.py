@@ -39,7 +39,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     g.add_argument("--out", required=True, help="output directory (created)")
     g.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    g.add_argument("--config", help="plant config TOML: what is non-ideal (default: the shipped catalogue)")
+    g.add_argument(
+        "--config",
+        help="plant config TOML: what is non-ideal, one [effects.NAME] table per effect changed (enabled, "
+        "its parameters; every key: docs/plant.md) (default: the shipped catalogue)",
+    )
     add_actuator(g, ACTUATOR_HELP + "; kept as OUT/actuator.toml")
     g.set_defaults(func=cmd_generate)
     i = dsub.add_parser(
