@@ -411,3 +411,15 @@ def test_oracle_check_label_printed_once():
     assert "12080 inputs, max |integer - original| 0.00866 N <= bound 0.196 + margin 0.0123 N" in lines[0]
     assert lines[1].startswith("  FAIL C vs original on validation") and lines[1].count("C vs original") == 1
     assert "DISAGREES at row 3" in lines[1]
+
+
+def test_data_of_another_actuator_is_refused(tmp_path, capsys):
+    """--data recorded on another actuator than the model's: exit 2, one line naming its actuator.toml and
+    both actuators (not a failure deep in the oracle)."""
+    example = Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml"
+    data = tmp_path / "data"
+    data.mkdir()
+    shutil.copy(example, data / "actuator.toml")
+    assert main(["verify", str(one_export(tmp_path)), "--model", str(CAL), "--data", str(data)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and str(data / "actuator.toml") in err and "7bf39d34fadf" in err, err
