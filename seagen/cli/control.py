@@ -122,7 +122,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.model:
         from seagen.control.user import control_setups
 
-        mine, row = control_setups(args.model, args.features, args.allow_pickle)
+        mine, row = control_setups(args.model, args.features, args.allow_pickle, act)
         setups |= mine
         rows = dict.fromkeys(mine, row)
         names = (*names, *mine)

@@ -68,10 +68,11 @@ def prefix_of(model: str) -> str:
 
 
 def control_setups(
-    model: str, features: str | None = None, allow_pickle: bool = False
+    model: str, features: str | None = None, allow_pickle: bool = False, given: Any = None
 ) -> tuple[dict[str, Callable[[float], Setup]], str]:
     """{NAME_mcu, NAME_cloud: factory(latency_s) -> (predictor, controller configuration)} for a control
-    model file, and the paper's row (SF or MLP) its kind compares with."""
+    model file, and the paper's row (SF or MLP) its kind compares with; `given`: the simulated actuator
+    (a bare network's; a model file recording another is refused)."""
     from seagen.codegen.controller import shipped_config
     from seagen.codegen.runtime import cdef_of, runtime_sources
     from seagen.control.gentwin import StepTwin, float_features
@@ -80,7 +81,7 @@ def control_setups(
     from seagen.runtime.features import has_pipeline, is_predictor
     from seagen.toolchain.controller import NN_SOURCES, generated_ctx
 
-    ex = exported(model, features, allow_pickle)
+    ex = exported(model, features, allow_pickle, given)
     qm, p = ex.qmodel, ex.prefix
     if not is_predictor(qm) or not has_pipeline(qm):
         raise UserError(
