@@ -29,13 +29,15 @@ Fields and units (the paper's actuator, `seagen/actuators/paper.toml`, is the de
                                         a rig that logs the pot in mV reads it as counts with it)
     [control] loop_hz            Hz     controller tick rate
               force_max_n        N      top of the calibrated desired-force range at the output shaft (the
-                                        controller faults above it; the experiment's targets are fractions)
+                                        controller faults above it; the experiment's targets are fractions;
+                                        at most motor.stall_force_n)
               kp_v_per_mm        V/mm       PID proportional gain on the compression error
               ki_v_per_mm_s      V/(mm s)   integral gain
               kd_v_s_per_mm      V s/mm     derivative gain, on the filtered compression rate
               d_alpha            -          derivative filter coefficient in (0, 1] (1: no filter)
               margin_mm          mm         control margin: no P action, integrator held within it
-              limit_v            V          command limit (within +-motor.supply_v)
+              limit_v            V          command limit (at most motor.supply_v; left out, or equal to
+                                            the paper's 6.5 V: capped at the supply by the controller)
               pot_avg_hz         Hz         rate at which the controller refreshes its block average of
                                             the pot (the average spans loop_hz / pot_avg_hz ticks)
     pot.vref_mv and the [control] fields after loop_hz are optional: a file without one takes the paper's
@@ -48,6 +50,7 @@ Errors name the file and the field (`ActuatorError`, a user error: exit 2).
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -129,6 +132,9 @@ class Actuator:
     pot: Pot
     loop_hz: float
     control: Control
+    source: str = dataclasses.field(
+        default="", compare=False, repr=False
+    )  # the file it was read from (messages only)
 
     @property
     def mm_per_count(self) -> float:
@@ -262,7 +268,8 @@ def _tables(data: dict[str, Any], where: str) -> dict[str, dict[str, Any]]:
 
 
 def _check(a: Actuator, where: str) -> Actuator:
-    """Physical plausibility: positive sizes, an ordered angle range, a usable ADC."""
+    """Physical plausibility: positive sizes, an ordered angle range, a usable ADC, a force range the motor
+    can reach."""
     positive = {
         "motor.supply_v": a.motor.supply_v,
         "motor.no_load_rpm": a.motor.no_load_rpm,
@@ -296,6 +303,13 @@ def _check(a: Actuator, where: str) -> Actuator:
     for field in ("kp_v_per_mm", "ki_v_per_mm_s", "kd_v_s_per_mm", "margin_mm"):
         if getattr(c, field) < 0:
             raise ActuatorError(f"{where}: 'control.{field}' must be >= 0, got {getattr(c, field)!r}")
+    if c.force_max_n > a.motor.stall_force_n:
+        dflt = "" if c.force_max_n != _OPTIONAL["control"]["force_max_n"] else " (the paper's default)"
+        raise ActuatorError(
+            f"{where}: 'control.force_max_n' {c.force_max_n:g} N{dflt} is above 'motor.stall_force_n' "
+            f"{a.motor.stall_force_n:g} N: the motor cannot push that hard, so the calibration data and the "
+            "controller would not reach the top of the range (set control.force_max_n below the stall force)"
+        )
     if not 0.0 < c.d_alpha <= 1.0:
         raise ActuatorError(f"{where}: 'control.d_alpha' must lie in (0, 1], got {c.d_alpha!r}")
     if not 8 <= a.pot.adc_bits <= 16:
@@ -312,6 +326,12 @@ def actuator_from_dict(data: dict[str, Any], where: str = "<dict>") -> Actuator:
     if not isinstance(name, str):
         raise ActuatorError(f"{where}: 'name' must be a string")
     t = _tables(data, where)
+    supply, limit = t["motor"]["supply_v"], t["control"]["limit_v"]
+    if limit > supply and limit != _OPTIONAL["control"]["limit_v"]:  # the default is capped at the supply
+        raise ActuatorError(
+            f"{where}: 'control.limit_v' {limit:g} V is above 'motor.supply_v' {supply:g} V (the command "
+            "limit must lie within +-supply_v)"
+        )
     act = Actuator(
         kind=kind,
         name=name,
@@ -323,6 +343,7 @@ def actuator_from_dict(data: dict[str, Any], where: str = "<dict>") -> Actuator:
         pot=Pot(**t["pot"]),
         loop_hz=t["control"]["loop_hz"],
         control=Control(**{k: t["control"][k] for k in _CONTROL_FIELDS}),
+        source=where,
     )
     return _check(act, where)
 
@@ -355,4 +376,4 @@ def actuator_from_record(record: Any, where: str) -> Actuator:
     act = actuator_from_dict(record["values"], f"{where}: actuator")
     if act.digest() != record["sha256"]:
         raise ActuatorError(f"{where}: 'actuator.sha256' does not match the recorded values")
-    return act
+    return dataclasses.replace(act, source=where)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import onnx
@@ -37,11 +38,28 @@ class DataReport:
         return "\n".join(lines)
 
 
+def data_actuator_of(ex, data_dir: str):
+    """The data folder's actuator; one other than the export's model was trained for is refused (exit 2)."""
+    from seagen.actuator import ActuatorError
+    from seagen.data.schema import ACTUATOR_FILE, data_actuator
+
+    act, mine = data_actuator(data_dir), getattr(ex, "actuator", None)
+    if mine is not None and mine.digest() != act.digest():
+        path = Path(data_dir) / ACTUATOR_FILE
+        shown = path if path.is_file() else f"{data_dir} (no {ACTUATOR_FILE}: the paper's actuator)"
+        raise ActuatorError(
+            f"{shown}: the data were recorded on actuator '{act.name}' (sha256 {act.digest()[:12]}), the "
+            f"model was trained for '{mine.name}' (sha256 {mine.digest()[:12]}); check on data of the "
+            "model's actuator"
+        )
+    return act
+
+
 def check_data_dir(ex, data_dir: str, target=None, onnx_model=None) -> DataReport:
     """NAME_infer on the test and validation features, NAME_step on whole recorded trials, and |C - float|;
     on `target` (default: ex.files built for the host) against `onnx_model` (default: the export's)."""
     from seagen.data.features import derive
-    from seagen.data.schema import data_actuator, load_split
+    from seagen.data.schema import load_split
     from seagen.errors import UserError
     from seagen.geometry import geometry
     from seagen.reference.float_ref import predict, quantize_features
@@ -58,7 +76,7 @@ def check_data_dir(ex, data_dir: str, target=None, onnx_model=None) -> DataRepor
             else onnx_ref.build_onnx(qm)
         )
     checks, max_err, oracles = [], 0.0, []
-    geo = geometry(data_actuator(data_dir))  # the features of the actuator the data came from
+    geo = geometry(data_actuator_of(ex, data_dir))  # the features of the actuator the data came from
     for split in ("test", "validation"):
         df = derive(load_split(data_dir, split), geo)
         missing = [n for n in names if n not in df.columns]

@@ -47,6 +47,14 @@ def resolve_model(arg: str) -> str:
     return str(default_model(name))
 
 
+def model_label(path: str) -> str:
+    """How a message names a model argument: `default:NAME (file)` for a shipped model, else the path."""
+    for name, file in shipped().items():
+        if str(file) == str(path):
+            return f"{SCHEME}{name} ({file})"
+    return str(path)
+
+
 def model_arg(arg: str) -> str:
     """argparse type of every model argument: a path, or `default:NAME` resolved to the shipped file."""
     import argparse

@@ -73,6 +73,8 @@ BAD = [
     ("pot.vref_mv", "3.3 V", "'pot.vref_mv' must be a number"),
     ("pot.vref", 3300.0, "unknown key 'pot.vref'"),
     ("control.pot_avg_hz", -10.0, "'control.pot_avg_hz' must be positive"),
+    ("control.limit_v", 12.5, "'control.limit_v' 12.5 V is above 'motor.supply_v' 12 V"),
+    ("control.force_max_n", 151.0, "'control.force_max_n' 151 N is above 'motor.stall_force_n' 150 N"),
 ]
 
 
@@ -83,6 +85,34 @@ def test_bad_description_names_file_and_field(field, value, msg):
         actuator_from_dict(_edit(field, value), "my_sea.toml")
     text = str(e.value)
     assert text.startswith("my_sea.toml: ") and msg in text and "\n" not in text
+
+
+def test_shipped_descriptions_pass_the_plausibility_checks_with_unchanged_hashes():
+    """The paper's and the example's descriptions load and keep the hashes their model files record."""
+    from pathlib import Path
+
+    example = Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml"
+    assert default_actuator().digest()[:12] == "86b7cb236f33"
+    assert load_actuator(example).digest()[:12] == "7bf39d34fadf"
+
+
+def test_command_limit_and_force_range_must_fit_the_motor():
+    """A limit_v above the supply is refused; the paper's 6.5 V (left out, or written out as data folders'
+    actuator.toml do) is capped by the controller on a 6 V motor and accepted; a force range above the stall
+    force is refused, written or not."""
+    d = _edit("motor.supply_v", 6.0)
+    del d["control"]["limit_v"]
+    act = actuator_from_dict(d, "six.toml")
+    assert act.control.limit_v == 6.5 and actuator_from_dict(act.to_dict(), "actuator.toml") == act
+    d["control"]["limit_v"] = 7.0
+    with pytest.raises(
+        ActuatorError, match=r"^six.toml: 'control.limit_v' 7 V is above 'motor.supply_v' 6 V"
+    ):
+        actuator_from_dict(d, "six.toml")
+    d = _edit("motor.stall_force_n", 15.0)
+    del d["control"]["force_max_n"]
+    with pytest.raises(ActuatorError, match=r"force_max_n' 20 N \(the paper's default\) is above"):
+        actuator_from_dict(d, "weak.toml")
 
 
 def test_unreadable_files(tmp_path):

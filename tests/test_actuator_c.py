@@ -179,12 +179,14 @@ def test_corner_geometries_run_clean_under_sanitizers():
     ],
 )
 def test_geometry_outside_the_formats_is_refused(change, words):
-    """A geometry the fixed-point formats cannot hold is refused with the reason (ActuatorError: exit 2)."""
+    """A geometry the fixed-point formats cannot hold is refused with the reason, naming the description's
+    file (ActuatorError: exit 2)."""
     d = paper_dict()
     for table, fields in change.items():
         d[table].update(fields)
-    with pytest.raises(ActuatorError, match=words):
-        act_q(actuator_from_dict(d, "odd"))
+    with pytest.raises(ActuatorError, match=words) as e:
+        act_q(actuator_from_dict(d, "odd.toml"))
+    assert str(e.value).startswith("odd.toml ('")
 
 
 def paper_dict() -> dict:

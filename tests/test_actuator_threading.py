@@ -4,6 +4,7 @@ the old plant.toml [motor] and disagreeing --actuator files are refused; the sec
 from __future__ import annotations
 
 import copy
+import json
 from pathlib import Path
 
 import numpy as np
@@ -310,6 +311,13 @@ def test_generate_and_train_on_the_second_design(tmp_path, monkeypatch, capsys):
     ctl = tmp_path / "ctl.pt"
     assert main(["train", "--data", str(data), "--model", "sf", "--task", "control", "--out", str(ctl)]) == 0
     _closed_loop_c_equals_twin(str(ctl), act)
+    capsys.readouterr()
+    assert main(["simulate", "--model", str(ctl), "--config", "mlp_mcu"]) == 2  # a shipped model's config
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--config mlp_mcu" in err and str(ctl) in err and "ctl_mcu" in err
+    assert main(["simulate", "--model", str(ctl), "--calibration", "default:mlp_calibration"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and err.count("default:mlp_calibration") == 1 and act.digest()[:12] in err
 
 
 def _closed_loop_c_equals_twin(ctl: str, act) -> None:
@@ -335,16 +343,44 @@ def _closed_loop_c_equals_twin(ctl: str, act) -> None:
     assert np.abs(recs["c"]["out_mv"]).max() > 0  # the loop drove the motor
 
 
-def test_simulate_and_evaluate_refuse_another_actuator(tmp_path, capsys):
-    """simulate's default configurations run the shipped (paper) models: another --actuator is refused;
-    a bad description names the file and field; both exit 2."""
-    assert main(["simulate", "--actuator", str(EXAMPLE)]) == 2
-    assert "--model" in capsys.readouterr().err
+def test_simulate_on_another_design_runs_the_model_free_configs(tmp_path, capsys):
+    """On another --actuator simulate runs kin_mcu (no model needed; stderr says the others need --model);
+    a configuration of the shipped (paper) models there, or a calibration model of the paper's, is refused
+    naming it (exit 2, one line); a bad description names the file and field (~4 s)."""
+    assert main(["simulate", "--actuator", str(EXAMPLE), "--json"]) == 0
+    cap = capsys.readouterr()
+    act = load_actuator(EXAMPLE)
+    assert set(json.loads(cap.out)) == {"kin_mcu"}
+    assert set(json.loads(cap.out)["kin_mcu"]) == {f"{t:g}" for t in targets_n(act)}
+    assert str(EXAMPLE) in cap.err and "--model" in cap.err and "sf_mcu" in cap.err
+    for config in ("sf_mcu", "mlp_cloud", "mlp_mcu"):
+        assert main(["simulate", "--actuator", str(EXAMPLE), "--config", config]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and f"--config {config}" in err and "--model" in err and str(EXAMPLE) in err
+    assert main(["simulate", "--actuator", str(EXAMPLE), "--calibration", "default:mlp_calibration"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "default:mlp_calibration" in err and "trained for actuator" in err
     bad = tmp_path / "bad.toml"
     bad.write_text(EXAMPLE.read_text().replace("stiffness_n_per_mm = 8.4", "stiffness_n_per_mm = -1.0"))
     assert main(["simulate", "--actuator", str(bad)]) == 2
     err = capsys.readouterr().err
     assert str(bad) in err and "spring.stiffness_n_per_mm" in err
+
+
+def test_kin_mcu_on_another_design_uses_its_friction_spring_and_controller():
+    """kin_mcu's setup on another design: the kinematic constants and controller configuration of that
+    design (the paper's setup would be refused by its plant)."""
+    from seagen.control.experiment import CONFIGS, model_free_setups
+    from seagen.runtime.control import KinParams, predict_kinematic
+
+    act = load_actuator(EXAMPLE)
+    pred, ctl = model_free_setups(act)["kin_mcu"](0.1)
+    assert ctl.act.digest == act.digest() and ctl == ControlConfig.for_act(act_q(act))
+    force = np.array([0, 5 << 16, 10 << 16])
+    want = predict_kinematic(KinParams.of(act))(force, force, force)
+    paper = predict_kinematic(KinParams())(force, force, force)
+    assert np.array_equal(pred.make_twin()(force, force, force), want) and not np.array_equal(want, paper)
+    assert CONFIGS["kin_mcu"](0.1)[1].act.digest == default_actuator().digest()  # the paper's stays
 
 
 def test_data_folder_actuator_mismatch_is_refused(tmp_path):

@@ -3,6 +3,8 @@ never with a traceback (a table: one row per misuse a user tried)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from seagen.cli import main
@@ -19,6 +21,14 @@ CASES = {  # name: (argv with {tmp}, words in stderr)
     "data --out is a file": (["data", "generate", "--out", "{tmp}/afile"], "afile: is a file"),
     "train --out is a folder": ([*TRAIN, "--out", "{tmp}"], "is a folder"),
     "train --out under /proc": ([*TRAIN, "--out", "/proc/seagen_no.pt"], "/proc/seagen_no.pt"),
+    "loop rate not whole plant steps, data": (
+        ["data", "generate", "--out", "{tmp}/d", "--actuator", "{tmp}/loop300.toml"],
+        "loop300.toml ('stiff 24 V SEA, 200 Hz loop (seagen example)'): control.loop_hz 300 is not a whole",
+    ),
+    "loop rate not whole plant steps, simulate": (
+        ["simulate", "--actuator", "{tmp}/loop300.toml", "--config", "kin_mcu"],
+        "loop300.toml ('stiff 24 V SEA, 200 Hz loop (seagen example)'): control.loop_hz 300 is not a whole",
+    ),
     "binary plant config": (
         ["data", "generate", "--out", "{tmp}/d", "--config", "{tmp}/bin.toml"],
         "bin.toml",
@@ -31,6 +41,9 @@ def test_misuse_exits_2_naming_what(case, tmp_path, capsys):
     """Exit 2, the argument or path named, no traceback, nothing written."""
     (tmp_path / "afile").write_text("keep")
     (tmp_path / "bin.toml").write_bytes(b"\xff\xfe\x00\x01")
+    example = (Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml").read_text()
+    assert "loop_hz = 200.0" in example
+    (tmp_path / "loop300.toml").write_text(example.replace("loop_hz = 200.0", "loop_hz = 300.0"))
     argv, words = CASES[case]
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
     rc = main(argv)

@@ -106,3 +106,19 @@ def test_cli_bad_seeds(capsys):
     """--seeds below 1 is a user error (exit 2) naming the option."""
     assert main(["simulate", "--seeds", "0"]) == 2
     assert "--seeds" in capsys.readouterr().err
+
+
+def test_table_without_paper_figures_drops_the_paper_columns_and_aligns():
+    """Targets the paper did not run (another design's 3.75/7.5/11.25 N) or a plant of another design: no
+    paper column (no `nan`); every row as wide as the header, the force column right-aligned; the paper's
+    targets keep the paper's columns."""
+    from seagen.control.experiment import format_table2
+
+    row = {"error_avg_n": 0.1, "settling_s": 1.0, "settled": 9, "angles": 10, "settling_final_s": 0.2}
+    table = {"ctl_mlp_mcu": {t: dict(row) for t in ("3.75", "7.5", "11.25")}}
+    lines = format_table2(table, {"ctl_mlp_mcu": "MLP"}).splitlines()
+    assert "paper" not in lines[0] and not any("nan" in x or "MLP" in x for x in lines)
+    assert len({len(x) for x in lines}) == 1 and lines[0].index("force") + 5 == lines[3].index(" N") + 2
+    paper = {"sf_mcu": {t: dict(row) for t in ("5", "10", "15")}}
+    assert "paper" in format_table2(paper) and "paper" not in format_table2(paper, paper_figures=False)
+    assert "0.29" in format_table2(paper).splitlines()[1]  # the paper's SF error at 5 N

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -246,3 +247,25 @@ def test_paper_experiment_on_the_board(core, tmp_path, capsys):
     assert main(["pil", str(tmp_path), "--model", ctl, "--cal-model", cal, "--core", core, "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["ok"] and doc["instructions"]["ticks"] == 3 * 600
+
+
+def test_cli_pil_refuses_a_calibration_model_of_another_actuator(tmp_path, capsys):
+    """--cal-model trained for another actuator than --model's (the plant's): exit 2, one line naming the
+    file and both actuators, before any board boots (~3 s)."""
+    from seagen.actuator import load_actuator
+    from seagen.modelfile import load_model, save_model
+
+    example = load_actuator(Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml")
+    models = GENERATED / "models"
+    cal = load_model(models / "sf_calibration.pt")
+    cal["actuator"] = example.record()  # the same fit, recorded as the example design's
+    save_model(cal, tmp_path / "cal_other.pt")
+    fw = tmp_path / "fw"
+    ctl = str(models / "sf_control.pt")
+    assert main(["export", ctl, "--prefix", "ctl_sf", "--controller", "--out", str(fw)]) == 0
+    assert main(["export", str(tmp_path / "cal_other.pt"), "--prefix", "cal_sf", "--out", str(fw)]) == 0
+    capsys.readouterr()
+    args = ["pil", str(fw), "--model", ctl, "--cal-model", str(tmp_path / "cal_other.pt")]
+    assert main([*args, "--core", "cortex-m4", "--ticks", "5", "--actuators", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "cal_other.pt" in err and example.digest()[:12] in err and "trained for" in err

@@ -393,3 +393,33 @@ def test_target_and_core_are_the_same_option(capsys):
         args = ["verify", str(GENERATED), "--model", str(default_model("sf_calibration")), "--vectors", "50"]
         assert main([*args, flag, "host"]) == 0
         assert "(host)" in capsys.readouterr().out
+
+
+def test_oracle_check_label_printed_once():
+    """A data-row oracle check reads `ok   LABEL (counts): outcome`, its label not repeated in the outcome;
+    a failing one names the first failure once too."""
+    from seagen.reference.oracle import OracleReport
+    from seagen.verify.result import Verdict
+    from seagen.verify.run import add_oracle
+
+    v = Verdict("cal_mlp", "fw")
+    what = "C vs original on test rows (12080 of 12080 inside the box)"
+    add_oracle(v, OracleReport(what, 12080, 0.00866, 0.196, 0.0123, "N"))
+    add_oracle(v, OracleReport(what.replace("test", "validation"), 700, 0.5, 0.196, 0.0123, "N", "row 3"))
+    lines = v.text().splitlines()
+    assert lines[0].startswith("  ok   C vs original on test rows") and lines[0].count("C vs original") == 1
+    assert "12080 inputs, max |integer - original| 0.00866 N <= bound 0.196 + margin 0.0123 N" in lines[0]
+    assert lines[1].startswith("  FAIL C vs original on validation") and lines[1].count("C vs original") == 1
+    assert "DISAGREES at row 3" in lines[1]
+
+
+def test_data_of_another_actuator_is_refused(tmp_path, capsys):
+    """--data recorded on another actuator than the model's: exit 2, one line naming its actuator.toml and
+    both actuators (not a failure deep in the oracle)."""
+    example = Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml"
+    data = tmp_path / "data"
+    data.mkdir()
+    shutil.copy(example, data / "actuator.toml")
+    assert main(["verify", str(one_export(tmp_path)), "--model", str(CAL), "--data", str(data)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and str(data / "actuator.toml") in err and "7bf39d34fadf" in err, err

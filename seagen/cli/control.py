@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from typing import TYPE_CHECKING
 
 from seagen.defaults import model_arg
@@ -20,13 +21,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "simulate",
         help="closed-loop force control on the simulated SEA (paper Table II)",
-        description="The paper's force-control experiment on the simulated SEA: start at 5 deg, close on the "
-        "load cell at ten contact angles, targets 5/10/15 N, 6 s runs, for sf_mcu (the generated SF in C at "
-        "100 Hz), mlp_cloud (the float MLP behind a 10 Hz Bluetooth link) and mlp_mcu (the generated MLP in "
-        "C at 100 Hz); prints the average error and settling time per configuration and target. With "
-        "--model, the same experiment on your own control model: NAME_mcu (exported to C, 100 Hz) and "
-        "NAME_cloud (its float model behind the 10 Hz link); --calibration adds your calibration model's "
-        "force estimate from the recorded sensors and its error.",
+        description="The paper's force-control experiment on the simulated SEA: start at rest "
+        "(linkage.home_deg), close on the load cell at ten contact angles over the linkage's range, "
+        "targets 1/4, 1/2 and 3/4 of control.force_max_n (5/10/15 N on the paper's actuator), 6 s runs, "
+        "one controller tick per control.loop_hz (100 Hz on the paper's); prints the average error and "
+        "settling time per configuration and target. Configurations: sf_mcu (the shipped SF in C), "
+        "mlp_cloud (the shipped float MLP behind a 10 Hz Bluetooth link) and mlp_mcu (the shipped MLP "
+        "in C) run the shipped models, trained for the paper's actuator; kin_mcu (the kinematics "
+        "baseline) needs no model and runs on any actuator. Default: sf_mcu, mlp_cloud, mlp_mcu on the "
+        "paper's actuator; with another --actuator, kin_mcu only (the others are refused there: they need "
+        "--model). With --model, the same experiment on your own control model: NAME_mcu (exported to C, "
+        "at the loop rate) and NAME_cloud (its float model behind the 10 Hz link); --calibration adds "
+        "your calibration model's force estimate from the recorded sensors and its error. Every model "
+        "must be trained for the simulated actuator.",
     )
     p.add_argument(
         "--model",
@@ -39,7 +46,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--calibration",
         metavar="CAL_MODEL",
         type=model_arg,
-        help="your calibration model: estimates the force of every run from its sensors (est. err column)",
+        help="your calibration model: estimates the force of every run from its sensors (est. err column); "
+        "one trained for another actuator than the simulated one is refused",
     )
     p.add_argument("--features", metavar="SPEC", help="feature specification of --model (bare networks)")
     p.add_argument(
@@ -55,7 +63,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--json", action="store_true", help="print one JSON object keyed by configuration")
     p.add_argument("--plots", metavar="DIR", help="write a step-response plot per configuration (first seed)")
-    p.add_argument("--config", action="append", choices=sorted(CONFIGS), help="configurations (default all)")
+    p.add_argument(
+        "--config", action="append", choices=sorted(CONFIGS), help="configurations (default: see above)"
+    )
     p.add_argument("--latency", type=float, default=0.1, help="cloud round-trip latency, s (default 0.1)")
     p.add_argument(
         "--impl",
@@ -81,8 +91,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    """Run each configuration at 5, 10, 15 N over the contact angles; print Table II or JSON."""
-    from seagen.control.experiment import TABLE2_CONFIGS, format_table2, simulate, sweep
+    """Run each configuration at its actuator's targets over the contact angles; print Table II or JSON."""
+    from seagen.actuator import default_actuator
+    from seagen.control.experiment import CONFIGS, MODEL_FREE, TABLE2_CONFIGS, format_table2, simulate, sweep
+    from seagen.data.protocol import sample_every
     from seagen.plant import PlantConfig
 
     if not 0.0 <= args.latency <= 3600.0:  # NaN fails too
@@ -91,22 +103,31 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise UserError(f"--seed must be >= 0, got {args.seed}")
     if args.seeds < 1:
         raise UserError(f"--seeds must be >= 1, got {args.seeds}")
-    from seagen.control.experiment import CONFIGS
-
-    plant_cfg = PlantConfig(actuator=plant_actuator(args))  # refused before anything is built
+    act = plant_actuator(args)  # refused before anything is built
+    plant_cfg = PlantConfig(actuator=act)
+    sample_every(plant_cfg)  # a loop rate the plant cannot run is refused, naming the description's file
+    paper = act.digest() == default_actuator().digest()
     setups, rows, estimator = dict(CONFIGS), {}, None
-    names = tuple(args.config or (() if args.model else TABLE2_CONFIGS))
+    free_only = not (args.config or args.model or paper)  # another design, nothing chosen: kin_mcu
+    names = tuple(args.config or (() if args.model else TABLE2_CONFIGS if paper else MODEL_FREE))
+    if not paper:
+        from seagen.control.experiment import model_free_setups
+
+        setups |= model_free_setups(act)
+        refuse_shipped(names, act, args.model)
+    if args.calibration:  # first: one for another actuator is refused before the control model's export
+        from seagen.control.user import force_estimator
+
+        estimator = force_estimator(args.calibration, args.allow_pickle, act)
     if args.model:
         from seagen.control.user import control_setups
 
-        mine, row = control_setups(args.model, args.features, args.allow_pickle)
+        mine, row = control_setups(args.model, args.features, args.allow_pickle, act)
         setups |= mine
         rows = dict.fromkeys(mine, row)
         names = (*names, *mine)
-    if args.calibration:
-        from seagen.control.user import force_estimator
-
-        estimator = force_estimator(args.calibration, args.allow_pickle)
+    if free_only:  # said once everything is accepted
+        print(model_free_note(act), file=sys.stderr)
     impl = f"pil:{args.core}" if args.impl == "pil" else args.impl
     if args.seeds == 1:
         table = simulate(names, args.latency, impl, args.seed, args.plots, setups, estimator, plant_cfg)
@@ -126,17 +147,50 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                 estimator,
                 plant_cfg,
             )
-    print(json.dumps(table, indent=2) if args.json else format_table2(table, rows))
+    print(json.dumps(table, indent=2) if args.json else format_table2(table, rows, paper_figures=paper))
     return 0
+
+
+def model_free_note(act: Actuator) -> str:
+    """What the default configurations are on a design other than the paper's, and how to run the others."""
+    from seagen.control.experiment import MODEL_FREE, NEEDS_SHIPPED
+
+    return (
+        f"seagen simulate: {act.source}: running {', '.join(MODEL_FREE)} (needs no model); "
+        f"{', '.join(NEEDS_SHIPPED)} run the shipped models of the paper's actuator: for this design pass "
+        "--model (a control model trained on its data)"
+    )
+
+
+def refuse_shipped(names: tuple[str, ...], act: Actuator, model: str | None) -> None:
+    """A configuration running a shipped (paper) model on another design: refused naming it (exit 2)."""
+    from seagen.actuator import ActuatorError, default_actuator
+    from seagen.control.experiment import MODEL_FREE, NEEDS_SHIPPED
+    from seagen.control.user import prefix_of
+
+    free = " / ".join(MODEL_FREE)
+    for n in names:
+        if n in NEEDS_SHIPPED:
+            paper = default_actuator()
+            hint = (
+                f"--model {model} runs as {prefix_of(model)}_mcu and {prefix_of(model)}_cloud: leave out "
+                f"--config {n} (--config {free} needs no model)"
+                if model
+                else f"for this design pass --model with a control model trained on its data, or --config "
+                f"{free} (needs no model)"
+            )
+            raise ActuatorError(
+                f"--config {n}: runs the shipped model default:{NEEDS_SHIPPED[n]}, trained for actuator "
+                f"'{paper.name}' (sha256 {paper.digest()[:12]}), not the simulated '{act.name}' (sha256 "
+                f"{act.digest()[:12]}, from {act.source}); {hint}"
+            )
 
 
 def plant_actuator(args: argparse.Namespace) -> Actuator:
     """The simulated actuator: the one --model was trained for (a bare network: --actuator, else the
-    paper's), or for the default configurations the shipped models' (the paper's); a disagreeing
-    --actuator is refused (exit 2)."""
-    from seagen.actuator import ActuatorError, default_actuator
+    paper's), else --actuator's, else the paper's; an --actuator disagreeing with --model's is refused."""
+    from seagen.actuator import default_actuator
     from seagen.cli.data import given_actuator
-    from seagen.defaults import shipped
     from seagen.modelfile import load_model, model_actuator
 
     given = given_actuator(args)
@@ -146,11 +200,4 @@ def plant_actuator(args: argparse.Namespace) -> Actuator:
         except UserError:  # a bare network: it records no actuator
             return given or default_actuator()
         return model_actuator(model, args.model, given)
-    for name, path in sorted(shipped().items()):  # the default configurations run the shipped models
-        try:
-            model_actuator(load_model(path), f"{path} (the default configurations' model {name})", given)
-        except ActuatorError as e:
-            raise ActuatorError(
-                f"{e}; train a control model on your actuator's data and pass --model"
-            ) from None
     return given or default_actuator()

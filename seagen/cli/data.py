@@ -39,7 +39,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     g.add_argument("--out", required=True, help="output directory (created)")
     g.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    g.add_argument("--config", help="plant config TOML: what is non-ideal (default: the shipped catalogue)")
+    g.add_argument(
+        "--config",
+        help="plant config TOML: what is non-ideal, one [effects.NAME] table per effect changed (enabled, "
+        "its parameters; every key: docs/plant.md) (default: the shipped catalogue)",
+    )
     add_actuator(g, ACTUATOR_HELP + "; kept as OUT/actuator.toml")
     g.set_defaults(func=cmd_generate)
     i = dsub.add_parser(
@@ -76,7 +80,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
     act = given_actuator(args) or default_actuator()
     cfg = load_config(args.config, act) if args.config else PlantConfig(actuator=act)
-    sample_every(cfg)  # a loop rate the plant cannot log is refused before anything runs
+    sample_every(cfg, args.actuator or args.config)  # a loop rate the plant cannot log: refused first
     out = Path(args.out)
     if args.seed < 0:
         raise UserError(f"--seed must be >= 0, got {args.seed}")

@@ -32,11 +32,24 @@ CONFIGS: dict[str, Callable[[float], Setup]] = {
     "kin_mcu": lambda latency_s: (kinematic_mcu(predict_every=1), ControlConfig()),  # baseline
 }
 TABLE2_CONFIGS = ("sf_mcu", "mlp_cloud", "mlp_mcu")
+# Configurations running a shipped model (trained for the paper's actuator): name -> that model's default:NAME
+NEEDS_SHIPPED = {"sf_mcu": "sf_control", "mlp_cloud": "mlp_control", "mlp_mcu": "mlp_control"}
+MODEL_FREE = tuple(n for n in CONFIGS if n not in NEEDS_SHIPPED)  # run on any described actuator
 PAPER_TABLE2 = {  # paper Table II: (average force error N, average settling time s) per method and target
     "SF": {"5": (0.29, 0.32), "10": (0.41, 0.50), "15": (0.18, 0.58)},
     "MLP": {"5": (0.24, 2.72), "10": (0.30, 3.22), "15": (0.10, 3.15)},
 }
 PAPER_ROW = {"sf_mcu": "SF", "mlp_cloud": "MLP", "mlp_mcu": "MLP", "kin_mcu": "SF"}
+
+
+def model_free_setups(act: Actuator) -> dict[str, Callable[[float], Setup]]:
+    """The model-free configurations (kin_mcu) on actuator `act`: the kinematic inverse with its friction
+    and spring, the controller configuration of its description."""
+    from seagen.runtime.actq import act_q
+    from seagen.runtime.control import KinParams
+
+    ctl = ControlConfig.for_act(act_q(act))
+    return {"kin_mcu": lambda latency_s: (kinematic_mcu(1, KinParams.of(act)), ctl)}
 
 
 def targets_n(act: Actuator) -> tuple[float, ...]:
@@ -223,17 +236,25 @@ def sweep(
     return out
 
 
-def format_table2(table: dict[str, dict[str, dict]], paper_rows: dict[str, str] | None = None) -> str:
+def format_table2(
+    table: dict[str, dict[str, dict]], paper_rows: dict[str, str] | None = None, paper_figures: bool = True
+) -> str:
     """Table II as text: measured error and settling time per configuration and target beside the paper's
-    (a seed sweep adds the settling range over seeds; a calibration model its force-estimate error).
+    (a seed sweep adds the settling range over seeds; a calibration model its force-estimate error; the
+    paper columns are left out when the paper has no figure for any target shown, or `paper_figures` is
+    False: a plant of another design than the paper's).
     `paper_rows`: configuration -> the paper's row (SF or MLP) for configurations not in PAPER_ROW."""
     rows_of = {**PAPER_ROW, **(paper_rows or {})}
     ranged = any("settling_min_s" in r for rows in table.values() for r in rows.values())
     est = any("estimate_error_n" in r for rows in table.values() for r in rows.values())
-    head = f"{'config':<11}{'force':>6}{'error N':>9}{'settling s':>12}"
+    paper_shown = paper_figures and any(
+        t in PAPER_TABLE2[rows_of.get(n, "SF")] for n, rows in table.items() for t in rows
+    )
+    fw = max([6, *(len(t) + 3 for rows in table.values() for t in rows)])  # "11.25 N" and a space
+    head = f"{'config':<11}{'force':>{fw}}{'error N':>9}{'settling s':>12}"
     head += f"{'range s':>12}" if ranged else ""
     head += f"{'settled':>9}{'to final s':>12}" + (f"{'est. err N':>12}" if est else "")
-    lines = [head + f"{'paper':>8}{'error N':>9}{'settling s':>12}"]
+    lines = [head + (f"{'paper':>8}{'error N':>9}{'settling s':>12}" if paper_shown else "")]
     width = max([11, *(len(n) + 1 for n in table)])
     lines[0] = f"{'config':<{width}}" + lines[0][11:]
     for name, rows in table.items():
@@ -247,8 +268,9 @@ def format_table2(table: dict[str, dict[str, dict]], paper_rows: dict[str, str] 
             pe, ps = paper.get(t, (np.nan, np.nan))  # a target the paper did not run: nan
             settled = f"{r['settled']}/{r['angles']}"
             e = f"{r['estimate_error_n']:>12.2f}" if est else ""
+            p = f"{rows_of.get(name, 'SF'):>8}{pe:>9.2f}{ps:>12.2f}" if paper_shown else ""
             lines.append(
-                f"{name:<{width}}{t + ' N':>6}{r['error_avg_n']:>9.2f}{s:>12}{rng}{settled:>9}"
-                f"{r['settling_final_s']:>12.2f}{e}{rows_of.get(name, 'SF'):>8}{pe:>9.2f}{ps:>12.2f}"
+                f"{name:<{width}}{t + ' N':>{fw}}{r['error_avg_n']:>9.2f}{s:>12}{rng}{settled:>9}"
+                f"{r['settling_final_s']:>12.2f}{e}{p}"
             )
     return "\n".join(lines)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from types import ModuleType
 
 import numpy as np
@@ -14,15 +15,21 @@ from seagen.runtime.control import KinParams, predict_kinematic
 KIN = KinParams()
 
 
-def _kin_ctx(mod: ModuleType) -> object:
-    from seagen.toolchain.controller import kin_ctx
+def _kin_ctx(k: KinParams) -> Callable[[ModuleType], object]:
+    """The C context maker of the kinematic predictor with constants `k`."""
 
-    return kin_ctx(mod, KIN)
+    def make(mod: ModuleType) -> object:
+        from seagen.toolchain.controller import kin_ctx
+
+        return kin_ctx(mod, k)
+
+    return make
 
 
-def kinematic_mcu(predict_every: int = 1) -> McuPredictor:
-    """The fixed-point kinematic inverse, sea_predict_kinematic, on the MCU."""
-    return McuPredictor("sea_predict_kinematic", _kin_ctx, lambda: predict_kinematic(KIN), predict_every)
+def kinematic_mcu(predict_every: int = 1, k: KinParams = KIN) -> McuPredictor:
+    """The fixed-point kinematic inverse, sea_predict_kinematic, on the MCU (constants `k`: the paper's by
+    default, KinParams.of(actuator) for another design)."""
+    return McuPredictor("sea_predict_kinematic", _kin_ctx(k), lambda: predict_kinematic(k), predict_every)
 
 
 def kinematic_float(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:

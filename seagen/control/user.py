@@ -30,13 +30,17 @@ class Exported:
     act: Any = None  # the actuator's constants (seagen.runtime.actq.ActQ) the C was rendered for
 
 
-def exported(model: str, features: str | None = None, allow_pickle: bool = False) -> Exported:
+def exported(
+    model: str, features: str | None = None, allow_pickle: bool = False, given: Any = None
+) -> Exported:
     """MODEL read, quantized, checked against its original by the oracle (CheckFailed beyond the bound) and
-    rendered to C: the in-memory core of `seagen export` (no manifest, nothing written)."""
+    rendered to C: the in-memory core of `seagen export` (no manifest, nothing written). A `given` actuator
+    (seagen.actuator.Actuator) the model file's recorded one disagrees with is refused (exit 2)."""
     from seagen.cnames import assert_valid_prefix
     from seagen.codegen.actfile import export_actuator
     from seagen.codegen.render import RUNTIME, render
     from seagen.codegen.runtime import runtime_sources
+    from seagen.defaults import model_label
     from seagen.errors import CheckFailed
     from seagen.frontends.load import load_with_original, read_features_file
     from seagen.quant.model import quantize
@@ -44,24 +48,31 @@ def exported(model: str, features: str | None = None, allow_pickle: bool = False
     from seagen.runtime.actq import act_q
 
     loaded = load_with_original(model, read_features_file(features), None, allow_pickle)
+    act = export_actuator(loaded, given, model_label(model))  # the model file's (the paper's if none)
     qm = quantize(loaded.model)
     rep = compare_original(
         f"oracle ({loaded.runtime}) on the box", qm, loaded.original, box_points(qm), loaded.margin
     )
     if not rep.ok:
         raise CheckFailed(f"{model}: {rep.line()}")
-    stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(model).stem)
-    prefix = assert_valid_prefix(stem if stem[:1].isalpha() and not stem.startswith("sea") else f"m_{stem}")
-    aq = act_q(export_actuator(loaded, None, model))  # the model file's actuator (the paper's if none)
+    prefix = assert_valid_prefix(prefix_of(model))
+    aq = act_q(act)
     files = {**render(qm, prefix, act=aq), **runtime_sources(*RUNTIME)}
     return Exported(loaded.model, qm, prefix, files, aq)
 
 
+def prefix_of(model: str) -> str:
+    """The C prefix of a model file's in-memory export (and of its NAME_mcu / NAME_cloud configurations)."""
+    stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(model).stem)
+    return stem if stem[:1].isalpha() and not stem.startswith("sea") else f"m_{stem}"
+
+
 def control_setups(
-    model: str, features: str | None = None, allow_pickle: bool = False
+    model: str, features: str | None = None, allow_pickle: bool = False, given: Any = None
 ) -> tuple[dict[str, Callable[[float], Setup]], str]:
     """{NAME_mcu, NAME_cloud: factory(latency_s) -> (predictor, controller configuration)} for a control
-    model file, and the paper's row (SF or MLP) its kind compares with."""
+    model file, and the paper's row (SF or MLP) its kind compares with; `given`: the simulated actuator
+    (a bare network's; a model file recording another is refused)."""
     from seagen.codegen.controller import shipped_config
     from seagen.codegen.runtime import cdef_of, runtime_sources
     from seagen.control.gentwin import StepTwin, float_features
@@ -70,7 +81,7 @@ def control_setups(
     from seagen.runtime.features import has_pipeline, is_predictor
     from seagen.toolchain.controller import NN_SOURCES, generated_ctx
 
-    ex = exported(model, features, allow_pickle)
+    ex = exported(model, features, allow_pickle, given)
     qm, p = ex.qmodel, ex.prefix
     if not is_predictor(qm) or not has_pipeline(qm):
         raise UserError(
@@ -122,12 +133,13 @@ class ForceEstimator:
         return np.asarray(out * 2.0**-self.out_frac).reshape(n_act, n_ticks).T
 
 
-def force_estimator(model: str, allow_pickle: bool = False) -> ForceEstimator:
-    """The calibration model's C (exported in memory, built for the host) as a force estimator."""
+def force_estimator(model: str, allow_pickle: bool = False, act: Any = None) -> ForceEstimator:
+    """The calibration model's C (exported in memory, built for the host) as a force estimator; a model
+    trained for another actuator than the simulated one `act` is refused (exit 2), before the oracle runs."""
     from seagen.runtime.features import external_inputs, has_pipeline
     from seagen.toolchain.model import CModel
 
-    ex = exported(model, allow_pickle=allow_pickle)
+    ex = exported(model, allow_pickle=allow_pickle, given=act)
     qm = ex.qmodel
     if qm.output.name != "force_n" or not has_pipeline(qm) or external_inputs(qm):
         raise UserError(

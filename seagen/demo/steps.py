@@ -95,7 +95,7 @@ def step_control(out: Path, seed: int, models: dict[str, Path], act: Actuator | 
             rows |= dict.fromkeys(setups.keys() - rows.keys(), row)
         cfg = PlantConfig(actuator=act)
         table = exp.sweep(tuple(setups), DEMO_SEEDS, seed=seed, plots=plots, setups=setups, plant_cfg=cfg)
-        print(exp.format_table2(table, rows))
+        print(exp.format_table2(table, rows, paper_figures=False))
     print(f"step-response plots (first seed): {out / 'plots'}/step_*.png")
 
 

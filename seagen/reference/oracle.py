@@ -37,11 +37,15 @@ class OracleReport:
 
     def line(self) -> str:
         """One line for the console."""
+        return f"{self.what}: {self.detail()}"
+
+    def detail(self) -> str:
+        """The outcome without the label (for a report that prints the label itself)."""
         lim = f"bound {self.bound:.3g} + margin {self.margin:.3g} {self.unit}"
         if self.ok:
             worst = f"max |integer - original| {self.max_err:.3g} {self.unit}"
-            return f"{self.what}: {self.rows} inputs, {worst} <= {lim}"
-        return f"{self.what}: DISAGREES at {self.first_fail} (> {lim})"
+            return f"{self.rows} inputs, {worst} <= {lim}"
+        return f"DISAGREES at {self.first_fail} (> {lim})"
 
 
 def box_points(qm: QModel, n: int = N_RANDOM, seed: int = 0) -> np.ndarray:

@@ -97,7 +97,7 @@ class ActQ:
 
 def _refuse(act: Actuator, why: str) -> ActuatorError:
     """The refusal of a geometry the fixed-point runtime cannot hold."""
-    return ActuatorError(f"actuator '{act.name}': {why}")
+    return ActuatorError(f"{act.source or 'actuator'} ('{act.name}'): {why}")
 
 
 def link_table(act: Actuator, shift: int) -> np.ndarray:

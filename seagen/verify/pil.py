@@ -149,6 +149,7 @@ def run_pil(
     from seagen.codegen.controller import shipped_config
     from seagen.control.experiment import contact_deg, targets_n
     from seagen.control.gentwin import StepTwin
+    from seagen.defaults import model_label
     from seagen.plant import PlantConfig
 
     if ticks < 1 or not 1 <= actuators <= MAX_ACTUATORS:
@@ -161,16 +162,17 @@ def run_pil(
             f"{man.path}: exported without --controller (re-export with seagen export --controller)"
         )
     v.prefix = ex.prefix
+    plant_cfg = PlantConfig(actuator=export_actuator(ex.loaded, actuator, model))  # the export's
     cal_qm, cal, shared = None, None, False
     if cal_model is not None:
         cal_files, cal_ex, _ = _export(root, cal_model, None, v, allow_pickle, actuator)
+        export_actuator(cal_ex.loaded, plant_cfg.actuator, model_label(cal_model))  # another design's: exit 2
         cal_qm, cal = cal_ex.qmodel, cal_ex.prefix
         files = {**files, **cal_files}
         shared = cal_ex.act is not None and ex.act is not None and cal_ex.act.cid == ex.act.cid
     board = PilController(files, ex.prefix, core, cal, shared=shared)  # one pipeline for one actuator
     res = PilResult(v, core, board.board.machine, actuators)
     cfg = shipped_config(ex.qmodel, ex.act)  # the configuration export --controller renders
-    plant_cfg = PlantConfig(actuator=export_actuator(ex.loaded, actuator, model))  # the export's
     angles = np.array(contact_deg(plant_cfg.actuator, actuators))
     try:
         for i, target in enumerate(targets_n(plant_cfg.actuator)):

@@ -117,7 +117,12 @@ def check_steps(v: Verdict, ex, target, data: str | None, onnx_model) -> None:
     for chk in rep.checks:
         v.add(chk.name, _problem(chk), chk.compared, info=f"{chk.rows} rows")
     for o in rep.oracles:
-        v.add(o.what, None if o.ok else o.line(), o.line() if o.ok else "")
+        add_oracle(v, o)
+
+
+def add_oracle(v: Verdict, o) -> None:
+    """An oracle comparison (seagen.reference.oracle.OracleReport) as a check, its label printed once."""
+    v.add(o.what, None if o.ok else o.detail(), o.detail() if o.ok else "")
 
 
 def _problem(chk) -> str | None:
