@@ -185,7 +185,6 @@ def _score(cfg, cands, held, sig_h, rng) -> tuple[pd.DataFrame, np.ndarray]:
 
 
 ZOOM_HALF = 0.08  # final local grid search around the polished best single (unit-box half-width)
-DEEP_TOP = 2  # singles that get the multi-start search after the first screen
 DEEP = {"rounds": 8, "beam": 4}  # multi-start zoom of the best singles (narrow valleys, stick-slip steps)
 PARTNER = {"rounds": 5, "beam": 2}  # multi-start search of each partner, the best single held at its fit
 PAIR_NFEV = 12  # least-squares evaluations for every pair and the joint recalibration
@@ -227,8 +226,10 @@ def best_addition(cfg: PlantConfig, fit: Runs, held: Runs, sig_f, sig_h, rng, no
     if not singles:
         return None, None
     screen(cfg, singles, fit, sig_f)
-    ranked = sorted(singles, key=lambda c: c.chi2_fit)
-    _deep_fit(cfg, ranked[:DEEP_TOP], fit, sig_f, DEEP, POLISH_NFEV)
+    # then every single gets the multi-start search: the first screen's coarse grid misranks them (a
+    # refitted Coulomb level fitted 7x better after it than at its screen point), and the best single is
+    # both the pairs' anchor and the closest catalogue effect (closest_single)
+    _deep_fit(cfg, singles, fit, sig_f, DEEP, POLISH_NFEV)
     ranked = sorted(singles, key=lambda c: c.chi2_fit)
     table, wins = _score(cfg, singles, held, sig_h, rng)
     best_single = table.loc[table["candidate"] == ranked[0].label, "rms_held_out"].iloc[0]
