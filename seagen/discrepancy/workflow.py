@@ -192,6 +192,7 @@ PAIR_NFEV = 12  # least-squares evaluations for every pair and the joint recalib
 # fit, within NUDGE x the partner's half-width: the best single alone may have absorbed part of its
 # partner (a hidden backlash in a Stribeck fit), so the pair's valley lies beside the anchor's own fit.
 JOINT_TOP, JOINT_DIMS, NUDGE = 3, 3, 0.3
+DEEP_TOP = 2  # singles that get the multi-start search after every single's least-squares polish
 
 
 def _deep_fit(cfg: PlantConfig, cands: list[Candidate], fit: Runs, sig_f, search: dict, nfev: int) -> None:
@@ -226,10 +227,13 @@ def best_addition(cfg: PlantConfig, fit: Runs, held: Runs, sig_f, sig_h, rng, no
     if not singles:
         return None, None
     screen(cfg, singles, fit, sig_f)
-    # then every single gets the multi-start search: the first screen's coarse grid misranks them (a
-    # refitted Coulomb level fitted 7x better after it than at its screen point), and the best single is
-    # both the pairs' anchor and the closest catalogue effect (closest_single)
-    _deep_fit(cfg, singles, fit, sig_f, DEEP, POLISH_NFEV)
+    # every single refined by least squares before they are ranked: the screen's coarse grid misranks them
+    # (a refitted Coulomb level fits 7x better than at its screen point), and the best single is both the
+    # pairs' anchor and the closest catalogue effect (closest_single); the best DEEP_TOP then get the
+    # multi-start search (all of them would cost 4x the time)
+    polish(cfg, singles, fit, sig_f, nfev=POLISH_NFEV)
+    ranked = sorted(singles, key=lambda c: c.chi2_fit)
+    _deep_fit(cfg, ranked[:DEEP_TOP], fit, sig_f, DEEP, POLISH_NFEV)
     ranked = sorted(singles, key=lambda c: c.chi2_fit)
     table, wins = _score(cfg, singles, held, sig_h, rng)
     best_single = table.loc[table["candidate"] == ranked[0].label, "rms_held_out"].iloc[0]
