@@ -23,6 +23,21 @@ from seagen.workers import Terminated, run_in_workers, stop_on_sigterm
 STOP_S = 5.0
 
 
+@pytest.fixture(autouse=True)
+def _ctrl_c_as_at_a_terminal():
+    """SIGINT handled as at a terminal while a test runs, whatever this process inherited (a shell starts a
+    background job, `make test &`, with SIGINT ignored, and children inherit that) or an earlier test in
+    this worker left: else Ctrl-C cannot be tested (the previous disposition is put back afterwards)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, before)
+
+
 def _state(pid: int) -> str | None:
     """The /proc state letter of `pid` (None when it is gone)."""
     try:
