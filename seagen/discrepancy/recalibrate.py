@@ -7,7 +7,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from seagen.actuator import default_actuator
 from seagen.discrepancy.candidates import (
     at,
     box,
@@ -20,7 +19,7 @@ from seagen.discrepancy.candidates import (
 )
 from seagen.discrepancy.replay import ParamSet, Runs
 from seagen.plant import PlantConfig
-from seagen.plant.config import POT_SHARES, pot_full_scale
+from seagen.plant.config import PAPER_POT_FULL_SCALE, counts_scale
 
 # Plausible values for a compact SEA like the paper's (documented in the README). The fit may move a
 # parameter anywhere in its wider SPACE box; a value outside these ranges is reported as implausible.
@@ -41,13 +40,13 @@ PLAUSIBLE_SHARES: dict[str, dict[str, tuple[float, float]]] = {
     "load_cell_offset": {"offset_n": (-3.0, 3.0)},
     "transport_delay": {"delay_s": (0.002, 0.1)},
 }
-PAPER_FULL_SCALE = pot_full_scale(default_actuator())
+PAPER_FULL_SCALE = PAPER_POT_FULL_SCALE
 
 
 def plausible_range(effect: str, param: str, scale: float = PAPER_FULL_SCALE) -> tuple[float, float]:
     """(low, high) of a parameter's plausible range, for a pot of `scale` counts (the paper's by default)."""
     lo, hi = PLAUSIBLE_SHARES[effect][param]
-    k = scale if (effect, param) in POT_SHARES else 1.0
+    k = counts_scale(effect, param, scale)
     return lo * k, hi * k
 
 

@@ -388,8 +388,8 @@ def _honest(base: PlantConfig, named: list[Named], held: Runs, sig_h, z0) -> tup
     held-out fit worse (WORSE, WORSE_MIN) is not kept (said in words, channel by channel)."""
     notes: list[str] = []
     kept: list[Named] = []
+    fs = pot_full_scale(base.actuator)
     for n in named:
-        fs = pot_full_scale(base.actuator)
         bad = [p for p, v in n.params.items() if n.before is not None and not plausible(n.name, p, v, fs)]
         for p in bad:
             lo, hi = plausible_range(n.name, p, fs)
@@ -419,7 +419,7 @@ def _honest(base: PlantConfig, named: list[Named], held: Runs, sig_h, z0) -> tup
 
 def _at_edge(n: Named, cfg: PlantConfig | None = None) -> list[str]:
     """The parameters of a named change fitted within EDGE of an end of their search box (on the plant
-    `cfg`, whose pot ADC sets the FULL_SCALE_BOXES; the paper's when None)."""
+    `cfg`, whose pot ADC scales the boxes of pot counts; the paper's when None)."""
     out = []
     for p, v in n.params.items():
         lo, hi, log = box(n.name, p, full_scale(cfg))

@@ -152,7 +152,13 @@ POT_SHARES: dict[tuple[str, str], float] = {
     ("pot_voltage_drop", "counts_per_unit_current"): 0.029296875,
     ("pot_noise", "sigma_counts"): 0.00244140625,
 }
-_PAPER_POT = pot_full_scale(default_actuator())
+PAPER_POT_FULL_SCALE = pot_full_scale(default_actuator())
+
+
+def counts_scale(effect: str, param: str, full_scale: float) -> float:
+    """Factor from a share of full scale to this parameter's units: `full_scale` (the pot's counts) for a
+    parameter in pot counts (POT_SHARES' keys), else 1 (ranges and boxes given as shares scale with it)."""
+    return full_scale if (effect, param) in POT_SHARES else 1.0
 
 
 @dataclass
@@ -162,7 +168,9 @@ class PotVoltageDrop(Effect):
     counts_per_unit_current is in pot counts (its default: POT_SHARES of the described pot's full scale)."""
 
     enabled: bool = True
-    counts_per_unit_current: float = POT_SHARES[("pot_voltage_drop", "counts_per_unit_current")] * _PAPER_POT
+    counts_per_unit_current: float = (
+        POT_SHARES[("pot_voltage_drop", "counts_per_unit_current")] * PAPER_POT_FULL_SCALE
+    )
     time_constant_s: float = 0.12
 
 
@@ -172,7 +180,7 @@ class PotNoise(Effect):
     described pot's full scale)."""
 
     enabled: bool = True
-    sigma_counts: float = POT_SHARES[("pot_noise", "sigma_counts")] * _PAPER_POT
+    sigma_counts: float = POT_SHARES[("pot_noise", "sigma_counts")] * PAPER_POT_FULL_SCALE
 
 
 @dataclass
