@@ -268,8 +268,8 @@ def _tables(data: dict[str, Any], where: str) -> dict[str, dict[str, Any]]:
 
 
 def _check(a: Actuator, where: str) -> Actuator:
-    """Physical plausibility: positive sizes, an ordered angle range, a usable ADC, a force range the motor
-    can reach."""
+    """Physical plausibility: positive sizes, an ordered angle range, a usable ADC, a command limit within
+    the supply and a force range the motor can reach."""
     positive = {
         "motor.supply_v": a.motor.supply_v,
         "motor.no_load_rpm": a.motor.no_load_rpm,
@@ -303,6 +303,11 @@ def _check(a: Actuator, where: str) -> Actuator:
     for field in ("kp_v_per_mm", "ki_v_per_mm_s", "kd_v_s_per_mm", "margin_mm"):
         if getattr(c, field) < 0:
             raise ActuatorError(f"{where}: 'control.{field}' must be >= 0, got {getattr(c, field)!r}")
+    if c.limit_v > a.motor.supply_v and c.limit_v != _OPTIONAL["control"]["limit_v"]:  # default: capped
+        raise ActuatorError(
+            f"{where}: 'control.limit_v' {c.limit_v:g} V is above 'motor.supply_v' {a.motor.supply_v:g} V "
+            "(the command limit must lie within +-supply_v)"
+        )
     if c.force_max_n > a.motor.stall_force_n:
         dflt = "" if c.force_max_n != _OPTIONAL["control"]["force_max_n"] else " (the paper's default)"
         raise ActuatorError(
@@ -326,12 +331,6 @@ def actuator_from_dict(data: dict[str, Any], where: str = "<dict>") -> Actuator:
     if not isinstance(name, str):
         raise ActuatorError(f"{where}: 'name' must be a string")
     t = _tables(data, where)
-    supply, limit = t["motor"]["supply_v"], t["control"]["limit_v"]
-    if limit > supply and limit != _OPTIONAL["control"]["limit_v"]:  # the default is capped at the supply
-        raise ActuatorError(
-            f"{where}: 'control.limit_v' {limit:g} V is above 'motor.supply_v' {supply:g} V (the command "
-            "limit must lie within +-supply_v)"
-        )
     act = Actuator(
         kind=kind,
         name=name,

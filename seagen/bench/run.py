@@ -102,10 +102,10 @@ def _machine(elf: Path, cpu: str) -> cm.Machine:
 def _trajectory(n: int) -> tuple[np.ndarray, np.ndarray]:
     """A raw enc/pot run: a push of 1,500 counts with pot wandering around mid-range (100 Hz samples) of the
     shipped models' (the paper's) pot: 1,800 +- 40 + 3 counts of its 12-bit ADC, as shares of full scale."""
-    from seagen.runtime.actq import act_q_of
+    from seagen.runtime.control import pot_at
 
     k = np.arange(n)
-    mid, wander, ripple = (s * (act_q_of().pot_max + 1) for s in (0.439453125, 0.009765625, 0.000732421875))
+    mid, wander, ripple = (pot_at(s) for s in (0.439453125, 0.009765625, 0.000732421875))
     enc = np.rint(1500 * np.sin(np.pi * k / n) ** 2).astype(np.int64)
     pot = np.rint(mid + wander * np.sin(k / 7.0) + ripple * np.cos(k * 1.7)).astype(np.int64)
     return enc, pot

@@ -93,7 +93,15 @@ def register(sub: argparse._SubParsersAction) -> None:
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Run each configuration at its actuator's targets over the contact angles; print Table II or JSON."""
     from seagen.actuator import default_actuator
-    from seagen.control.experiment import CONFIGS, MODEL_FREE, TABLE2_CONFIGS, format_table2, simulate, sweep
+    from seagen.control.experiment import (
+        CONFIGS,
+        MODEL_FREE,
+        TABLE2_CONFIGS,
+        format_table2,
+        model_free_setups,
+        simulate,
+        sweep,
+    )
     from seagen.data.protocol import sample_every
     from seagen.plant import PlantConfig
 
@@ -110,10 +118,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     setups, rows, estimator = dict(CONFIGS), {}, None
     free_only = not (args.config or args.model or paper)  # another design, nothing chosen: kin_mcu
     names = tuple(args.config or (() if args.model else TABLE2_CONFIGS if paper else MODEL_FREE))
+    setups |= model_free_setups(act)  # kin_mcu with this actuator's constants (the paper's: CONFIGS' own)
     if not paper:
-        from seagen.control.experiment import model_free_setups
-
-        setups |= model_free_setups(act)
         refuse_shipped(names, act, args.model)
     if args.calibration:  # first: one for another actuator is refused before the control model's export
         from seagen.control.user import force_estimator
@@ -168,10 +174,9 @@ def refuse_shipped(names: tuple[str, ...], act: Actuator, model: str | None) -> 
     from seagen.control.experiment import MODEL_FREE, NEEDS_SHIPPED
     from seagen.control.user import prefix_of
 
-    free = " / ".join(MODEL_FREE)
+    free, paper = " / ".join(MODEL_FREE), default_actuator()
     for n in names:
         if n in NEEDS_SHIPPED:
-            paper = default_actuator()
             hint = (
                 f"--model {model} runs as {prefix_of(model)}_mcu and {prefix_of(model)}_cloud: leave out "
                 f"--config {n} (--config {free} needs no model)"
