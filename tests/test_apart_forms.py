@@ -9,11 +9,25 @@ import pytest
 from apart_forms import FORMS, rates, run_form
 
 from seagen.data.protocol import Move, run_trials
+from seagen.plant import Plant
 from seagen.plant.config import CATALOGUE
 
 # One brisk push into the load cell and back at a low and a high contact angle (well under a second per form).
 MOVES = [Move(8.0, 5.0, 15.0, -8.0), Move(22.0, 5.0, 15.0, -8.0)]
 NOISE = {"enc": 1.0, "pot": 10.0, "load_cell_n": 0.08}  # counts, counts, N: the plant's noise or resolution
+
+
+def form_trials(form_case, name: str, moves: list[Move] = MOVES):
+    """(form params, truth trials, base trials) of a form of the set whose `form_case` is given: the form's
+    plant and the plain one, same config and seed (sets B-D's law checks)."""
+    cls, cfg, params = form_case(name, 0)
+    return params, run_trials(cfg, moves, seed=3, plant_cls=cls), run_trials(cfg, moves, seed=3)
+
+
+def form_pair(form_case, name: str, angles: list[float]) -> tuple[Plant, Plant, dict[str, float]]:
+    """(form plant, plain plant) on the form's config at `angles`, and the form's parameters (seed 0)."""
+    cls, cfg, params = form_case(name, 0)
+    return cls(cfg, np.array(angles), seed=1), Plant(cfg, np.array(angles), seed=1), params
 
 
 def _change(name: str, forms: str = "apart_forms") -> dict[str, float]:

@@ -3,19 +3,18 @@ docstring says, without running the discrepancy workflow."""
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import pytest
 from apart_forms_b import FORMS, TRIAL_GAP_S, form_case, rates, run_form
-from test_apart_forms import MOVES  # set A's moves and noise units
+from test_apart_forms import form_pair, form_trials  # set A's moves and noise units
 
-from seagen.data.protocol import Move, run_trials
+from seagen.data.protocol import Move
 from seagen.plant import Plant, PlantConfig
 
-
-def _trials(name: str, moves: list[Move] = MOVES):
-    """(form params, truth trials, base trials): the form's plant and the plain one, same config and seed."""
-    cls, cfg, params = form_case(name, 0)
-    return params, run_trials(cfg, moves, seed=3, plant_cls=cls), run_trials(cfg, moves, seed=3)
+_trials = partial(form_trials, form_case)  # this set's forms
+_pair = partial(form_pair, form_case)
 
 
 def _drive(plant: Plant, volts: float, seconds: float) -> dict[str, np.ndarray]:
@@ -32,12 +31,6 @@ def _drive(plant: Plant, volts: float, seconds: float) -> dict[str, np.ndarray]:
         ):
             out[k].append(np.array(v, copy=True))
     return {k: np.array(v) for k, v in out.items()}
-
-
-def _pair(name: str, angles: list[float]) -> tuple[Plant, Plant, dict[str, float]]:
-    """(form plant, plain plant) on the form's config at `angles`, and the form's parameters (seed 0)."""
-    cls, cfg, params = form_case(name, 0)
-    return cls(cfg, np.array(angles), seed=1), Plant(cfg, np.array(angles), seed=1), params
 
 
 def test_set_b_has_ten_forms():

@@ -3,22 +3,22 @@ docstring says, without running the discrepancy workflow."""
 
 from __future__ import annotations
 
+from functools import partial
+
 import apart_forms
 import apart_forms_b
 import apart_forms_c
 import numpy as np
 import pytest
 from apart_forms_d import FORMS, form_case, rates, run_form
+from test_apart_forms import form_pair
 
 from seagen.plant import Plant, kernel
 
 FRICTION = {"actuator_friction", "linkage_friction", "viscous_friction", "stribeck_friction"}
 
 
-def _pair(name: str, angles: list[float]) -> tuple[Plant, Plant, dict[str, float]]:
-    """(form plant, plain plant) on the form's config at `angles`, and the form's parameters (seed 0)."""
-    cls, cfg, params = form_case(name, 0)
-    return cls(cfg, np.array(angles), seed=1), Plant(cfg, np.array(angles), seed=1), params
+_pair = partial(form_pair, form_case)
 
 
 def _drive(plants: tuple[Plant, ...], volts: float, seconds: float) -> None:
