@@ -57,7 +57,8 @@ def sensors(seed: int, ticks: int = TICKS) -> tuple[np.ndarray, np.ndarray, np.n
     from seagen.runtime.control import pot_at, sensor_walk
 
     start = (300, pot_at(0.29296875))  # the pot at 1,200 counts of the paper's 12-bit ADC
-    return sensor_walk(seed, ticks, (N_SEA,), start=start, force_n=(1.0, 15.0), hold=40)
+    top = default_actuator().control.force_max_n  # desired forces from 5 to 75 % of it: 1 to 15 N
+    return sensor_walk(seed, ticks, (N_SEA,), start=start, force_n=(0.05 * top, 0.75 * top), hold=40)
 
 
 def glove_files(target: str = "portable", cal: str = "cal_mlp", ctl: str = "ctl_mlp") -> dict[str, str]:

@@ -137,6 +137,10 @@ def runs_from_frames(frames: list[tuple[str, pd.DataFrame]], timing: dict | None
         for key, part in df.groupby("trial", sort=False):
             trials.append((f"{src}#{key}", part.sort_values("t_s", kind="stable")))
     n, t = len(trials), max(len(p) for _, p in trials)
+    # the padding's period: a trial's own, or the session's median for a one-sample trial
+    steps = [np.diff(p["t_s"].to_numpy(dtype=float)) for _, p in trials]
+    pooled = np.concatenate(steps)
+    session = float(np.median(pooled)) if pooled.size else 0.0  # every trial one sample: no padding
     volts = np.zeros((n, t))
     times = np.zeros((n, t))
     meas = {c: np.full((n, t), np.nan) for c in CHANNELS}
@@ -150,7 +154,7 @@ def runs_from_frames(frames: list[tuple[str, pd.DataFrame]], timing: dict | None
         volts[i, :m], volts[i, m:] = v, v[-1]
         ts = p["t_s"].to_numpy(dtype=float)
         ts = ts - ts[0]
-        step = float(np.median(np.diff(ts))) if m > 1 else 0.01
+        step = float(np.median(np.diff(ts))) if m > 1 else session
         times[i, :m] = ts
         times[i, m:] = ts[-1] + step * np.arange(1, t - m + 1)
         res[i] = clock_resolution(ts)

@@ -111,7 +111,7 @@ def fit_timing(base, runs: Runs, sig_enc: np.ndarray, pinned: float | None = Non
     chi.update(zip(fine.tolist(), _profile(base, runs, sig_enc, fine).tolist(), strict=True))
     best = float(min(chi, key=chi.__getitem__))
     d = np.diff(runs.t, axis=1)[runs.mask[:, 1:]]
-    period = float(np.median(d)) if d.size else 0.01
+    period = float(np.median(d)) if d.size else 1.0 / base.actuator.loop_hz  # no two samples: the loop's
     # last, the whole-trial encoder chi-square within +-POLISH_S of it: at high rates a sample period is
     # short and the steps are the encoder's rounding; a band this narrow keeps missing physics from
     # pulling the lag far

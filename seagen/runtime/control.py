@@ -208,6 +208,7 @@ def pot_at(share: float, pot_max: int = PAPER.pot_max) -> int:
 
 
 WALK_POT_START = 0.3662109375  # sensor_walk's first pot reading, share of full scale (1,500 of 12 bits)
+WALK_FORCE_SHARES = (0.1, 0.9)  # sensor_walk's desired forces, shares of force_max_n (2-18 N: paper)
 
 
 def sensor_walk(
@@ -216,15 +217,17 @@ def sensor_walk(
     batch: tuple[int, ...] = (),
     start: tuple[int, int] | None = None,
     steps: tuple[int, int] = (40, 20),
-    force_n: tuple[float, float] = (2.0, 18.0),
+    force_n: tuple[float, float] | None = None,
     hold: int = 100,
     pot_max: int = PAPER.pot_max,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Test sequences for controller ticks, (n, *batch) each: raw enc and pot random walks (steps of at most
     `steps` counts from `start`, by default encoder 400 and the pot at WALK_POT_START of its full scale; pot
-    kept off its rails: 1..pot_max - 1) and a desired force (Q16 N) drawn in `force_n` and held `hold`
-    ticks."""
+    kept off its rails: 1..pot_max - 1) and a desired force (Q16 N) drawn in `force_n` (by default
+    WALK_FORCE_SHARES of the paper's force_max_n) and held `hold` ticks."""
     start = (400, pot_at(WALK_POT_START, pot_max)) if start is None else start
+    if force_n is None:
+        force_n = (WALK_FORCE_SHARES[0] * FORCE_RANGE_N[1], WALK_FORCE_SHARES[1] * FORCE_RANGE_N[1])
     rng = np.random.default_rng(seed)
     enc = start[0] + np.cumsum(rng.integers(-steps[0], steps[0] + 1, (n, *batch)), axis=0)
     pot = np.clip(
