@@ -88,11 +88,17 @@ def test_generate_with_bad_config_writes_nothing(tmp_path):
 
 
 def test_generate_cli_and_seed(tmp_path):
-    """`seagen data generate` writes the three splits; the same seed gives identical files."""
+    """`seagen data generate` writes the three splits; the same seed gives identical files; beside them the
+    command timing of seagen's own rows (up_to_row), which the discrepancy replay then pins."""
+    from seagen.discrepancy.replay import load_measured, load_timing, runs_from_frames
+
     for d in ("a", "b"):
         assert main(["data", "generate", "--out", str(tmp_path / d), "--seed", "3"]) == 0
     for s in ("train", "test", "validation"):
         assert (tmp_path / "a" / f"{s}.csv").read_bytes() == (tmp_path / "b" / f"{s}.csv").read_bytes()
+    timing = load_timing(str(tmp_path / "a"))
+    assert timing["command"] == "up_to_row" and timing["lag"] == 1.0
+    assert runs_from_frames(load_measured(str(tmp_path / "a" / "test.csv")), timing).declared == 1.0
 
 
 def test_stair_move_holds_at_rest_on_the_loading_side():

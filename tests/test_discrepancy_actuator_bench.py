@@ -174,6 +174,21 @@ def test_fine_encoder_single_cases_end_explained(effect: str) -> None:
     assert row["verdict"] == "explained" and row["rms_after"] <= 1.1 * row["noise_floor"], row
 
 
+def test_own_logs_pin_the_command_timing_on_the_fine_encoder() -> None:
+    """seagen's own logs declare their command timing (up_to_row) and the replay pins it: the stiff design's
+    series compliance + spring nonlinearity pair (bench --seeds 3's seed 160) is named and explained. With
+    the lag fitted on the base it came out 0.98 (the missing compliance pulls it), which on this encoder
+    (61 nm a count) replays the truth 1,200x above the noise, and the pair search named a Stribeck friction
+    instead (~10 s)."""
+    case = dbench.make_case(("series_compliance", "spring_nonlinearity"), 160, act=load_actuator(STIFF))
+    assert case.runs.declared == 1.0
+    res = dbench.identify(case.runs, case.base)
+    assert res.timing.pinned == 1.0 and res.timing.lag == 1.0
+    named = {n.name for n in res.effects} | {n.name for n in res.recalibrated}
+    assert named == {"series_compliance", "spring_nonlinearity"}, named
+    assert res.verdict == "explained"
+
+
 def test_calibration_protocol_pushes_reach_their_peak_on_both_designs() -> None:
     """`data generate`'s pushes (and the friction measurement's) are scaled to the motor like the bench's:
     at the highest train angle every push of the calibration protocol reaches its peak force well before

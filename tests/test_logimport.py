@@ -118,7 +118,7 @@ def test_cli_writes_splits_train_and_discrepancy_accept(tmp_path, original, caps
     (tmp_path / "map.toml").write_text(MAP)
     out = tmp_path / "data"
     assert main(["data", "import", str(log), "--map", str(tmp_path / "map.toml"), "--out", str(out)]) == 0
-    files = ["actuator.toml", "import.json", "test.csv", "train.csv", "validation.csv"]
+    files = ["actuator.toml", "test.csv", "timing.json", "train.csv", "validation.csv"]
     assert sorted(p.name for p in out.iterdir()) == sorted([*files, "logged"])
     assert sorted(p.name for p in (out / "logged").iterdir()) == files
     assert all(list(load_csv(out / f"{s}.csv").columns) == list(RAW_COLUMNS) for s in ("train", "test"))

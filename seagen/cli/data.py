@@ -75,6 +75,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from seagen.actuator import default_actuator, to_toml
+    from seagen.data.logimport import TIMING_FILE, own_timing
     from seagen.data.protocol import generate, sample_every
     from seagen.plant import PlantConfig, load_config
 
@@ -96,7 +97,11 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
         splits = generate(cfg, seed=args.seed, progress=step)
         bar.update(1)
-    _write_splits(out, splits, {ACTUATOR_FILE: to_toml(act, "the actuator these data were simulated on")})
+    info = {
+        ACTUATOR_FILE: to_toml(act, "the actuator these data were simulated on"),
+        TIMING_FILE: json.dumps(own_timing(), indent=2) + "\n",  # the replay pins seagen's own convention
+    }
+    _write_splits(out, splits, info)
     return 0
 
 
@@ -135,7 +140,7 @@ def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None, 
 def cmd_import(args: argparse.Namespace) -> int:
     """Convert a rig's log with a column map; nothing is written unless every row converts."""
     from seagen.actuator import default_actuator, to_toml
-    from seagen.data.logimport import import_log, load_map, resample, split_trials, timing
+    from seagen.data.logimport import TIMING_FILE, import_log, load_map, resample, split_trials, timing
 
     act = given_actuator(args) or default_actuator()
     mapping = load_map(args.map)
@@ -144,7 +149,7 @@ def cmd_import(args: argparse.Namespace) -> int:
     grid = {k: resample(v, act.loop_hz) for k, v in logged.items()}
     out = Path(args.out)
     info = {
-        "import.json": json.dumps(timing(df, mapping), indent=2) + "\n",
+        TIMING_FILE: json.dumps(timing(df, mapping), indent=2) + "\n",
         ACTUATOR_FILE: to_toml(act, "the actuator this log was recorded on"),
     }
     _write_splits(out / LOGGED, logged, info, what="as logged (discrepancy)")

@@ -79,7 +79,7 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
     base = load_config(args.base, act) if args.base else PlantConfig(actuator=act)
     timing = load_timing(args.measured)
     runs = runs_from_frames(load_measured(args.measured), timing)
-    res = identify(runs, base, pinned=timing.get("lag"))
+    res = identify(runs, base)  # the lag the folder declares (timing.json) is pinned: Runs.declared
     with locked_folder(Path(args.out).resolve().parent):  # another report onto --out waits, then replaces
         write_report(res, args.out, str(args.measured))
     s = summary(res)

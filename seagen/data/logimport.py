@@ -41,6 +41,9 @@ from seagen.fields import read_toml
 
 _LBF_N = 4.4482216152605
 COMMAND_TIMING = {"from_row": 0.0, "up_to_row": 1.0}  # [log] command -> the replay's command lag
+# seagen's own rows (data.protocol.run_trials): a row's command is the one applied since the row before
+OWN_COMMAND = "up_to_row"
+TIMING_FILE = "timing.json"  # what is known of a data folder's timing, beside its CSVs
 _KGF_N = 9.80665
 # Per schema column: accepted units and the factor to seagen's unit (nan: from the actuator description,
 # pot 'mV'/'V' with the map's full_scale, motor_v '%' of the motor supply).
@@ -341,7 +344,7 @@ def clock_resolution(t: np.ndarray) -> float:
 
 
 def timing(df: pd.DataFrame, mapping: dict[str, Any]) -> dict[str, Any]:
-    """What the import knows about the log's timing (written as import.json beside the splits)."""
+    """What the import knows about the log's timing (written as TIMING_FILE beside the splits)."""
     periods, res = [], []
     for _, part in df.groupby("trial", sort=False):
         t = part["t_s"].to_numpy(dtype=float)
@@ -357,6 +360,11 @@ def timing(df: pd.DataFrame, mapping: dict[str, Any]) -> dict[str, Any]:
     if mapping.get("command"):
         out["lag"] = COMMAND_TIMING[mapping["command"]]
     return out
+
+
+def own_timing() -> dict[str, Any]:
+    """The timing of seagen's own logs (`data generate`, the benches): the command declared, so pinned."""
+    return {"command": OWN_COMMAND, "lag": COMMAND_TIMING[OWN_COMMAND], "source": "seagen's protocol"}
 
 
 def resample(df: pd.DataFrame, hz: float) -> pd.DataFrame:

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from seagen.actuator import Actuator, default_actuator
+from seagen.data.logimport import own_timing
 from seagen.data.protocol import PUSH_MOVES, Move, run_trials, scaled_move
 from seagen.discrepancy.replay import ParamSet, Runs, runs_from_frames, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS, noise_sigma, zscores
@@ -95,7 +96,7 @@ def case_frames(cfg: PlantConfig, seed: int, fast: bool = False, plant_cls=None)
 
 def measure(cfg: PlantConfig, seed: int, fast: bool = False, plant_cls=None) -> Runs:
     """A reduced data set (two trials at each of six angles, paper protocol) from the plant cfg."""
-    return runs_from_frames([("sim", df) for df in case_frames(cfg, seed, fast, plant_cls)])
+    return runs_from_frames([("sim", df) for df in case_frames(cfg, seed, fast, plant_cls)], own_timing())
 
 
 def make_case(

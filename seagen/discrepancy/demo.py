@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pandas as pd
 
 from seagen.actuator import Actuator
+from seagen.data.logimport import TIMING_FILE, own_timing
 from seagen.data.schema import save_csv
 from seagen.discrepancy.bench import case_frames
 from seagen.plant import PlantConfig
@@ -22,20 +24,21 @@ def measured_csv(out: Path, seed: int, base: PlantConfig | None = None) -> tuple
     frames = case_frames(truth, seed=seed + 101)
     path = out / "measured.csv"
     save_csv(pd.concat(frames, ignore_index=True), path)
+    (out / TIMING_FILE).write_text(json.dumps(own_timing(), indent=2) + "\n")  # as `data generate` writes
     return path, truth
 
 
 def run_demo(out: Path, seed: int = 0, act: Actuator | None = None) -> dict:
     """Run the workflow on the measured CSV exactly as `seagen discrepancy --measured` does, on the actuator
     `act` (the paper's when None); print the gap."""
-    from seagen.discrepancy.replay import load_measured, runs_from_frames
+    from seagen.discrepancy.replay import load_measured, load_timing, runs_from_frames
     from seagen.discrepancy.report import summary, write_report
     from seagen.discrepancy.workflow import identify
 
     out.mkdir(parents=True, exist_ok=True)
     base = PlantConfig() if act is None else PlantConfig(actuator=act)
     path, _ = measured_csv(out, seed, base)
-    res = identify(runs_from_frames(load_measured(str(path))), base)
+    res = identify(runs_from_frames(load_measured(str(path)), load_timing(str(path))), base)
     write_report(res, out / "report", str(path))
     s = summary(res)
     print(f"hidden in the measured data: {HIDDEN[0]} {HIDDEN[1]}")

@@ -49,7 +49,8 @@ class Runs:
     The command logged on row j takes effect at t_j - lag * (t_j - t_{j-1}): lag 0 = from its row on (a
     rig loop logs the command it computed and applies from that sample on), lag 1 = up to its row (seagen's
     schema: the command applied since the previous row). `res` is the log clock's resolution per trial (s;
-    0 when the samples are the clock's own ticks)."""
+    0 when the samples are the clock's own ticks). `declared` is the lag the log declares (a map's
+    [log] command, or seagen's own logs), None when it is to be fitted."""
 
     angle: np.ndarray
     volts: np.ndarray  # the command as logged on each row
@@ -59,6 +60,7 @@ class Runs:
     t: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     lag: np.ndarray = field(default_factory=lambda: np.zeros(0))
     res: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    declared: float | None = None
 
     _tsig: dict[str, np.ndarray] | None = field(default=None, init=False, repr=False)
 
@@ -84,6 +86,7 @@ class Runs:
             self.t[idx, :t],
             self.lag[idx],
             self.res[idx],
+            self.declared,
         )
 
     def timing_sigma(self) -> dict[str, np.ndarray]:
@@ -131,7 +134,8 @@ class Runs:
 def runs_from_frames(frames: list[tuple[str, pd.DataFrame]], timing: dict | None = None) -> Runs:
     """Split each (source name, DataFrame) by its `trial` column and pad the trials into arrays.
 
-    `timing` (what `data import` found or was told about the log): "lag" pins the command timing."""
+    `timing` (what is known of the log: load_timing, or logimport.own_timing): "lag" pins the command
+    timing (Runs.declared)."""
     trials = []
     for src, df in frames:
         for key, part in df.groupby("trial", sort=False):
@@ -161,8 +165,10 @@ def runs_from_frames(frames: list[tuple[str, pd.DataFrame]], timing: dict | None
         for c in CHANNELS:
             meas[c][i, :m] = p[c].to_numpy(dtype=float)
         mask[i, :m] = True
-    lag = np.full(n, float((timing or {}).get("lag", 1.0)))
-    return Runs(angle, volts, meas, mask, [name for name, _ in trials], times, lag, res)
+    declared = (timing or {}).get("lag")
+    lag = np.full(n, 1.0 if declared is None else float(declared))
+    declared = None if declared is None else float(declared)
+    return Runs(angle, volts, meas, mask, [name for name, _ in trials], times, lag, res, declared)
 
 
 def drive(runs: Runs, dt: float) -> np.ndarray:
@@ -368,14 +374,17 @@ def _stepped(plant: Plant, u: np.ndarray) -> kernel.Trajectory:
 
 
 def load_timing(path: str) -> dict:
-    """What `data import` wrote about the log's timing (import.json beside the CSVs), else {}."""
+    """What `data import` or `data generate` wrote about the log's timing (TIMING_FILE beside the CSVs;
+    import.json in folders imported before it), else {}."""
     import json
 
+    from seagen.data.logimport import TIMING_FILE
     from seagen.data.schema import DataError
 
     p = Path(path)
-    f = (p if p.is_dir() else p.parent) / "import.json"
-    if not f.is_file():
+    folder = p if p.is_dir() else p.parent
+    f = next((f for f in (folder / TIMING_FILE, folder / "import.json") if f.is_file()), None)
+    if f is None:
         return {}
     try:
         out = json.loads(f.read_text())

@@ -434,8 +434,10 @@ def identify(
 ) -> Result:
     """Name, add, re-check until the held-out residual is at the noise floor or nothing helps.
 
-    The command timing (lag) is fitted first on the fitting trials with the base plant, unless `pinned`."""
+    The command timing (lag) is fitted first on the fitting trials with the base plant, unless `pinned` (by
+    default the lag the log declares, Runs.declared)."""
     t0 = time.perf_counter()
+    pinned = runs.declared if pinned is None else pinned
     rng = np.random.default_rng(seed)
     fit_i, held_i = split_trials(runs)
     sig = noise_sigma(runs)
