@@ -47,16 +47,37 @@ from seagen.plant import Plant, PlantConfig, pick
 class PtfeGuide(Plant):
     """The output shaft runs in a PTFE-lined bushing, whose friction rises with the sliding speed (velocity
     strengthening, the reason PTFE does not stick-slip: break-away below the sliding level): the band
-    f_s + df (1 - exp(-|v| / v0)), v the shaft's speed over the last step, the same both ways. Stands in for
+    f_s + df (1 - exp(-|v| / v0)), the same both ways, with v the shaft's speed over this step (implicit: the
+    band read at the last step's speed made the massless shaft stick and slip every other step). Stands in for
     the catalogue's actuator friction (the guide's Coulomb band, lower in reverse)."""
 
     f_s, df, v0 = 1.6, 1.2, 0.1  # N, N, mm/s
 
-    def friction_limits(self, angle_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The plant's other friction plus the bushing's speed-dependent band."""
-        fwd, rev = super().friction_limits(angle_deg)
-        band = self.f_s + self.df * (1.0 - np.exp(-np.abs(self.v_shaft) / self.v0))
-        return fwd + band, rev + band
+    def _move_shaft(self, dt: float) -> None:
+        """Quasi-static massless shaft: stick inside the plant's friction plus f_s, else slide by the unique
+        step dy with net(y0 + dy) - drag = the plant's friction plus the band at speed |dy| / dt (net falls
+        with y and the band rises with |dy|: bisection on |dy|, each element on its own)."""
+        y0 = self.shaft_mm
+        fwd, rev = self.friction_limits(self.geo.angle_from_shaft(np.minimum(y0, self.y_contact)))
+        n0 = self._net_force(y0)[0]
+        up, down = n0 > fwd + self.f_s, n0 < -(rev + self.f_s)
+        y = y0.copy()
+        idx = np.flatnonzero(up | down)
+        if idx.size:
+            sgn = np.where(up, 1.0, -1.0)[idx]
+            other = np.where(up, fwd, rev)[idx] + self.f_s
+            b = pick(self.viscous_n_s_per_mm(), idx) / dt
+            lo = np.zeros(idx.size)
+            hi = (np.abs(n0[idx]) - other) / self.k_spring + 1e-9  # net falls at least as fast as the spring
+            for _ in range(40):
+                mid = 0.5 * (lo + hi)
+                f = self._net_force(y0[idx] + sgn * mid, idx)[0]
+                band = other + self.df * (1.0 - np.exp(-mid / (dt * self.v0)))
+                beyond = sgn * f - b * mid - band > 0  # the root lies beyond mid
+                lo, hi = np.where(beyond, mid, lo), np.where(beyond, hi, mid)
+            y[idx] = y0[idx] + sgn * 0.5 * (lo + hi)
+        self.v_shaft = (y - y0) / dt
+        self.shaft_mm = y
 
 
 class BellowsBoot(Plant):
