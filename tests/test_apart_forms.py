@@ -14,12 +14,13 @@ from seagen.plant.config import CATALOGUE
 
 # One brisk push into the load cell and back at a low and a high contact angle (well under a second per form).
 MOVES = [Move(8.0, 5.0, 15.0, -8.0), Move(22.0, 5.0, 15.0, -8.0)]
+SETS = ("apart_forms", "apart_forms_b", "apart_forms_c", "apart_forms_d", "apart_forms_e")  # A, then B-E
 NOISE = {"enc": 1.0, "pot": 10.0, "load_cell_n": 0.08}  # counts, counts, N: the plant's noise or resolution
 
 
 def form_trials(form_case, name: str, moves: list[Move] = MOVES):
     """(form params, truth trials, base trials) of a form of the set whose `form_case` is given: the form's
-    plant and the plain one, same config and seed (sets B-D's law checks)."""
+    plant and the plain one, same config and seed (sets B-E's law checks)."""
     cls, cfg, params = form_case(name, 0)
     return params, run_trials(cfg, moves, seed=3, plant_cls=cls), run_trials(cfg, moves, seed=3)
 
@@ -45,7 +46,7 @@ def _change(name: str, forms: str = "apart_forms") -> dict[str, float]:
     return out
 
 
-@pytest.mark.parametrize("forms", ["apart_forms", "apart_forms_b", "apart_forms_c", "apart_forms_d"])
+@pytest.mark.parametrize("forms", SETS)
 def test_forms_are_well_formed(forms):
     """8-10 forms in each set, expected names from the catalogue, replaced effects switched off, at least one
     form no catalogue effect is close to; no form name in both sets."""
@@ -62,9 +63,9 @@ def test_forms_are_well_formed(forms):
     assert not set(sets[0]) & set(sets[1])
 
 
-@pytest.mark.parametrize("forms", ["apart_forms_b", "apart_forms_c", "apart_forms_d"])
+@pytest.mark.parametrize("forms", SETS[1:])
 def test_other_sets_run_set_as_harness_and_leave_it_unchanged(forms):
-    """Sets B-D run set A's harness (apart_forms.Harness) on their forms and put set A's forms back."""
+    """Sets B-E run set A's harness (apart_forms.Harness) on their forms and put set A's forms back."""
     import apart_forms
 
     mod = importlib.import_module(forms)
@@ -82,22 +83,18 @@ def test_form_law_differs_from_base_above_noise(name):
     assert max(change.values()) > 2.0, change
 
 
-OTHER_FORMS = [
-    (m, n)
-    for m in ("apart_forms_b", "apart_forms_c", "apart_forms_d")
-    for n in importlib.import_module(m).FORMS
-]
+OTHER_FORMS = [(m, n) for m in SETS[1:] for n in importlib.import_module(m).FORMS]
 
 
 @pytest.mark.parametrize(("forms", "name"), OTHER_FORMS)
 def test_other_sets_forms_move_a_channel_above_noise(forms, name):
-    """Sets B-D: each form's plant runs through the protocol, and its law moves some measured channel by more
+    """Sets B-E: each form's plant runs through the protocol, and its law moves some measured channel by more
     than 1.5 noise units (RMS over set A's two brisk trials; the workflow's data hold twelve longer ones)."""
     change = _change(name, forms)
     assert max(change.values()) > 1.5, change
 
 
-@pytest.mark.parametrize("forms", ["apart_forms", "apart_forms_b", "apart_forms_c", "apart_forms_d"])
+@pytest.mark.parametrize("forms", SETS)
 def test_form_parameters_are_drawn_within_ranges(forms):
     """Parameters differ between seeds and stay in their stated ranges (both sets)."""
     mod = importlib.import_module(forms)
