@@ -165,9 +165,9 @@ def runs_from_frames(frames: list[tuple[str, pd.DataFrame]], timing: dict | None
         for c in CHANNELS:
             meas[c][i, :m] = p[c].to_numpy(dtype=float)
         mask[i, :m] = True
-    declared = (timing or {}).get("lag")
-    lag = np.full(n, 1.0 if declared is None else float(declared))
-    declared = None if declared is None else float(declared)
+    pin = (timing or {}).get("lag")
+    declared = None if pin is None else float(pin)
+    lag = np.full(n, 1.0 if declared is None else declared)
     return Runs(angle, volts, meas, mask, [name for name, _ in trials], times, lag, res, declared)
 
 
