@@ -24,7 +24,7 @@ class Timing:
 
     lag: float  # used: a logged command takes effect at t_j - lag * (t_j - t_{j-1})
     fitted: float  # best fit on the fitting trials (encoder), in [0, 1]
-    pinned: float | None  # declared in the map ([log] command), else None
+    pinned: float | None  # declared (timing.json: the map's [log] command, or seagen's own logs), else None
     period_s: float  # median logged sample period
     chi2: dict[float, float] = field(default_factory=dict)  # switch-step sum of squares per lag tried
     warning: str = ""
@@ -38,7 +38,11 @@ class Timing:
     def words(self) -> str:
         """One line for the report."""
         conv = NAMES.get(round(self.lag, 2), "between the two conventions")
-        how = "declared in the map" if self.pinned is not None else "fitted on the data (nuisance parameter)"
+        how = (
+            "declared by the log (timing.json)"
+            if self.pinned is not None
+            else "fitted on the data (nuisance parameter)"
+        )
         return (
             f"command timing: lag {self.lag:.2f} of a sample period ({self.offset_ms:.2f} ms before its row; "
             f"{conv}), {how}; data's best fit {self.fitted:.2f}"
@@ -103,7 +107,8 @@ def _whole(base, runs: Runs, sig_enc: np.ndarray, lags: np.ndarray) -> np.ndarra
 
 def fit_timing(base, runs: Runs, sig_enc: np.ndarray, pinned: float | None = None) -> Timing:
     """The lag in [0, 1] that best replays the encoder (coarse grid, then a fine one); the pinned lag when
-    the map declares one, with a warning when the data clearly disagree."""
+    the log declares one (a map's [log] command, seagen's own logs), with a warning when the data clearly
+    disagree."""
     chi = dict(zip(COARSE.tolist(), _profile(base, runs, sig_enc, COARSE).tolist(), strict=True))
     best = min(chi, key=chi.__getitem__)
     fine = np.clip(np.linspace(best - FINE_HALF, best + FINE_HALF, FINE_N), 0.0, 1.0)
@@ -128,7 +133,7 @@ def fit_timing(base, runs: Runs, sig_enc: np.ndarray, pinned: float | None = Non
         if worse > DISAGREE_CHI2 and abs(best - float(pinned)) >= 0.25:
             name = NAMES.get(float(pinned), f"lag {pinned}")
             out.warning = (
-                f"the map declares the command '{name}' (lag {float(pinned):g}) but the data fit lag "
+                f"the log declares the command '{name}' (lag {float(pinned):g}) but the data fit lag "
                 f"{best:.2f} ({NAMES.get(round(best), '')}; switch-step chi-square {chi[best]:.4g} vs "
                 f"{chi[float(pinned)]:.4g}); the replay uses the declared one: check [log] command"
             )
