@@ -408,6 +408,9 @@ def test_demo_end_to_end_on_both_designs(tmp_path, actuator, capsys):
     name = load_actuator(EXAMPLE).name if actuator == "example" else default_actuator().name
     assert name in out and "bit for bit" in out and "verdict: explained" in out
     assert (tmp_path / "discrepancy" / "report" / "report.md").is_file()
+    from seagen.discrepancy.replay import load_timing
+
+    assert load_timing(str(tmp_path / "data"))["lag"] == 1.0  # its data declare seagen's own timing
 
 
 def test_protocol_peaks_follow_the_force_range():

@@ -127,7 +127,7 @@ def test_naming_goal_on_the_sets_never_used_to_tune():
     """The issue's goal on the forms never used to tune the rule, the name given first or the search (sets D
     and E, each run once on the search it was first measured on, E on the final one): the closest effect
     named first in >= 90 % of the named cases, a wrong name claimed at >= 0.9 in <= 5 % (one seed each;
-    about 9 min in one process). Set E alone: 8/9."""
+    about 8 min in one process). Set E alone: 8/9."""
     rows = [
         m.run_form(name, 0)
         for m in map(importlib.import_module, ("apart_forms_d", "apart_forms_e"))

@@ -256,3 +256,32 @@ def test_500_hz_log_of_the_plant_is_left_alone(tmp_path, design, seed) -> None:
     assert res.timing is not None and res.timing.fitted == pytest.approx(1.0, abs=0.005)
     assert res.check is not None and not res.check.off, res.check.p_value
     assert res.verdict == "none" and res.effects == [] and res.recalibrated == []
+
+
+def test_timing_file_is_read_where_the_rows_are_and_older_names_too(tmp_path) -> None:
+    """The declared lag comes from the folder the rows are read from: an imported folder's logged/ (a
+    timing.json that `data generate` later wrote beside the grid copy does not pin the rig's rows), and an
+    older import's import.json is still read (~3 s)."""
+    from seagen.discrepancy.replay import load_timing
+
+    data = _import(tmp_path, "from_row", command="from_row")
+    (data / "timing.json").write_text('{"command": "up_to_row", "lag": 1.0}\n')  # a later `data generate`
+    assert load_timing(str(data))["lag"] == 0.0
+    (data / "logged" / "timing.json").rename(data / "logged" / "import.json")
+    assert load_timing(str(data))["lag"] == 0.0
+
+
+@pytest.mark.parametrize(
+    ("text", "said"),
+    [("{lag", "not valid JSON"), ("[1.0]", "must be a JSON object"), ('{"lag": 2}', "lag must")],
+)
+def test_bad_timing_file_exits_2_naming_it(tmp_path, capsys, text, said) -> None:
+    """A timing.json that cannot be trusted: exit 2, one line naming the file, no report written (~3 s)."""
+    data = _import(tmp_path, "up_to_row")
+    (data / "logged" / "timing.json").write_text(text)
+    capsys.readouterr()
+    rep = tmp_path / "report"
+    assert main(["discrepancy", "--measured", str(data), "--out", str(rep)]) == 2
+    err = capsys.readouterr().err
+    assert said in err and "timing.json" in err and "Traceback" not in err
+    assert not rep.exists()

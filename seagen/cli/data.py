@@ -75,7 +75,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from seagen.actuator import default_actuator, to_toml
-    from seagen.data.logimport import TIMING_FILE, own_timing
+    from seagen.data.logimport import TIMING_FILE, own_timing, timing_text
     from seagen.data.protocol import generate, sample_every
     from seagen.plant import PlantConfig, load_config
 
@@ -99,7 +99,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
         bar.update(1)
     info = {
         ACTUATOR_FILE: to_toml(act, "the actuator these data were simulated on"),
-        TIMING_FILE: json.dumps(own_timing(), indent=2) + "\n",  # the replay pins seagen's own convention
+        TIMING_FILE: timing_text(own_timing()),  # the replay pins seagen's own convention
     }
     _write_splits(out, splits, info)
     return 0
@@ -140,7 +140,15 @@ def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None, 
 def cmd_import(args: argparse.Namespace) -> int:
     """Convert a rig's log with a column map; nothing is written unless every row converts."""
     from seagen.actuator import default_actuator, to_toml
-    from seagen.data.logimport import TIMING_FILE, import_log, load_map, resample, split_trials, timing
+    from seagen.data.logimport import (
+        TIMING_FILE,
+        import_log,
+        load_map,
+        resample,
+        split_trials,
+        timing,
+        timing_text,
+    )
 
     act = given_actuator(args) or default_actuator()
     mapping = load_map(args.map)
@@ -149,7 +157,7 @@ def cmd_import(args: argparse.Namespace) -> int:
     grid = {k: resample(v, act.loop_hz) for k, v in logged.items()}
     out = Path(args.out)
     info = {
-        TIMING_FILE: json.dumps(timing(df, mapping), indent=2) + "\n",
+        TIMING_FILE: timing_text(timing(df, mapping)),
         ACTUATOR_FILE: to_toml(act, "the actuator this log was recorded on"),
     }
     _write_splits(out / LOGGED, logged, info, what="as logged (discrepancy)")

@@ -367,6 +367,13 @@ def own_timing() -> dict[str, Any]:
     return {"command": OWN_COMMAND, "lag": COMMAND_TIMING[OWN_COMMAND], "source": "seagen's protocol"}
 
 
+def timing_text(info: dict[str, Any]) -> str:
+    """A timing dict (`timing`, `own_timing`) as the TIMING_FILE's text."""
+    import json
+
+    return json.dumps(info, indent=2) + "\n"
+
+
 def resample(df: pd.DataFrame, hz: float) -> pd.DataFrame:
     """Every trial on a 1/hz grid from its first row (the control loop's samples, which the feature pipeline
     differences): sensors interpolated linearly between the logged instants (counts rounded), the command

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pandas as pd
 
 from seagen.actuator import Actuator
-from seagen.data.logimport import TIMING_FILE, own_timing
+from seagen.data.logimport import TIMING_FILE, own_timing, timing_text
 from seagen.data.schema import save_csv
 from seagen.discrepancy.bench import case_frames
 from seagen.plant import PlantConfig
@@ -24,7 +23,7 @@ def measured_csv(out: Path, seed: int, base: PlantConfig | None = None) -> tuple
     frames = case_frames(truth, seed=seed + 101)
     path = out / "measured.csv"
     save_csv(pd.concat(frames, ignore_index=True), path)
-    (out / TIMING_FILE).write_text(json.dumps(own_timing(), indent=2) + "\n")  # as `data generate` writes
+    (out / TIMING_FILE).write_text(timing_text(own_timing()))  # as `data generate` writes
     return path, truth
 
 

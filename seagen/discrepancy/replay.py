@@ -374,14 +374,14 @@ def _stepped(plant: Plant, u: np.ndarray) -> kernel.Trajectory:
 
 
 def load_timing(path: str) -> dict:
-    """What `data import` or `data generate` wrote about the log's timing (TIMING_FILE beside the CSVs;
-    import.json in folders imported before it), else {}."""
+    """What `data import` or `data generate` wrote about the log's timing (TIMING_FILE beside the CSVs the
+    rows are read from, rows_place; import.json in folders imported before it), else {}."""
     import json
 
     from seagen.data.logimport import TIMING_FILE
     from seagen.data.schema import DataError
 
-    p = Path(path)
+    p = rows_place(Path(path))
     folder = p if p.is_dir() else p.parent
     f = next((f for f in (folder / TIMING_FILE, folder / "import.json") if f.is_file()), None)
     if f is None:
@@ -390,10 +390,18 @@ def load_timing(path: str) -> dict:
         out = json.loads(f.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as e:
         raise DataError(f"{f}: not valid JSON: {e}") from None
+    if not isinstance(out, dict):
+        raise DataError(f'{f}: must be a JSON object (keys such as "lag"), got {type(out).__name__}')
     lag = out.get("lag")
     if lag is not None and (isinstance(lag, bool) or not isinstance(lag, int | float) or not 0 <= lag <= 1):
         raise DataError(f"{f}: lag must be a number in [0, 1], got {lag!r}")
-    return out if isinstance(out, dict) else {}
+    return out
+
+
+def rows_place(p: Path) -> Path:
+    """Where the rows of `p` are read from: a folder `data import` wrote is read from its logged/ rows (each
+    at its own instant), not its copy on the loop-rate grid; anything else as given."""
+    return p / "logged" if p.is_dir() and any((p / "logged").glob("*.csv")) else p
 
 
 def load_measured(path: str) -> list:
@@ -401,9 +409,7 @@ def load_measured(path: str) -> list:
     `data import` wrote is read from its logged/ rows (each at its own instant), not its 100 Hz copy."""
     from seagen.data.schema import DataError, load_csv
 
-    p = Path(path)
-    if p.is_dir() and any((p / "logged").glob("*.csv")):
-        p = p / "logged"
+    p = rows_place(Path(path))
     if p.is_dir():
         files = sorted(p.glob("*.csv"))
         if not files:

@@ -38,11 +38,7 @@ class Timing:
     def words(self) -> str:
         """One line for the report."""
         conv = NAMES.get(round(self.lag, 2), "between the two conventions")
-        how = (
-            "declared by the log (timing.json)"
-            if self.pinned is not None
-            else "fitted on the data (nuisance parameter)"
-        )
+        how = "declared by the log" if self.pinned is not None else "fitted on the data (nuisance parameter)"
         return (
             f"command timing: lag {self.lag:.2f} of a sample period ({self.offset_ms:.2f} ms before its row; "
             f"{conv}), {how}; data's best fit {self.fitted:.2f}"
@@ -135,7 +131,8 @@ def fit_timing(base, runs: Runs, sig_enc: np.ndarray, pinned: float | None = Non
             out.warning = (
                 f"the log declares the command '{name}' (lag {float(pinned):g}) but the data fit lag "
                 f"{best:.2f} ({NAMES.get(round(best), '')}; switch-step chi-square {chi[best]:.4g} vs "
-                f"{chi[float(pinned)]:.4g}); the replay uses the declared one: check [log] command"
+                f"{chi[float(pinned)]:.4g}); the replay uses the declared one: check the map's [log] command "
+                "(timing.json)"
             )
     return out
 
@@ -195,6 +192,7 @@ def timing_problem(base, held: Runs, sig: dict[str, np.ndarray], floor: float, t
         f"the residual is concentrated at the command switches: shifting them by at most one sample period "
         f"(up to {worst * 1000:.2f} ms) explains {cut:.0%} of it above the noise floor. This is the log's "
         "timing (which interval a logged command covers, a clock or a loop that does not log when the "
-        "command was applied), not physics: nothing was fitted. Check [log] command and the time column"
+        "command was applied), not physics: nothing was fitted. Check the map's [log] command and the time "
+        "column"
     )
     return True

@@ -49,7 +49,8 @@ DRIVE = (
     "(t_j - lag * (t_j - t_{j-1}); a step a switch falls inside gets the time-weighted mean) and held to "
     "the next; every channel compared at its row's logged instant. The lag (which part of its interval a "
     "logged command covers, 0 = from its row on, 1 = up to its row) is fitted on the fitting trials with "
-    "the base plant (the encoder residual's steps across switches), or pinned by the map; the plant's "
+    "the base plant (the encoder residual's steps across switches), or pinned when the log declares it "
+    "(timing.json: a map's [log] command, or seagen's own logs); the plant's "
     "motor model is not in the catalogue, so the command reproduces the recorded push/retract switch, and "
     "the encoder stays an observed signal that shows every effect that changes the load on the motor"
 )
