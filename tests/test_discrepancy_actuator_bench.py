@@ -189,6 +189,18 @@ def test_own_logs_pin_the_command_timing_on_the_fine_encoder() -> None:
     assert res.verdict == "explained"
 
 
+def test_undeclared_timing_is_fitted_again_once_physics_is_named() -> None:
+    """The same kind of data without a declared timing (a log that does not say): the lag fitted with the
+    base lacking the compliance is off, and once the compliance is named it is fitted again with it, said in
+    the notes, and ends at seagen's convention (lag 1) with only the hidden effect (~10 s)."""
+    case = dbench.make_case(("series_compliance",), 4, act=load_actuator(STIFF))
+    runs = dataclasses.replace(case.runs, declared=None)
+    res = dbench.identify(runs, case.base)
+    assert res.timing.pinned is None and res.timing.lag == 1.0
+    assert any(n.startswith("command timing re-fitted with series_compliance") for n in res.notes), res.notes
+    assert [n.name for n in res.effects] == ["series_compliance"] and not res.recalibrated
+
+
 def test_calibration_protocol_pushes_reach_their_peak_on_both_designs() -> None:
     """`data generate`'s pushes (and the friction measurement's) are scaled to the motor like the bench's:
     at the highest train angle every push of the calibration protocol reaches its peak force well before
