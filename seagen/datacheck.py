@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 import onnx
@@ -40,19 +39,10 @@ class DataReport:
 
 def data_actuator_of(ex, data_dir: str):
     """The data folder's actuator; one other than the export's model was trained for is refused (exit 2)."""
-    from seagen.actuator import ActuatorError
-    from seagen.data.schema import ACTUATOR_FILE, data_actuator
+    from seagen.data.schema import data_actuator
 
-    act, mine = data_actuator(data_dir), getattr(ex, "actuator", None)
-    if mine is not None and mine.digest() != act.digest():
-        path = Path(data_dir) / ACTUATOR_FILE
-        shown = path if path.is_file() else f"{data_dir} (no {ACTUATOR_FILE}: the paper's actuator)"
-        raise ActuatorError(
-            f"{shown}: the data were recorded on actuator '{act.name}' (sha256 {act.digest()[:12]}), the "
-            f"model was trained for '{mine.name}' (sha256 {mine.digest()[:12]}); check on data of the "
-            "model's actuator"
-        )
-    return act
+    mine = getattr(ex, "actuator", None)
+    return data_actuator(data_dir, mine, "the model was trained for", "check on data of the model's actuator")
 
 
 def check_data_dir(ex, data_dir: str, target=None, onnx_model=None) -> DataReport:

@@ -102,16 +102,21 @@ def save_csv(df: pd.DataFrame, path: str | os.PathLike[str]) -> None:
     write_with(path, lambda tmp: df[cols].to_csv(tmp, index=False, float_format="%.6g"))
 
 
-def data_actuator(data_dir: str | os.PathLike[str], given: Actuator | None = None) -> Actuator:
+def data_actuator(
+    data_dir: str | os.PathLike[str],
+    given: Actuator | None = None,
+    given_as: str = "--actuator gives",
+    remedy: str = "drop --actuator or use data of that actuator",
+) -> Actuator:
     """The actuator a data folder was recorded on (its actuator.toml; the paper's in folders written before
-    it existed). A `given` description that disagrees is refused (ActuatorError, exit 2)."""
+    it existed). A `given` description that disagrees is refused (ActuatorError, exit 2), the message
+    saying where it came from (`given_as`) and what to do (`remedy`)."""
     path = Path(data_dir) / ACTUATOR_FILE
     act = load_actuator(path) if path.is_file() else default_actuator()
     if given is not None and given.digest() != act.digest():
         shown = path if path.is_file() else f"{data_dir} (no {ACTUATOR_FILE}: the paper's actuator)"
         raise ActuatorError(
             f"{shown}: the data were recorded on actuator '{act.name}' (sha256 {act.digest()[:12]}), but "
-            f"--actuator gives '{given.name}' (sha256 {given.digest()[:12]}); drop --actuator or use "
-            f"data of that actuator"
+            f"{given_as} '{given.name}' (sha256 {given.digest()[:12]}); {remedy}"
         )
     return act
