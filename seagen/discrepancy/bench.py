@@ -16,7 +16,7 @@ from seagen.discrepancy.residuals import SCORE_CHANNELS, noise_sigma, zscores
 from seagen.discrepancy.workflow import Result, identify
 from seagen.geometry import geometry
 from seagen.plant import PlantConfig
-from seagen.plant.config import CATALOGUE, counts_scale, pot_full_scale
+from seagen.plant.config import CATALOGUE, counts_range, pot_full_scale
 
 # Ranges the hidden parameters are drawn from (realistic for the paper's actuator). Those of pot counts
 # (POT_SHARES' keys) are shares of the pot's full scale here: 60 to 200 counts on a 12-bit pot.
@@ -64,8 +64,7 @@ def draw(effect: str, rng: np.random.Generator, act: Actuator | None = None) -> 
     """Random parameters for a hidden effect of actuator `act` (the paper's when None; pot counts in its
     ADC's), offset sign random."""
     fs = pot_full_scale(act or default_actuator())
-    scale = {k: counts_scale(effect, k, fs) for k in TRUTH[effect]}
-    p = {k: float(rng.uniform(lo * scale[k], hi * scale[k])) for k, (lo, hi) in TRUTH[effect].items()}
+    p = {k: float(rng.uniform(*counts_range(effect, k, span, fs))) for k, span in TRUTH[effect].items()}
     if effect == "load_cell_offset":
         p["offset_n"] *= float(rng.choice([-1.0, 1.0]))
     return p

@@ -13,7 +13,7 @@ from seagen.discrepancy.rendezvous import Rendezvous
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS, chi2_per_trial, zscores
 from seagen.plant import PlantConfig
-from seagen.plant.config import CATALOGUE, counts_scale, pot_full_scale
+from seagen.plant.config import CATALOGUE, counts_range, pot_full_scale
 
 # Fit box per effect parameter: (low, high, log-scaled). Realistic for a compact SEA; wide on purpose.
 SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
@@ -25,7 +25,7 @@ SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
     "backlash": {"half_width_mm": (0.005, 0.4, True)},
     "spring_preload": {"force_n": (-4.0, 4.0, False)},
     "spring_nonlinearity": {"k3_n_per_mm3": (0.002, 0.6, True)},
-    # counts_per_unit_current: a share of the pot ADC's full scale here (plant.config.counts_scale)
+    # counts_per_unit_current: a share of the pot ADC's full scale here (plant.config.counts_range)
     "pot_voltage_drop": {
         "counts_per_unit_current": (0.001220703125, 0.146484375, True),
         "time_constant_s": (0.01, 0.8, True),
@@ -33,7 +33,7 @@ SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
     "load_cell_offset": {"offset_n": (-4.0, 4.0, False)},
     "transport_delay": {"delay_s": (0.001, 0.12, True)},
 }
-# Boxes of parameters in pot counts are shares of the pot ADC's full scale (counts_scale): in counts they
+# Boxes of parameters in pot counts are shares of the pot ADC's full scale (counts_range): in counts they
 # follow the description's pot.adc_bits (5 to 600 counts per unit current on the paper's 12-bit ADC).
 # Candidate.full_scale carries the counts.
 # A recalibration holds these parameters at the base's values while the named effect is on too: both move
@@ -53,8 +53,7 @@ def full_scale(cfg: PlantConfig | None = None) -> float:
 def box(effect: str, param: str, scale: float) -> tuple[float, float, bool]:
     """(low, high, log-scaled) of a parameter's box in the plant's units, for a pot of `scale` counts."""
     lo, hi, log = SPACE[effect][param]
-    k = counts_scale(effect, param, scale)
-    return lo * k, hi * k, log
+    return (*counts_range(effect, param, (lo, hi), scale), log)
 
 
 @dataclass
@@ -66,7 +65,7 @@ class Candidate:
     chi2_fit: float = np.inf
     tag: str = ""  # appended to the label (e.g. ' (joint recalibration)')
     held: frozenset[tuple[str, str]] = frozenset()  # (effect, parameter) kept at the base's value
-    full_scale: float = field(default_factory=full_scale)  # pot ADC counts (counts_scale)
+    full_scale: float = field(default_factory=full_scale)  # pot ADC counts (counts_range)
 
     @property
     def keys(self) -> list[tuple[str, str]]:

@@ -19,7 +19,7 @@ from seagen.discrepancy.candidates import (
 )
 from seagen.discrepancy.replay import ParamSet, Runs
 from seagen.plant import PlantConfig
-from seagen.plant.config import PAPER_POT_FULL_SCALE, counts_scale
+from seagen.plant.config import PAPER_POT_FULL_SCALE, counts_range
 
 # Plausible values for a compact SEA like the paper's (documented in the README). The fit may move a
 # parameter anywhere in its wider SPACE box; a value outside these ranges is reported as implausible.
@@ -40,14 +40,11 @@ PLAUSIBLE_SHARES: dict[str, dict[str, tuple[float, float]]] = {
     "load_cell_offset": {"offset_n": (-3.0, 3.0)},
     "transport_delay": {"delay_s": (0.002, 0.1)},
 }
-PAPER_FULL_SCALE = PAPER_POT_FULL_SCALE
 
 
-def plausible_range(effect: str, param: str, scale: float = PAPER_FULL_SCALE) -> tuple[float, float]:
+def plausible_range(effect: str, param: str, scale: float = PAPER_POT_FULL_SCALE) -> tuple[float, float]:
     """(low, high) of a parameter's plausible range, for a pot of `scale` counts (the paper's by default)."""
-    lo, hi = PLAUSIBLE_SHARES[effect][param]
-    k = counts_scale(effect, param, scale)
-    return lo * k, hi * k
+    return counts_range(effect, param, PLAUSIBLE_SHARES[effect][param], scale)
 
 
 # The ranges in the plant's units on the paper's pot (20 to 400 counts per unit current on its 12-bit ADC).
@@ -71,7 +68,7 @@ def unit_of(param: str) -> str:
     return next((u for suffix, u in _UNIT_SUFFIX if param.endswith(suffix)), "")
 
 
-def plausible(effect: str, param: str, value: float, scale: float = PAPER_FULL_SCALE) -> bool:
+def plausible(effect: str, param: str, value: float, scale: float = PAPER_POT_FULL_SCALE) -> bool:
     """Whether value lies in the documented plausible range (for a pot of `scale` counts)."""
     lo, hi = plausible_range(effect, param, scale)
     return lo <= value <= hi
@@ -99,7 +96,7 @@ def change_lines(
     before: dict[str, float],
     after: dict[str, float],
     sig: dict,
-    scale: float = PAPER_FULL_SCALE,
+    scale: float = PAPER_POT_FULL_SCALE,
 ) -> list[str]:
     """'actuator_friction.force_n 3.60 -> 2.71 N, ±0.02' per parameter, flagged when implausible (for a
     pot of `scale` counts)."""

@@ -155,10 +155,14 @@ POT_SHARES: dict[tuple[str, str], float] = {
 PAPER_POT_FULL_SCALE = pot_full_scale(default_actuator())
 
 
-def counts_scale(effect: str, param: str, full_scale: float) -> float:
-    """Factor from a share of full scale to this parameter's units: `full_scale` (the pot's counts) for a
-    parameter in pot counts (POT_SHARES' keys), else 1 (ranges and boxes given as shares scale with it)."""
-    return full_scale if (effect, param) in POT_SHARES else 1.0
+def counts_range(
+    effect: str, param: str, span: tuple[float, float], full_scale: float
+) -> tuple[float, float]:
+    """A parameter's (low, high) range in its units: given as shares of the pot's full scale (`full_scale`
+    counts) for a parameter in pot counts (POT_SHARES' keys), as is for any other (boxes, plausible and
+    drawn ranges)."""
+    k = full_scale if (effect, param) in POT_SHARES else 1.0
+    return span[0] * k, span[1] * k
 
 
 @dataclass
