@@ -276,6 +276,7 @@ def _pinning(res: Result) -> str:
 
 def summary(res: Result) -> dict:
     """The --json object."""
+    fs = pot_full_scale(res.config.actuator)  # the plausible ranges of pot counts scale with the pot
     return {
         "effects": [
             {
@@ -296,7 +297,7 @@ def summary(res: Result) -> dict:
                 "before": n.before[p],
                 "after": v,
                 "sigma": n.sigma.get(p),
-                "plausible": plausible(n.name, p, v, pot_full_scale(res.config.actuator)),
+                "plausible": plausible(n.name, p, v, fs),
                 "confidence": n.confidence,
                 "claimed": n.claimed,
                 "why": n.why,

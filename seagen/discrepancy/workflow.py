@@ -421,9 +421,9 @@ def _honest(base: PlantConfig, named: list[Named], held: Runs, sig_h, z0) -> tup
 def _at_edge(n: Named, cfg: PlantConfig | None = None) -> list[str]:
     """The parameters of a named change fitted within EDGE of an end of their search box (on the plant
     `cfg`, whose pot ADC scales the boxes of pot counts; the paper's when None)."""
-    out = []
+    out, fs = [], full_scale(cfg)
     for p, v in n.params.items():
-        lo, hi, log = box(n.name, p, full_scale(cfg))
+        lo, hi, log = box(n.name, p, fs)
         u = np.log(v / lo) / np.log(hi / lo) if log and v > 0 else (v - lo) / (hi - lo)
         if u <= EDGE or u >= 1 - EDGE:
             out.append(p)
