@@ -31,6 +31,20 @@ def form_pair(form_case, name: str, angles: list[float]) -> tuple[Plant, Plant, 
     return cls(cfg, np.array(angles), seed=1), Plant(cfg, np.array(angles), seed=1), params
 
 
+def drive(plants: tuple[Plant, ...], volts: float, seconds: float) -> list[dict[str, np.ndarray]]:
+    """Step each plant at constant volts (in turn, each step); per plant and step: compression, shaft,
+    motor, nut, current (step x batch) (sets B-D's law checks)."""
+    keys = ("d", "y", "motor", "nut", "current")
+    out: list[dict[str, list[np.ndarray]]] = [{k: [] for k in keys} for _ in plants]
+    for _ in range(int(round(seconds / plants[0].cfg.dt_s))):
+        for p, o in zip(plants, out, strict=True):
+            p.step(volts)
+            now = (p.nut_mm - p.shaft_mm, p.shaft_mm, p.motor_mm, p.nut_mm, p.current)
+            for k, v in zip(keys, now, strict=True):
+                o[k].append(np.array(v, copy=True))
+    return [{k: np.array(v) for k, v in o.items()} for o in out]
+
+
 def _change(name: str, forms: str = "apart_forms") -> dict[str, float]:
     """Largest RMS change per channel (NOISE units) the form of set `forms` makes to the base plant's trials,
     same noise."""

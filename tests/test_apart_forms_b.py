@@ -8,7 +8,7 @@ from functools import partial
 import numpy as np
 import pytest
 from apart_forms_b import FORMS, TRIAL_GAP_S, form_case, rates, run_form
-from test_apart_forms import form_pair, form_trials  # set A's moves and noise units
+from test_apart_forms import drive, form_pair, form_trials  # set A's moves and noise units
 
 from seagen.data.protocol import Move
 from seagen.plant import Plant, PlantConfig
@@ -19,18 +19,7 @@ _pair = partial(form_pair, form_case)
 
 def _drive(plant: Plant, volts: float, seconds: float) -> dict[str, np.ndarray]:
     """Step `plant` at constant volts; per step: compression, shaft, motor, nut, current (step x batch)."""
-    out: dict[str, list[np.ndarray]] = {k: [] for k in ("d", "y", "motor", "nut", "current")}
-    for _ in range(int(round(seconds / plant.cfg.dt_s))):
-        plant.step(volts)
-        for k, v in (
-            ("d", plant.nut_mm - plant.shaft_mm),
-            ("y", plant.shaft_mm),
-            ("motor", plant.motor_mm),
-            ("nut", plant.nut_mm),
-            ("current", plant.current),
-        ):
-            out[k].append(np.array(v, copy=True))
-    return {k: np.array(v) for k, v in out.items()}
+    return drive((plant,), volts, seconds)[0]
 
 
 def test_set_b_has_ten_forms():

@@ -10,25 +10,13 @@ import apart_forms_b
 import numpy as np
 import pytest
 from apart_forms_c import FORMS, TRIAL_GAP_S, form_case, rates, run_form
-from test_apart_forms import form_pair, form_trials  # set A's moves and noise units
+from test_apart_forms import drive, form_pair, form_trials  # set A's moves and noise units
 
 from seagen.data.protocol import Move
 from seagen.plant import Plant
 
 _trials = partial(form_trials, form_case)  # this set's forms
 _pair = partial(form_pair, form_case)
-
-
-def _drive(plants: tuple[Plant, ...], volts: float, seconds: float) -> list[dict[str, np.ndarray]]:
-    """Step each plant at constant volts; per step: compression, shaft, motor (step x batch)."""
-    out: list[dict[str, list[np.ndarray]]] = [{"d": [], "y": [], "motor": []} for _ in plants]
-    for _ in range(int(round(seconds / plants[0].cfg.dt_s))):
-        for p, o in zip(plants, out, strict=True):
-            p.step(volts)
-            o["d"].append(p.nut_mm - p.shaft_mm)
-            o["y"].append(p.shaft_mm.copy())
-            o["motor"].append(p.motor_mm.copy())
-    return [{k: np.array(v) for k, v in o.items()} for o in out]
 
 
 def test_set_c_has_ten_new_forms():
@@ -44,7 +32,7 @@ def test_return_spring_is_a_pull_of_one_sign_in_the_shaft_balance():
     carries f_r + k_r y less the reverse band (the pull helps the retract, it does not flip)."""
     form, _, p = _pair("return_spring", [24.0])
     for volts, seconds in ((4.0, 0.3), (-6.0, 0.1)):
-        a = _drive((form,), volts, seconds)[0]
+        a = drive((form,), volts, seconds)[0]
         y = a["y"][-1, 0]
         assert y > 0.5 and np.sign(a["y"][-1, 0] - a["y"][-2, 0]) == np.sign(volts)  # sliding
         fwd, rev = form.friction_limits(form.geo.angle_from_shaft(a["y"][-1]))
@@ -59,7 +47,7 @@ def test_film_lag_friction_is_full_at_rest_and_fades_while_sliding():
     form, plain, p = _pair("film_lag_friction", [24.0])
     ang = np.array([10.0])
     assert np.allclose(form.friction_limits(ang)[0] - plain.friction_limits(ang)[0], p["df"])
-    _drive((form, plain), 4.0, 0.4)
+    drive((form, plain), 4.0, 0.4)
     v = abs(form.v_shaft[0])
     assert v > 3 * p["v_s"] and abs(form._s[0] - v) < 0.1 * v
     extra = form.friction_limits(ang)[0] - plain.friction_limits(ang)[0]
@@ -70,7 +58,7 @@ def test_creeping_housing_deflects_further_the_longer_a_force_is_held():
     """Held in contact at a steady push, the creep deflection approaches F / k2 with time constant tau; the
     pot's angle is the plain plant's (the creep is beyond the pivot) while the motor travels further."""
     form, plain, p = _pair("creeping_housing", [10.0])
-    a, b = _drive((form, plain), 1.5, 4.0)  # stalls in contact near 1.5 / 12 x 150 N at the nut
+    a, b = drive((form, plain), 1.5, 4.0)  # stalls in contact near 1.5 / 12 x 150 N at the nut
     f = form.shaft_force[0]
     assert f > 5.0 and abs(form._x2[0] - f / p["k2"]) < 0.05 * f / p["k2"]
     assert a["motor"][-1, 0] > b["motor"][-1, 0] + 0.5 * f / p["k2"]
@@ -81,7 +69,7 @@ def test_ground_shift_pot_follows_the_signed_current():
     """Same state and noise: the pot differs by rint(kappa i (1 - x)): up while pushing, down retracting."""
     form, plain, p = _pair("ground_shift_pot", [24.0])
     for volts, sign in ((4.0, 1), (-7.0, -1)):
-        _drive((form, plain), volts, 0.02)
+        drive((form, plain), volts, 0.02)
         s, t = form.read(), plain.read()
         shift = p["kappa"] * plain.current * (1 - t.pot / plain.geo.adc_max)
         assert np.array_equal(s.pot, np.rint(t.pot + shift).astype(np.int64))
@@ -102,9 +90,9 @@ def test_cable_drag_is_a_step_in_the_linkage_angle():
 def test_pot_coupling_play_lags_the_linkage_by_delta_both_ways():
     """Opening, the pot's shaft trails the linkage by delta; after the reversal it leads it back by delta."""
     form, _, p = _pair("pot_coupling_play", [26.0])
-    _drive((form,), 4.0, 0.25)
+    drive((form,), 4.0, 0.25)
     assert np.isclose(form._linkage_angle()[0] - form._seen[0], p["delta"])
-    _drive((form,), -6.0, 0.4)
+    drive((form,), -6.0, 0.4)
     assert np.isclose(form._seen[0] - form._linkage_angle()[0], p["delta"])
 
 
@@ -112,7 +100,7 @@ def test_dither_friction_lowers_the_actuator_share_with_the_duty():
     """At duty D the forward band drops by r D F_c and the reverse one by r D F_c x reverse_ratio."""
     form, plain, p = _pair("dither_friction", [20.0])
     ang = np.array([12.0])
-    _drive((form, plain), 6.0, 0.005)
+    drive((form, plain), 6.0, 0.005)
     af = form.cfg.effects.actuator_friction
     (f1, r1), (f0, r0) = form.friction_limits(ang), plain.friction_limits(ang)
     assert np.allclose(f0 - f1, p["r"] * 0.5 * af.force_n)
@@ -124,7 +112,7 @@ def test_ripple_offset_is_largest_at_half_duty_and_zero_at_rest():
     form, plain, p = _pair("ripple_offset", [20.0])
     assert np.array_equal(form.read().load_cell_n, plain.read().load_cell_n)  # at rest
     for volts in (6.0, -3.0):
-        _drive((form, plain), volts, 0.01)
+        drive((form, plain), volts, 0.01)
         d = abs(volts) / 12.0
         diff = form.read().load_cell_n - plain.read().load_cell_n
         assert np.allclose(diff, p["g"] * 4 * d * (1 - d))

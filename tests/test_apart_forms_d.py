@@ -11,7 +11,7 @@ import apart_forms_c
 import numpy as np
 import pytest
 from apart_forms_d import FORMS, form_case
-from test_apart_forms import form_pair
+from test_apart_forms import drive, form_pair
 
 from seagen.plant import Plant, kernel
 
@@ -19,13 +19,6 @@ FRICTION = {"actuator_friction", "linkage_friction", "viscous_friction", "stribe
 
 
 _pair = partial(form_pair, form_case)
-
-
-def _drive(plants: tuple[Plant, ...], volts: float, seconds: float) -> None:
-    """Step each plant at constant volts."""
-    for _ in range(int(round(seconds / plants[0].cfg.dt_s))):
-        for p in plants:
-            p.step(volts)
 
 
 def test_set_d_has_ten_new_forms():
@@ -133,7 +126,7 @@ def test_boxcar_cell_reads_the_mean_of_the_last_window():
 def test_remounted_cell_reads_the_plate_only_on_the_vertical_mount():
     """Same state and noise: +w above the split angle, nothing below."""
     form, plain, p = _pair("remounted_cell", [10.0, 20.0])
-    _drive((form, plain), 4.0, 0.3)
+    drive((form, plain), 4.0, 0.3)
     assert np.allclose(form.read().load_cell_n - plain.read().load_cell_n, [0.0, p["w"]])
 
 
@@ -144,10 +137,10 @@ def test_worn_screw_clearance_narrows_along_the_screw():
     def b(m: float) -> float:
         return p["b_min"] + (p["b_max"] - p["b_min"]) * np.exp(-m / p["length"])
 
-    _drive((form,), 4.0, 0.3)
+    drive((form,), 4.0, 0.3)
     m = form.motor_mm[0]
     assert m > 1.0 and np.isclose(m - form.nut_mm[0], b(m))
-    _drive((form,), -6.0, 0.05)
+    drive((form,), -6.0, 0.05)
     m = form.motor_mm[0]
     assert np.isclose(form.nut_mm[0] - m, b(m))
 
@@ -159,25 +152,25 @@ def test_pivot_damper_is_c_over_lever_squared_and_off_in_contact():
     assert np.allclose(
         form.viscous_n_s_per_mm(), p["c_theta"] / (g.cb_mm * np.sin(np.radians(g.home_deg))) ** 2
     )
-    _drive((form,), 4.0, 0.05)
+    drive((form,), 4.0, 0.05)
     ang = g.angle_from_shaft(form.shaft_mm)
     assert (form.shaft_mm < form.y_contact).all()
     assert np.allclose(form.viscous_n_s_per_mm(), p["c_theta"] / (g.cb_mm * np.sin(np.radians(ang))) ** 2)
-    _drive((form,), 4.0, 1.0)
+    drive((form,), 4.0, 1.0)
     assert form.shaft_mm[0] > form.y_contact[0] and form.viscous_n_s_per_mm()[0] == 0.0
 
 
 def test_missed_counts_caps_the_count_rate_and_keeps_the_loss():
     """Slow, the encoder counts every edge; fast, it advances f_max per second and the loss stays."""
     form, plain, p = _pair("missed_counts", [26.0])
-    _drive((form, plain), 1.0, 0.2)  # ~2.4 mm/s: ~540 counts/s
+    drive((form, plain), 1.0, 0.2)  # ~2.4 mm/s: ~540 counts/s
     assert abs(int(form.read().enc[0]) - int(plain.read().enc[0])) <= 1
     m0, c0 = plain.read().enc[0], form._counted[0]
-    _drive((form, plain), -12.0, 0.1)  # ~28 mm/s: ~6000 counts/s once up to speed
+    drive((form, plain), -12.0, 0.1)  # ~28 mm/s: ~6000 counts/s once up to speed
     fast = plain.read().enc[0] - m0
     assert fast < -1.5 * p["f_max"] * 0.1
     assert form._counted[0] - c0 >= -p["f_max"] * 0.1 - 1e-6
-    _drive((form, plain), 1.0, 0.1)
+    drive((form, plain), 1.0, 0.1)
     assert form.read().enc[0] - plain.read().enc[0] > 0.3 * p["f_max"] * 0.1
 
 
