@@ -81,7 +81,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
     act = given_actuator(args) or default_actuator()
     cfg = load_config(args.config, act) if args.config else PlantConfig(actuator=act)
-    sample_every(cfg, args.actuator or args.config)  # a loop rate the plant cannot log: refused first
+    sample_every(cfg)  # a loop rate the plant cannot log: refused first, naming the description's file
     out = Path(args.out)
     if args.seed < 0:
         raise UserError(f"--seed must be >= 0, got {args.seed}")

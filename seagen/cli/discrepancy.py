@@ -126,7 +126,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         raise UserError(f"--seeds must be >= 1, got {args.seeds}")
     act = given_actuator(args)  # None: the paper's
     if act is not None:
-        sample_every(PlantConfig(actuator=act), args.actuator)  # a loop rate the plant cannot log: refused
+        sample_every(PlantConfig(actuator=act))  # a loop rate the plant cannot log: refused first
     args.only = _cases(args)
     if args.families:
         return _print_families(args, act)

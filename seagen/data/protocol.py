@@ -86,13 +86,13 @@ def rows(split: str, loop_hz: float) -> int:
     return int(round(SECONDS[split] * loop_hz))
 
 
-def sample_every(cfg: PlantConfig, where: str | None = None) -> int:
+def sample_every(cfg: PlantConfig) -> int:
     """Plant steps per logged row: the description's control-loop period over the plant step; a rate that
-    is not a whole number of steps is refused naming `where` (default: the description's file)."""
+    is not a whole number of steps is refused naming the description's file."""
     loop_hz = cfg.actuator.loop_hz
     n = 1.0 / (loop_hz * cfg.dt_s)
     if abs(n - round(n)) > 1e-9 or round(n) < 1:
-        what = where or cfg.actuator.source or "actuator"
+        what = cfg.actuator.source or "actuator"
         raise UserError(
             f"{what} ('{cfg.actuator.name}'): control.loop_hz {loop_hz:g} is not a whole number of plant "
             f"steps of {cfg.dt_s * 1000:g} ms (use a rate dividing {1 / cfg.dt_s:g} Hz)"
