@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import torch
@@ -10,6 +12,8 @@ from seagen.data.features import MLP_FEATURES
 from seagen.fit.mlp import CONTROL_FEATURES
 from seagen.modelfile import FeatureSpec, save_model
 
+# the second design shipped as an example
+EXAMPLE_ACTUATOR = Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml"
 ACTS = {
     "relu": torch.nn.ReLU,
     "leaky_relu": lambda: torch.nn.LeakyReLU(0.05),

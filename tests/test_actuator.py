@@ -9,6 +9,7 @@ import pytest
 
 from seagen.actuator import ActuatorError, actuator_from_dict, default_actuator, load_actuator
 from seagen.geometry import geometry
+from tests.conftest import EXAMPLE_ACTUATOR
 
 
 def _paper() -> dict:
@@ -89,11 +90,8 @@ def test_bad_description_names_file_and_field(field, value, msg):
 
 def test_shipped_descriptions_pass_the_plausibility_checks_with_unchanged_hashes():
     """The paper's and the example's descriptions load and keep the hashes their model files record."""
-    from pathlib import Path
-
-    example = Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml"
     assert default_actuator().digest()[:12] == "86b7cb236f33"
-    assert load_actuator(example).digest()[:12] == "7bf39d34fadf"
+    assert load_actuator(EXAMPLE_ACTUATOR).digest()[:12] == "7bf39d34fadf"
 
 
 def test_command_limit_and_force_range_must_fit_the_motor():

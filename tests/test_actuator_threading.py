@@ -32,8 +32,9 @@ from seagen.plant.config import ConfigError
 from seagen.runtime.actq import act_q
 from seagen.runtime.control import ControlConfig, sensor_walk
 from seagen.verify.run import enc_span
+from tests.conftest import EXAMPLE_ACTUATOR
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml"
+EXAMPLE = EXAMPLE_ACTUATOR
 FACTORS = (1.1, 0.9, 2.0, 0.5)  # the first that gives a valid description (loop_hz must divide 1 kHz)
 
 

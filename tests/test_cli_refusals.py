@@ -3,11 +3,10 @@ never with a traceback (a table: one row per misuse a user tried)."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from seagen.cli import main
+from tests.conftest import EXAMPLE_ACTUATOR
 
 TRAIN = ["train", "--data", "{tmp}/none", "--model", "mlp", "--loss", "mse", "--task", "calibration"]
 CASES = {  # name: (argv with {tmp}, words in stderr)
@@ -41,7 +40,7 @@ def test_misuse_exits_2_naming_what(case, tmp_path, capsys):
     """Exit 2, the argument or path named, no traceback, nothing written."""
     (tmp_path / "afile").write_text("keep")
     (tmp_path / "bin.toml").write_bytes(b"\xff\xfe\x00\x01")
-    example = (Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml").read_text()
+    example = EXAMPLE_ACTUATOR.read_text()
     assert "loop_hz = 200.0" in example
     (tmp_path / "loop300.toml").write_text(example.replace("loop_hz = 200.0", "loop_hz = 300.0"))
     argv, words = CASES[case]

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,8 +14,9 @@ from seagen.cli import main
 from seagen.data.protocol import volts_scale
 from seagen.discrepancy import bench as dbench
 from seagen.discrepancy import rigbench
+from tests.conftest import EXAMPLE_ACTUATOR
 
-STIFF = Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml"
+STIFF = EXAMPLE_ACTUATOR
 
 
 def test_case_angles_come_from_the_linkage_range() -> None:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,6 +25,7 @@ from seagen.runtime.control import ControlConfig, sensor_walk
 from seagen.toolchain.controller import generated_sources
 from seagen.toolchain.cortexm import toolchain_missing
 from seagen.verify.pil import closed_loop
+from tests.conftest import EXAMPLE_ACTUATOR
 
 CORES = ("cortex-m4", "cortex-m0plus")
 ANGLES = np.array([8.0, 16.0, 24.0])
@@ -255,7 +255,7 @@ def test_cli_pil_refuses_a_calibration_model_of_another_actuator(tmp_path, capsy
     from seagen.actuator import load_actuator
     from seagen.modelfile import load_model, save_model
 
-    example = load_actuator(Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml")
+    example = load_actuator(EXAMPLE_ACTUATOR)
     models = GENERATED / "models"
     cal = load_model(models / "sf_calibration.pt")
     cal["actuator"] = example.record()  # the same fit, recorded as the example design's

@@ -15,6 +15,7 @@ import pytest
 from seagen.cli import main
 from seagen.defaults import GENERATED, default_model
 from seagen.testing import assert_equivalent
+from tests.conftest import EXAMPLE_ACTUATOR
 
 CAL = default_model("mlp_calibration")
 
@@ -416,7 +417,7 @@ def test_oracle_check_label_printed_once():
 def test_data_of_another_actuator_is_refused(tmp_path, capsys):
     """--data recorded on another actuator than the model's: exit 2, one line naming its actuator.toml and
     both actuators (not a failure deep in the oracle)."""
-    example = Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml"
+    example = EXAMPLE_ACTUATOR
     data = tmp_path / "data"
     data.mkdir()
     shutil.copy(example, data / "actuator.toml")
