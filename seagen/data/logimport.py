@@ -374,6 +374,14 @@ def timing_text(info: dict[str, Any]) -> str:
     return json.dumps(info, indent=2) + "\n"
 
 
+def declare_own_timing(folder: Path) -> None:
+    """Write seagen's own logs' timing (own_timing) as `folder`'s TIMING_FILE (atomically), as `data
+    generate` does beside its splits."""
+    from seagen.atomic import write_text
+
+    write_text(folder / TIMING_FILE, timing_text(own_timing()))
+
+
 def resample(df: pd.DataFrame, hz: float) -> pd.DataFrame:
     """Every trial on a 1/hz grid from its first row (the control loop's samples, which the feature pipeline
     differences): sensors interpolated linearly between the logged instants (counts rounded), the command

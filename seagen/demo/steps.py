@@ -20,7 +20,7 @@ def step_data(out: Path, seed: int, act: Actuator | None = None) -> Path:
     from seagen.actuator import default_actuator, to_toml
     from seagen.atomic import write_text
     from seagen.data.friction import measure_friction
-    from seagen.data.logimport import TIMING_FILE, own_timing, timing_text
+    from seagen.data.logimport import declare_own_timing
     from seagen.data.protocol import generate
     from seagen.data.schema import ACTUATOR_FILE, save_csv
     from seagen.fit.data_summary import format_summary, summarize
@@ -32,7 +32,7 @@ def step_data(out: Path, seed: int, act: Actuator | None = None) -> Path:
     for split, df in generate(cfg, seed=seed).items():
         save_csv(df, data / f"{split}.csv")
     write_text(data / ACTUATOR_FILE, to_toml(cfg.actuator, "the actuator these data were simulated on"))
-    write_text(data / TIMING_FILE, timing_text(own_timing()))  # as `data generate` writes
+    declare_own_timing(data)  # as `data generate` does
     print(format_summary(summarize(data)))
     fr = measure_friction(cfg)
     print(

@@ -7,7 +7,7 @@ from pathlib import Path
 import pandas as pd
 
 from seagen.actuator import Actuator
-from seagen.data.logimport import TIMING_FILE, own_timing, timing_text
+from seagen.data.logimport import declare_own_timing
 from seagen.data.schema import save_csv
 from seagen.discrepancy.bench import case_frames
 from seagen.plant import PlantConfig
@@ -23,7 +23,7 @@ def measured_csv(out: Path, seed: int, base: PlantConfig | None = None) -> tuple
     frames = case_frames(truth, seed=seed + 101)
     path = out / "measured.csv"
     save_csv(pd.concat(frames, ignore_index=True), path)
-    (out / TIMING_FILE).write_text(timing_text(own_timing()))  # as `data generate` writes
+    declare_own_timing(out)  # as `data generate` does
     return path, truth
 
 
