@@ -122,3 +122,19 @@ def test_table_without_paper_figures_drops_the_paper_columns_and_aligns():
     paper = {"sf_mcu": {t: dict(row) for t in ("5", "10", "15")}}
     assert "paper" in format_table2(paper) and "paper" not in format_table2(paper, paper_figures=False)
     assert "0.29" in format_table2(paper).splitlines()[1]  # the paper's SF error at 5 N
+
+
+def test_cloud_kinematic_inverse_is_the_given_actuators():
+    """The cloud's float kinematic inverse reads the description it is given: compression = (F + its
+    friction) / its spring rate, not the paper's numbers."""
+    from conftest import EXAMPLE_ACTUATOR
+
+    from seagen.actuator import load_actuator
+    from seagen.geometry import geometry
+
+    act = load_actuator(EXAMPLE_ACTUATOR)
+    force = np.array([0.0, 5.0, 12.5])
+    got = kinematic_cloud(0.1, 10.0, geometry(act)).fn(None, None, force)
+    assert np.allclose(got, (force + act.friction_n) / act.stiffness_n_per_mm)
+    paper = kinematic_cloud(0.1, 10.0).fn(None, None, force)
+    assert not np.allclose(got, paper)

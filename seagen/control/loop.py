@@ -39,8 +39,8 @@ class McuPredictor:
 class CloudPredictor:
     """A float predictor off the MCU: (enc, pot, force N) -> compression mm over a Bluetooth link.
 
-    `fn` gets the last three 100 Hz samples of enc and pot (rows k-2, k-1, k; the MCU sends them, so the
-    cloud sees the training data's 100 Hz differences) and the desired force. One request in flight:
+    `fn` gets the last three loop-rate samples of enc and pot (rows k-2, k-1, k; the MCU sends them, so the
+    cloud sees the training data's differences) and the desired force. One request in flight:
     at a 10 Hz slot with no reply outstanding the MCU sends its samples; the reply (the new desired
     compression) is applied `latency_s` later. So the setpoint changes at most every max(period, latency)
     and always reflects the state of one round trip ago.

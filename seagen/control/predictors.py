@@ -10,6 +10,7 @@ import pandas as pd
 
 from seagen.control.loop import CloudPredictor, McuPredictor
 from seagen.fit.predict import kinematics_predict
+from seagen.geometry import Geometry
 from seagen.runtime.control import KinParams, predict_kinematic
 
 KIN = KinParams()
@@ -32,21 +33,32 @@ def kinematic_mcu(predict_every: int = 1, k: KinParams = KIN) -> McuPredictor:
     return McuPredictor("sea_predict_kinematic", _kin_ctx(k), lambda: predict_kinematic(k), predict_every)
 
 
-def kinematic_float(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
-    """The kinematic inverse in float: compression (mm) = (F + 2.7 N) / 4.2 N/mm (seagen.fit.predict)."""
-    return kinematics_predict("control", pd.DataFrame({"force_n": np.asarray(force_n, dtype=float)}))
+def kinematic_float(
+    geo: Geometry | None = None,
+) -> Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
+    """The kinematic inverse in float of the actuator `geo` (the paper's when None): compression (mm) =
+    (F + its friction) / its spring rate (seagen.fit.predict), as a predictor of (enc, pot, force)."""
+
+    def predict(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
+        return kinematics_predict("control", pd.DataFrame({"force_n": np.asarray(force_n, dtype=float)}), geo)
+
+    return predict
 
 
-def kinematic_cloud(latency_s: float = 0.1, refresh_hz: float = 10.0) -> CloudPredictor:
-    """The float kinematic inverse off the MCU, refreshed at `refresh_hz` with `latency_s` delay."""
-    return CloudPredictor(kinematic_float, latency_s, refresh_hz)
+def kinematic_cloud(
+    latency_s: float = 0.1, refresh_hz: float = 10.0, geo: Geometry | None = None
+) -> CloudPredictor:
+    """The float kinematic inverse of the actuator `geo` (the paper's when None) off the MCU, refreshed at
+    `refresh_hz` with `latency_s` delay."""
+    return CloudPredictor(kinematic_float(geo), latency_s, refresh_hz)
 
 
 def generated_mcu(prefix: str, predict_every: int = 1) -> McuPredictor:
     """The generated fixed-point predictor `prefix` (generated/PREFIX.c, via cffi) with its per-tick twin.
 
-    Its feature pipeline differences consecutive calls, so it is meant to be called at 100 Hz (the
-    training rate); at predict_every > 1 its d_/dd_ inputs are predict_every times the trained scale.
+    Its feature pipeline differences consecutive calls, so it is meant to be called at the training rate
+    (the description's loop rate); at predict_every > 1 its d_/dd_ inputs are predict_every times the
+    trained scale.
     """
     from seagen.control.gentwin import StepTwin
     from seagen.defaults import GENERATED
