@@ -25,6 +25,7 @@ from seagen.discrepancy.candidates import (
     start,
 )
 from seagen.discrepancy.claims import Evidence, evidence, footprints
+from seagen.discrepancy.erratic import ERRATIC_SHARE, TINY, erratic
 from seagen.discrepancy.learned import Learned, fit_learned, with_learned
 from seagen.discrepancy.recalibrate import BaseCheck, base_check, plausible, plausible_range, uncertainty
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
@@ -430,6 +431,26 @@ def _at_edge(n: Named, cfg: PlantConfig | None = None) -> list[str]:
     return out
 
 
+def _erratic_note(base: PlantConfig, named: list[Named], held: Runs, sig_h, z1) -> str | None:
+    """Words for a held-out residual at the noise floor once the erratic trials (erratic.py), at most
+    ERRATIC_SHARE of them, are left out; None when none are, too many are, or the rest is above its floor."""
+    bad, moved = erratic(base, {n.name: n.params for n in named}, held, sig_h)
+    if not bad.any() or bad.sum() > ERRATIC_SHARE * bad.size:
+        return None
+    keep = np.flatnonzero(~bad)
+    rest, z_rest = held.take(keep), {c: v[keep] for c, v in z1.items()}
+    r, f = rms(z_rest), noise_floor(rest, {c: s[keep] for c, s in sig_h.items()})
+    if r > AT_FLOOR * f:
+        return None
+    angles = ", ".join(f"{a:g}" for a in held.angle[bad])
+    return (
+        f"held-out trial(s) at {angles} deg left out of the verdict: the fitted plant's twin there moves by "
+        f"up to {moved[bad].max():.2g} noise sigmas when every fitted parameter changes by {TINY:g} of its "
+        f"value (an unstable response, such as stick-slip, that no fit can follow); the other {keep.size} "
+        f"held-out trials are at {r:.3g} noise sigmas against their floor {f:.3g}"
+    )
+
+
 def identify(
     runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0, pinned: float | None = None
 ) -> Result:
@@ -505,6 +526,9 @@ def identify(
             verdict = "unexplained"
     if verdict == "unexplained" and rms(z1) <= AT_FLOOR * floor:  # at the noise: consistent with the data
         verdict = "explained" if named else "none"
+    elif verdict == "unexplained" and named and (note := _erratic_note(base, named, held, sig_h, z1)):
+        verdict = "explained"
+        notes.append(note)
     sig_p = uncertainty(base, {n.name: n.params for n in named}, fit, sig_f) if named else {}
     for n in named:
         n.sigma = sig_p[n.name]
