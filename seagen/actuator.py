@@ -366,6 +366,11 @@ def default_actuator() -> Actuator:
     return actuator_from_dict(_paper_toml(), PAPER_FILE)
 
 
+def is_default(act: Actuator) -> bool:
+    """Whether `act` is the paper's actuator (a description with its values, from any file)."""
+    return act.digest() == default_actuator().digest()
+
+
 def actuator_from_record(record: Any, where: str) -> Actuator:
     """The description a model file recorded, validated and its hash checked (`where` names the file)."""
     if not isinstance(record, dict) or set(record) != {"values", "sha256"}:

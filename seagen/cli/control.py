@@ -92,7 +92,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Run each configuration at its actuator's targets over the contact angles; print Table II or JSON."""
-    from seagen.actuator import default_actuator
+    from seagen.actuator import is_default
     from seagen.control.experiment import (
         CONFIGS,
         MODEL_FREE,
@@ -114,7 +114,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     act = plant_actuator(args)  # refused before anything is built
     plant_cfg = PlantConfig(actuator=act)
     sample_every(plant_cfg)  # a loop rate the plant cannot run is refused, naming the description's file
-    paper = act.digest() == default_actuator().digest()
+    paper = is_default(act)
     setups, rows, estimator = dict(CONFIGS), {}, None
     free_only = not (args.config or args.model or paper)  # another design, nothing chosen: kin_mcu
     names = tuple(args.config or (() if args.model else TABLE2_CONFIGS if paper else MODEL_FREE))

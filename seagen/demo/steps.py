@@ -79,14 +79,14 @@ DEMO_SEEDS = 4  # plant-noise seeds of the closed-loop table (single seeds vary 
 def step_control(out: Path, seed: int, models: dict[str, Path], act: Actuator | None = None) -> None:
     """The paper's force-control experiment in closed loop (Table II), mean and range over noise seeds:
     the shipped configurations on the paper's actuator, the control models just trained on another."""
-    from seagen.actuator import default_actuator
+    from seagen.actuator import is_default
     from seagen.control import experiment as exp
     from seagen.control.user import control_setups
     from seagen.plant import PlantConfig
 
     _banner(f"4. closed-loop force control (paper Table II; {DEMO_SEEDS} noise seeds)")
     plots = str(out / "plots")
-    if act is None or act.digest() == default_actuator().digest():
+    if act is None or is_default(act):
         print(exp.format_table2(exp.sweep(seeds=DEMO_SEEDS, seed=seed, plots=plots)))
     else:  # the shipped models are the paper's actuator's: run the ones trained above, on the MCU
         setups: dict = {}
