@@ -106,7 +106,6 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
 
 ACTUATOR_FILE = "actuator.toml"  # seagen.data.schema.ACTUATOR_FILE (cli imports data lazily)
-LOGGED = "logged"  # `data import`: the rows as logged, beside the copy on the loop-rate grid
 
 
 def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None, what: str = "") -> None:
@@ -141,6 +140,7 @@ def cmd_import(args: argparse.Namespace) -> int:
     """Convert a rig's log with a column map; nothing is written unless every row converts."""
     from seagen.actuator import default_actuator, to_toml
     from seagen.data.logimport import (
+        LOGGED,
         TIMING_FILE,
         import_log,
         load_map,

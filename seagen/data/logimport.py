@@ -44,6 +44,7 @@ COMMAND_TIMING = {"from_row": 0.0, "up_to_row": 1.0}  # [log] command -> the rep
 # seagen's own rows (data.protocol.run_trials): a row's command is the one applied since the row before
 OWN_COMMAND = "up_to_row"
 TIMING_FILE = "timing.json"  # what is known of a data folder's timing, beside its CSVs
+LOGGED = "logged"  # `data import`'s folder of the rows as logged, beside the copy on the loop-rate grid
 _KGF_N = 9.80665
 # Per schema column: accepted units and the factor to seagen's unit (nan: from the actuator description,
 # pot 'mV'/'V' with the map's full_scale, motor_v '%' of the motor supply).

@@ -401,7 +401,9 @@ def load_timing(path: str) -> dict:
 def rows_place(p: Path) -> Path:
     """Where the rows of `p` are read from: a folder `data import` wrote is read from its logged/ rows (each
     at its own instant), not its copy on the loop-rate grid; anything else as given."""
-    return p / "logged" if p.is_dir() and any((p / "logged").glob("*.csv")) else p
+    from seagen.data.logimport import LOGGED
+
+    return p / LOGGED if p.is_dir() and any((p / LOGGED).glob("*.csv")) else p
 
 
 def load_measured(path: str) -> list:
