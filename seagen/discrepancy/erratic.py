@@ -19,25 +19,26 @@ ERRATIC = 0.1  # a trial whose twin moves by more than this RMS (noise sigmas) u
 ERRATIC_SHARE = 1 / 3  # the verdict is read without erratic trials only while they are at most this share
 
 
-def moved(base, params: ParamSet, held: Runs, sig_h: dict[str, np.ndarray]) -> np.ndarray:
-    """Per held-out trial, the largest RMS change (noise sigmas) of the twin of `base` with `params` when
-    every parameter moves by +-TINY of its value (a parameter at 0 stays there)."""
-    sets = [params] + [
-        {e: {p: v * (1 + s * TINY) for p, v in ps.items()} for e, ps in params.items()} for s in (1, -1)
-    ]
-    z = zscores(held, simulate(base, sets, held), sig_h)
+def moved(
+    base, params: ParamSet, held: Runs, sig_h: dict[str, np.ndarray], z: dict[str, np.ndarray]
+) -> np.ndarray:
+    """Per held-out trial, the largest RMS change (noise sigmas) of the twin of `base` with `params` (whose
+    residual is `z`) when every parameter moves by +-TINY of its value (a parameter at 0 stays there)."""
+    sets = [{e: {p: v * (1 + s * TINY) for p, v in ps.items()} for e, ps in params.items()} for s in (1, -1)]
+    nudged = zscores(held, simulate(base, sets, held), sig_h)
     trials = np.eye(len(held.angle), dtype=bool)
     return np.array(
         [
-            max(rms({c: z[c][k] - z[c][0] for c in z}, trials[i]) for k in (1, 2))
+            max(rms({c: nudged[c][k] - z[c] for c in z}, trials[i]) for k in (0, 1))
             for i in range(len(held.angle))
         ]
     )
 
 
 def erratic(
-    base, params: ParamSet, held: Runs, sig_h: dict[str, np.ndarray]
+    base, params: ParamSet, held: Runs, sig_h: dict[str, np.ndarray], z: dict[str, np.ndarray]
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(erratic trials as a mask over the held-out trials, how far each trial's twin moved)."""
-    m = moved(base, params, held, sig_h)
+    """(erratic trials as a mask over the held-out trials, how far each trial's twin moved); `z` is the
+    held-out residual of `base` with `params` (a replay of one set is bit for bit that set in any batch)."""
+    m = moved(base, params, held, sig_h, z)
     return m > ERRATIC, m

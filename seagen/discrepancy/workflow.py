@@ -434,7 +434,7 @@ def _at_edge(n: Named, cfg: PlantConfig | None = None) -> list[str]:
 def _erratic_note(base: PlantConfig, named: list[Named], held: Runs, sig_h, z1) -> str | None:
     """Words for a held-out residual at the noise floor once the erratic trials (erratic.py), at most
     ERRATIC_SHARE of them, are left out; None when none are, too many are, or the rest is above its floor."""
-    bad, moved = erratic(base, {n.name: n.params for n in named}, held, sig_h)
+    bad, moved = erratic(base, {n.name: n.params for n in named}, held, sig_h, z1)
     if not bad.any() or bad.sum() > ERRATIC_SHARE * bad.size:
         return None
     keep = np.flatnonzero(~bad)
