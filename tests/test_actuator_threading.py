@@ -32,9 +32,8 @@ from seagen.plant.config import ConfigError
 from seagen.runtime.actq import act_q
 from seagen.runtime.control import ControlConfig, sensor_walk
 from seagen.verify.run import enc_span
-from tests.conftest import EXAMPLE_ACTUATOR
+from tests.conftest import EXAMPLE_ACTUATOR as EXAMPLE
 
-EXAMPLE = EXAMPLE_ACTUATOR
 FACTORS = (1.1, 0.9, 2.0, 0.5)  # the first that gives a valid description (loop_hz must divide 1 kHz)
 
 

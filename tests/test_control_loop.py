@@ -127,10 +127,9 @@ def test_table_without_paper_figures_drops_the_paper_columns_and_aligns():
 def test_cloud_kinematic_inverse_is_the_given_actuators():
     """The cloud's float kinematic inverse reads the description it is given: compression = (F + its
     friction) / its spring rate, not the paper's numbers."""
-    from conftest import EXAMPLE_ACTUATOR
-
     from seagen.actuator import load_actuator
     from seagen.geometry import geometry
+    from tests.conftest import EXAMPLE_ACTUATOR
 
     act = load_actuator(EXAMPLE_ACTUATOR)
     force = np.array([0.0, 5.0, 12.5])

@@ -14,9 +14,7 @@ from seagen.cli import main
 from seagen.data.protocol import volts_scale
 from seagen.discrepancy import bench as dbench
 from seagen.discrepancy import rigbench
-from tests.conftest import EXAMPLE_ACTUATOR
-
-STIFF = EXAMPLE_ACTUATOR
+from tests.conftest import EXAMPLE_ACTUATOR as STIFF
 
 
 def test_case_angles_come_from_the_linkage_range() -> None:

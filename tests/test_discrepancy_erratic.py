@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import EXAMPLE_ACTUATOR
 
 from seagen.actuator import load_actuator
 from seagen.discrepancy import workflow as W
 from seagen.discrepancy.bench import make_case
 from seagen.discrepancy.erratic import ERRATIC, erratic
 from seagen.discrepancy.residuals import noise_sigma
+from tests.conftest import EXAMPLE_ACTUATOR
 
 
 def _held(case):
