@@ -360,6 +360,7 @@ def test_simulate_on_another_design_runs_the_model_free_configs(tmp_path, capsys
     assert main(["simulate", "--actuator", str(EXAMPLE), "--calibration", "default:mlp_calibration"]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "default:mlp_calibration" in err and "trained for actuator" in err
+    assert f"the simulated actuator is --actuator {EXAMPLE}" in err and "motor.supply_v 24.0, not 12.0" in err
     bad = tmp_path / "bad.toml"
     bad.write_text(EXAMPLE.read_text().replace("stiffness_n_per_mm = 8.4", "stiffness_n_per_mm = -1.0"))
     assert main(["simulate", "--actuator", str(bad)]) == 2

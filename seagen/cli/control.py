@@ -92,7 +92,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Run each configuration at its actuator's targets over the contact angles; print Table II or JSON."""
-    from seagen.actuator import is_default
+    from seagen.actuator import ActuatorError, is_default
     from seagen.control.experiment import (
         CONFIGS,
         MODEL_FREE,
@@ -124,7 +124,17 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.calibration:  # first: one for another actuator is refused before the control model's export
         from seagen.control.user import force_estimator
 
-        estimator = force_estimator(args.calibration, args.allow_pickle, act)
+        try:
+            estimator = force_estimator(args.calibration, args.allow_pickle, act)
+        except ActuatorError as e:  # say where the simulated ("given") actuator came from
+            origin = (
+                f"the one --model {args.model} was trained for"
+                if args.model
+                else f"--actuator {args.actuator}"
+                if args.actuator
+                else "the paper's (no --model or --actuator)"
+            )
+            raise ActuatorError(f"--calibration {e}; the simulated actuator is {origin}") from None
     if args.model:
         from seagen.control.user import control_setups
 
