@@ -101,11 +101,12 @@ def cmd_generate(args: argparse.Namespace) -> int:
         raise UserError(f"{out}: {why}")
     with tqdm(total=3, desc="simulating", unit="split") as bar:
 
-        def step(split: str) -> None:
-            bar.set_postfix_str(split)
+        def step(split: str) -> None:  # called as each split starts: the count is of the splits done
             bar.update(0 if split == "train" else 1)
+            bar.set_description_str(f"simulating {split}")
 
         splits = generate(cfg, seed=args.seed, progress=step)
+        bar.set_description_str("simulated")
         bar.update(1)
     info = {
         ACTUATOR_FILE: to_toml(act, "the actuator these data were simulated on"),
