@@ -42,7 +42,7 @@ Fields and units (the paper's actuator, `seagen/actuators/paper.toml`, is the de
                                             the pot (the average spans loop_hz / pot_avg_hz ticks)
     pot.vref_mv and the [control] fields after loop_hz are optional: a file without one takes the paper's
     value (seagen/actuators/paper.toml: gains tuned on its simulated plant; retune yours with
-    `python -m seagen.control.tune`). A value equal to that default is left out of the recorded values and
+    `seagen tune`). A value equal to that default is left out of the recorded values and
     the hash, so descriptions and model files written before these fields existed keep their hash.
 
 Errors name the file and the field (`ActuatorError`, a user error: exit 2).

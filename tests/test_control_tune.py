@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from seagen.control.tune import objective
 
 SF_PAPER = {5.0: 0.32, 10.0: 0.50, 15.0: 0.58}
@@ -30,3 +32,91 @@ def test_shipped_parameters_are_the_defaults():
     pred_avg = p.pop("pred_avg")
     assert PidParams.from_si(**p) == DEFAULT_PID
     assert CONFIGS["mlp_mcu"](0.1)[1].pred_avg == pred_avg and CONFIGS["mlp_mcu"](0.1)[1].pid == DEFAULT_PID
+
+
+def test_search_space_is_the_papers_on_the_paper_and_carried_to_another_design():
+    """The paper's ranges on its own actuator (the shipped search unchanged); on the example, widened: the
+    gains' by the ratio of the nut's speed per volt, the margin's by the springs', the limit's like the
+    calibration pushes' volts, within the supply; at a fast loop the derivative gain's top is what the
+    C's Q12 int32 holds."""
+    import dataclasses
+
+    from seagen.actuator import default_actuator, load_actuator
+    from seagen.control.tune import GAIN_HEADROOM, PAPER_SPACE, search_space
+    from seagen.data.protocol import force_scale, volts_scale
+    from seagen.plant.config import Motor
+    from seagen.runtime.pid import gain_max_si
+    from tests.conftest import EXAMPLE_ACTUATOR
+
+    paper = default_actuator()
+    assert search_space(paper) == PAPER_SPACE
+    ex = load_actuator(EXAMPLE_ACTUATOR)
+    space = search_space(ex)
+    gain = (Motor.of(paper).v_max_mm_s / 12.0) / (Motor.of(ex).v_max_mm_s / ex.motor.supply_v)
+
+    def widened(lo: float, hi: float, by: float) -> tuple[float, float]:
+        return lo * min(by, 1.0), hi * max(by, 1.0)
+
+    assert gain != pytest.approx(1.0, abs=0.05)
+    assert space["kp_v_mm"] == pytest.approx(widened(20, 40, gain))
+    assert space["kd_v_s_mm"] == pytest.approx(widened(0.5, 1.2, gain))
+    assert space["margin_mm"] == pytest.approx(widened(0.02, 0.05, 4.2 / 8.4))
+    lim = volts_scale(ex) * force_scale(ex)
+    assert lim != pytest.approx(1.0, abs=0.05)
+    assert space["limit_v"] == pytest.approx(tuple(min(v, 24.0) for v in widened(6, 10, lim)))
+    fast = dataclasses.replace(ex, loop_hz=500.0)
+    kd_top = GAIN_HEADROOM * gain_max_si(1 / 500.0)["kd_v_s_mm"]
+    assert search_space(fast)["kd_v_s_mm"][1] == pytest.approx(min(widened(0.5, 1.2, gain)[1], kd_top))
+    slow = dataclasses.replace(ex, motor=dataclasses.replace(ex.motor, no_load_rpm=600.0), loop_hz=1000.0)
+    top_1k = GAIN_HEADROOM * gain_max_si(1e-3)["kd_v_s_mm"]  # a slow motor's range reaches above it
+    assert search_space(slow)["kd_v_s_mm"] == pytest.approx((0.5, top_1k)) and top_1k < 1.2
+
+
+def test_a_gain_the_c_cannot_hold_is_refused_naming_the_field_and_its_bound(tmp_path, capsys):
+    """A derivative gain whose Q12 integer overflows int32 at the loop rate: PidParams.from_si raises
+    GainRangeError with the field and the largest gain that fits (it was an OverflowError traceback in
+    cffi), and a description carrying it is refused when given (exit 2, one line, nothing written)."""
+    from seagen.cli import main
+    from seagen.runtime.pid import GainRangeError, PidParams, gain_max_si
+    from tests.conftest import EXAMPLE_ACTUATOR
+
+    top = gain_max_si(1 / 500.0)["kd_v_s_mm"]
+    PidParams.from_si(30.0, 5.0, top * 0.999, 0.9, tick_s=1 / 500.0)
+    with pytest.raises(GainRangeError, match=r"control\.kd_v_s_per_mm 3 V s/mm at 500 Hz .*at most 1\.049"):
+        PidParams.from_si(30.0, 5.0, 3.0, 0.9, tick_s=1 / 500.0)
+    bad = tmp_path / "kd.toml"
+    bad.write_text(EXAMPLE_ACTUATOR.read_text() + "kd_v_s_per_mm = 30.0\n")  # [control] is the last table
+    out = tmp_path / "data"
+    assert main(["data", "generate", "--out", str(out), "--actuator", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and str(bad) in err and "control.kd_v_s_per_mm 30" in err and not out.exists()
+
+
+def test_tune_on_another_design_prints_control_lines_the_description_takes(tmp_path, capsys):
+    """`seagen tune --actuator` on the example (no model: kin_mcu), one trial: the first trial is the
+    description's own settings carried into its space; the printed [control] lines, pasted into the
+    description, load and quantize; bad counts exit 2 (~5 s)."""
+    import json
+
+    from seagen.actuator import load_actuator
+    from seagen.cli import main
+    from seagen.runtime.actq import act_q
+    from seagen.runtime.control import ControlConfig
+    from tests.conftest import EXAMPLE_ACTUATOR
+
+    assert main(["tune", "--trials", "0"]) == 2 and "--trials" in capsys.readouterr().err
+    assert main(["tune", "--actuator", str(EXAMPLE_ACTUATOR), "--trials", "1", "--seeds", "1", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["configuration"] == "kin_mcu" and set(out["settling_s"]["kin_mcu"]) == {"5", "10", "15"}
+    text = EXAMPLE_ACTUATOR.read_text()
+    lines = out["control"].splitlines()[1:]
+    keys = {x.split(" = ")[0] for x in lines}
+    assert keys == {"kp_v_per_mm", "ki_v_per_mm_s", "kd_v_s_per_mm", "d_alpha", "margin_mm", "limit_v"}
+    kept = [x for x in text.splitlines() if x.split(" = ")[0].strip() not in keys]
+    mine = tmp_path / "tuned.toml"
+    mine.write_text("\n".join(kept + lines) + "\n")  # [control] is the example's last table
+    act = load_actuator(mine)
+    ControlConfig.for_act(act_q(act))
+    assert {k: getattr(act.control, k) for k in keys} == {
+        x.split(" = ")[0]: float(x.split(" = ")[1]) for x in lines
+    }

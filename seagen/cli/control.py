@@ -15,8 +15,10 @@ if TYPE_CHECKING:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add the `simulate` command."""
+    """Add the `simulate` and `tune` commands."""
     from seagen.control.experiment import CONFIGS
+
+    _register_tune(sub)
 
     p = sub.add_parser(
         "simulate",
@@ -190,7 +192,7 @@ def limit_notes(table: dict[str, dict[str, dict]], act: Actuator) -> list[str]:
                 f"seagen simulate: note: {name}'s runs that never settle sit at the command limit "
                 f"+-{lim:g} V ({act.source}: control.limit_v{why}; supply {act.motor.supply_v:g} V) for "
                 f"this share of the time after contact: {where}; a higher control.limit_v may let them "
-                "settle (the gains are set in the same table)"
+                "settle (`seagen tune` searches it with the gains)"
             )
     return out
 
@@ -244,3 +246,87 @@ def plant_actuator(args: argparse.Namespace) -> Actuator:
             return given or default_actuator()
         return model_actuator(model, args.model, given)
     return given or default_actuator()
+
+
+def _register_tune(sub: argparse._SubParsersAction) -> None:
+    """Add the `tune` command."""
+    p = sub.add_parser(
+        "tune",
+        help="search PID gains, margin and command limit for your design in closed loop (Optuna)",
+        description="Search the controller's [control] settings (kp, ki, kd, d_alpha, margin, limit_v) on "
+        "the simulated SEA: each trial runs `seagen simulate`'s experiment (3 targets x 10 contact angles, "
+        "6 s each, per seed) and scores the worst target's mean settling time plus 0.3 x the mean over the "
+        "targets (a run that never settles counts 6 s). The search ranges are the paper's, carried to the "
+        "design (gains over the nut speed per volt, margin over the spring, limit like the calibration "
+        "pushes' volts); the first trial is the description's own settings. Prints the best as [control] "
+        "lines to paste into the description (then regenerate the data and retrain: the description's "
+        "hash changes). With --model: your control model's MCU configuration; without, on another "
+        "design: kin_mcu (the kinematics baseline, which may never get within the band); on the paper's "
+        "actuator without --model: the search behind the shipped gains (the shipped MLP and SF).",
+    )
+    p.add_argument("--model", metavar="CONTROL_MODEL", type=model_arg, help="your control model to tune for")
+    p.add_argument("--features", metavar="SPEC", help="feature specification of --model (bare networks)")
+    p.add_argument(
+        "--actuator",
+        metavar="FILE",
+        help="actuator description TOML (default: the one --model records, else the paper's)",
+    )
+    p.add_argument(
+        "--allow-pickle",
+        action="store_true",
+        help="unpickle model files holding arbitrary Python objects (RUNS CODE: trusted files only)",
+    )
+    p.add_argument(
+        "--trials", type=int, default=40, help="Optuna trials (default 40; ~25 s each on the paper's)"
+    )
+    p.add_argument("--seeds", type=int, default=4, help="plant-noise seeds per trial (default 4)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_tune)
+
+
+def cmd_tune(args: argparse.Namespace) -> int:
+    """Run the search and print the best settings, their settling times and the [control] lines."""
+    from seagen.actuator import is_default
+    from seagen.control.experiment import BAND_N, model_free_setups, targets_n
+    from seagen.control.tune import NEVER_S, control_table, tune, worst_plus_mean
+
+    if args.trials < 1:
+        raise UserError(f"--trials must be >= 1, got {args.trials}")
+    if args.seeds < 1:
+        raise UserError(f"--seeds must be >= 1, got {args.seeds}")
+    act = plant_actuator(args)
+    setup, name = None, "shipped mlp_mcu and sf_mcu"
+    if args.model:
+        from seagen.control.user import control_setups
+
+        mine, _row = control_setups(args.model, args.features, args.allow_pickle, act)
+        name = next(n for n in mine if n.endswith("_mcu"))
+        setup = mine[name]
+    elif not is_default(act):
+        name = "kin_mcu"
+        setup = model_free_setups(act)[name]
+        print(f"seagen tune: {act.source}: tuning kin_mcu (no --model given)", file=sys.stderr)
+    seeds = tuple(10 * k for k in range(args.seeds))
+    study = tune(args.trials, seeds, setup=setup, act=act, progress=not args.json, name=name)
+    best = study.best_trial
+    settling = {k: {f"{t:g}": round(v, 3) for t, v in d.items()} for k, d in best.user_attrs.items()}
+    table = control_table(best.params)
+    if args.json:
+        print(
+            json.dumps(
+                {"configuration": name, "params": best.params, "settling_s": settling, "control": table}
+            )
+        )
+    else:
+        print(f"tuned {name} on {act.name} over {args.trials} trials x {args.seeds} seeds")
+        for k, d in settling.items():
+            print(f"mean settling s ({k}):", ", ".join(f"{t} N {v}" for t, v in d.items()))
+        print(table)
+    if best.value >= worst_plus_mean(dict.fromkeys(targets_n(act), NEVER_S)):
+        print(
+            f"seagen tune: note: no run of {name} settled in any trial (within {BAND_N:g} N for good within "
+            f"{NEVER_S:g} s), so the trials could not be ranked: check its error in `seagen simulate` (a "
+            "force estimate further off than the band never settles)",
+            file=sys.stderr,
+        )
+    return 0

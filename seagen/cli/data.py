@@ -29,14 +29,17 @@ def given_actuator(args: argparse.Namespace) -> Actuator | None:
     and the training), or None."""
     from seagen.actuator import ActuatorError, load_actuator
     from seagen.runtime.actq import act_q
+    from seagen.runtime.control import ControlConfig
+    from seagen.runtime.pid import GainRangeError
 
     if not getattr(args, "actuator", None):
         return None
     act = load_actuator(args.actuator)
     try:
-        act_q(act)
-    except ActuatorError as e:
-        raise ActuatorError(f"{e}; the generated C could not run this design") from None
+        ControlConfig.for_act(act_q(act))  # act_q's refusals name the file
+    except (ActuatorError, GainRangeError) as e:
+        named = str(e) if isinstance(e, ActuatorError) else f"{act.source}: {e}"
+        raise ActuatorError(f"{named}; the generated C could not run this design") from None
     return act
 
 

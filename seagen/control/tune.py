@@ -1,37 +1,96 @@
-"""Closed-loop PID tuning with Optuna: how DEFAULT_PID was chosen (`python -m seagen.control.tune`)."""
+"""Closed-loop PID tuning with Optuna: the shipped gains' search, and gains for your design (seagen tune)."""
 
 from __future__ import annotations
 
-import argparse
+from collections.abc import Callable
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
-from seagen.actuator import default_actuator
+from seagen.actuator import Actuator, default_actuator, is_default
 from seagen.control.experiment import (
     CONFIGS,
     DURATION_S,
     MLP_PRED_AVG,
     PAPER_TABLE2,
+    Setup,
     metrics,
     runs,
     targets_n,
 )
-from seagen.runtime.pid import DEFAULT_PID_SI, PidParams
+from seagen.data.protocol import force_scale, volts_scale
+from seagen.plant import PlantConfig
+from seagen.plant.config import Motor
+from seagen.runtime.pid import DEFAULT_PID_SI, PidParams, gain_max_si, pid_si
 
 # The shipped choice (DEFAULT_PID, MLP_PRED_AVG) in the search's parameters: the first trial, as a baseline.
 SHIPPED = {**DEFAULT_PID_SI, "pred_avg": MLP_PRED_AVG}
 
 NEVER_S = DURATION_S  # an angle that never settles counts as the whole run
 
+# The search's ranges on the paper's actuator (PidParams.from_si's arguments); search_space carries them.
+PAPER_SPACE = {
+    "kp_v_mm": (20.0, 40.0),
+    "ki_v_mm_s": (2.0, 8.0),
+    "kd_v_s_mm": (0.5, 1.2),
+    "d_alpha": (0.5, 1.0),
+    "margin_mm": (0.02, 0.05),
+    "limit_v": (6.0, 10.0),
+}
+GAIN_HEADROOM = 0.99  # the search's gains stay this share of the largest the C holds
+LIMIT_STEP_V = 0.5  # the limit's grid on the paper's actuator (scaled with the range)
+# PidParams.from_si's argument -> the description's [control] field
+CONTROL_FIELD = {
+    "kp_v_mm": "kp_v_per_mm",
+    "ki_v_mm_s": "ki_v_per_mm_s",
+    "kd_v_s_mm": "kd_v_s_per_mm",
+    "d_alpha": "d_alpha",
+    "margin_mm": "margin_mm",
+    "limit_v": "limit_v",
+}
 
-def mean_settling(name: str, pid: PidParams, pred_avg: int, seeds: tuple[int, ...]) -> dict[float, float]:
-    """Per target: settling time of configuration `name` averaged over angles and seeds (NaN = the run)."""
-    pred, ctl = CONFIGS[name](0.1)
-    cfg = replace(ctl, pid=pid, pred_avg=pred_avg)
-    out: dict[float, list[float]] = {t: [] for t in targets_n(default_actuator())}
+
+def search_space(act: Actuator) -> dict[str, tuple[float, float]]:
+    """PAPER_SPACE carried to `act` (the paper's own for it), widened rather than moved, since how the
+    loop settles depends on more than these ratios: the gains' range stretched by the ratio of the nut's
+    speed per volt (the paper's over `act`'s: the same loop gain at that end), the margin's by the
+    springs' ratio (the same force band), the command limit's up to the calibration pushes' volts
+    (data.protocol: the same stall margin at the same share of the force range); the limit within the
+    supply and the gains within what the C's Q12 int32 holds at the loop rate."""
+    paper = default_actuator()
+
+    def per_volt(a: Actuator) -> float:
+        return Motor.of(a).v_max_mm_s / a.motor.supply_v
+
+    gain = per_volt(paper) / per_volt(act)
+    scale = {
+        "kp_v_mm": gain,
+        "ki_v_mm_s": gain,
+        "kd_v_s_mm": gain,
+        "d_alpha": 1.0,
+        "margin_mm": paper.stiffness_n_per_mm / act.stiffness_n_per_mm,
+        "limit_v": volts_scale(act) * force_scale(act),
+    }
+    top = {"limit_v": act.motor.supply_v} | {
+        k: GAIN_HEADROOM * v for k, v in gain_max_si(1.0 / act.loop_hz).items()
+    }
+    out = {}
+    for k, (lo, hi) in PAPER_SPACE.items():
+        cap = top.get(k, np.inf)
+        out[k] = (min(lo * min(scale[k], 1.0), cap), min(hi * max(scale[k], 1.0), cap))
+    return out
+
+
+def mean_settling(
+    setup: Setup, pid: PidParams, pred_avg: int | None, seeds: tuple[int, ...], plant_cfg: PlantConfig
+) -> dict[float, float]:
+    """Per target: settling time of a configuration averaged over angles and seeds (NaN = the run)."""
+    pred, ctl = setup
+    cfg = replace(ctl, pid=pid) if pred_avg is None else replace(ctl, pid=pid, pred_avg=pred_avg)
+    out: dict[float, list[float]] = {t: [] for t in targets_n(plant_cfg.actuator)}
     for seed in seeds:
-        for target, rec in runs(pred, cfg, seed=seed):
+        for target, rec in runs(pred, cfg, seed=seed, plant_cfg=plant_cfg):
             out[target].append(float(np.nan_to_num(metrics(rec)["settling_s"], nan=NEVER_S).mean()))
     return {t: float(np.mean(v)) for t, v in out.items()}
 
@@ -40,48 +99,101 @@ def objective(mlp: dict[float, float], sf: dict[float, float]) -> float:
     """Worst MLP-on-MCU target plus 0.3 x its mean, plus a penalty for SF outside +-50 % of the paper's."""
     paper = {float(t): s for t, (_, s) in PAPER_TABLE2["SF"].items()}
     pen = sum(max(0.0, sf[t] - 1.5 * paper[t]) + max(0.0, 0.5 * paper[t] - sf[t]) for t in paper)
-    return max(mlp.values()) + 0.3 * float(np.mean(list(mlp.values()))) + 3.0 * pen
+    return worst_plus_mean(mlp) + 3.0 * pen
 
 
-def tune(trials: int, seeds: tuple[int, ...], sampler_seed: int = 1):
-    """Search gains, margin, output limit and the MLP prediction average; returns the Optuna study."""
+def worst_plus_mean(settling: dict[float, float]) -> float:
+    """The worst target's settling time plus 0.3 x the mean over the targets (s)."""
+    return max(settling.values()) + 0.3 * float(np.mean(list(settling.values())))
+
+
+def _pid(trial: Any, act: Actuator) -> PidParams:
+    """A trial's PID in `act`'s search space (the gains and margin log-uniform where it was widened),
+    quantized at its tick within its supply."""
+    space = search_space(act)
+    widened = {k for k in PAPER_SPACE if k != "limit_v" and space[k] != PAPER_SPACE[k] and space[k][0] > 0}
+    si = {k: trial.suggest_float(k, *space[k], log=k in widened) for k in PAPER_SPACE if k != "limit_v"}
+    lo, hi = space["limit_v"]
+    si["limit_v"] = trial.suggest_float("limit_v", lo, hi, step=_limit_step(lo, hi)) if hi > lo else hi
+    tick = 1.0 / act.loop_hz
+    return PidParams.from_si(**si, max_mv=round(act.motor.supply_v * 1000), tick_s=tick)
+
+
+def tune(
+    trials: int,
+    seeds: tuple[int, ...],
+    sampler_seed: int = 1,
+    setup: Callable[[float], Setup] | None = None,
+    act: Actuator | None = None,
+    progress: bool = True,
+    name: str = "mine",
+):
+    """Search gains, margin and output limit; returns the Optuna study. On the paper's actuator with no
+    `setup`: the shipped search (the shipped MLP's settling, its prediction average searched too, the
+    shipped SF kept within +-50 % of the paper's Table II; the first trial is what ships). Otherwise
+    `setup` (a configuration factory, `name`: your control model, or kin_mcu) on `act`, scored by
+    worst_plus_mean; the first trial is the description's own [control]."""
     import optuna
 
+    act = act or default_actuator()
+    plant_cfg = PlantConfig(actuator=act)
+    paper_search = setup is None and is_default(act)
+    if setup is None and not paper_search:
+        raise ValueError("tune: another actuator needs its configuration (setup)")
+
     def trial_fn(trial: optuna.Trial) -> float:
-        pid = PidParams.from_si(
-            trial.suggest_float("kp_v_mm", 20, 40),
-            trial.suggest_float("ki_v_mm_s", 2, 8),
-            trial.suggest_float("kd_v_s_mm", 0.5, 1.2),
-            trial.suggest_float("d_alpha", 0.5, 1.0),
-            margin_mm=trial.suggest_float("margin_mm", 0.02, 0.05),
-            limit_v=trial.suggest_float("limit_v", 6.0, 10.0, step=0.5),
-        )
-        mlp = mean_settling("mlp_mcu", pid, trial.suggest_int("pred_avg", 4, 10), seeds)
-        sf = mean_settling("sf_mcu", pid, 1, seeds[:2])
-        trial.set_user_attr("mlp_mcu", mlp)
-        trial.set_user_attr("sf_mcu", sf)
-        return objective(mlp, sf)
+        pid = _pid(trial, act)
+        if paper_search:
+            mlp = mean_settling(
+                CONFIGS["mlp_mcu"](0.1), pid, trial.suggest_int("pred_avg", 4, 10), seeds, plant_cfg
+            )
+            sf = mean_settling(CONFIGS["sf_mcu"](0.1), pid, 1, seeds[:2], plant_cfg)
+            trial.set_user_attr("mlp_mcu", mlp)
+            trial.set_user_attr("sf_mcu", sf)
+            return objective(mlp, sf)
+        assert setup is not None
+        mine = mean_settling(setup(0.1), pid, None, seeds, plant_cfg)
+        trial.set_user_attr(name, mine)
+        return worst_plus_mean(mine)
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(sampler=optuna.samplers.TPESampler(seed=sampler_seed))
-    study.enqueue_trial(SHIPPED)
-    study.optimize(trial_fn, n_trials=trials, show_progress_bar=True)
+    study.enqueue_trial(SHIPPED if paper_search else own_trial(act))
+    study.optimize(trial_fn, n_trials=trials, show_progress_bar=progress)
     return study
 
 
+def own_trial(act: Actuator) -> dict[str, float]:
+    """The description's own [control] PID settings as a trial of its search space (clipped into it, the
+    limit onto its grid): the baseline a search starts from."""
+    space, own = search_space(act), pid_si(act.control)
+    out = {k: float(np.clip(own[k], *space[k])) for k in PAPER_SPACE}
+    lo, hi = space["limit_v"]
+    if hi > lo:
+        step = _limit_step(lo, hi)
+        out["limit_v"] = float(min(lo + round((out["limit_v"] - lo) / step) * step, hi))
+    return out
+
+
+def _limit_step(lo: float, hi: float) -> float:
+    """The limit's grid step on a range carried from the paper's (LIMIT_STEP_V there)."""
+    return LIMIT_STEP_V * (hi - lo) / (PAPER_SPACE["limit_v"][1] - PAPER_SPACE["limit_v"][0])
+
+
+def control_table(params: dict[str, float]) -> str:
+    """The best trial's PID settings as the description's [control] lines to paste."""
+    lines = [f"{CONTROL_FIELD[k]} = {params[k]:.4g}" for k in PAPER_SPACE if k in params]
+    return "\n".join(["[control]  # seagen tune", *lines])
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the search and print the best parameters with their settling times."""
-    p = argparse.ArgumentParser(prog="python -m seagen.control.tune", description=__doc__)
-    p.add_argument("--trials", type=int, default=40, help="Optuna trials (default 40, ~25 s each)")
-    p.add_argument("--seeds", type=int, default=4, help="noise seeds per trial (default 4)")
-    a = p.parse_args(argv)
-    study = tune(a.trials, tuple(10 * k for k in range(a.seeds)))
-    best = study.best_trial
-    print("best:", {k: round(v, 4) for k, v in best.params.items()})
-    for name in ("mlp_mcu", "sf_mcu"):
-        print(f"settling s, {name}:", {f"{t:g} N": round(v, 3) for t, v in best.user_attrs[name].items()})
-    return 0
+    """`python -m seagen.control.tune ARGS` is `seagen tune ARGS`."""
+    from seagen.cli import main as cli_main
+
+    return cli_main(["tune", *(argv or [])])
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    import sys
+
+    raise SystemExit(main(sys.argv[1:]))

@@ -12,7 +12,16 @@ from seagen.actuator import Actuator, default_actuator
 from seagen.c_runtime import defines
 from seagen.runtime.actq import ActQ, act_q_of
 from seagen.runtime.fixed import FORCE_FRAC_BITS, compression_q16, div_rne, rshift_rne, sat32
-from seagen.runtime.pid import DEFAULT_PID, PidParams, PidState, merge, pid_reset, pid_si, pid_step
+from seagen.runtime.pid import (
+    DEFAULT_PID,
+    GainRangeError,
+    PidParams,
+    PidState,
+    merge,
+    pid_reset,
+    pid_si,
+    pid_step,
+)
 
 _C = defines("sea_control.h")  # the header is the one definition of the controller's constants
 FORCE_FRAC = FORCE_FRAC_BITS  # SEA_FORCE_FRAC_BITS: desired force in Q16 N
@@ -85,9 +94,13 @@ class ControlConfig:
     def for_act(cls, a: ActQ, **kw: Any) -> ControlConfig:
         """A configuration of actuator `a`: its PID gains and desired-force range, its default encoder-jump
         and stuck-pot bounds."""
-        kw.setdefault(
-            "pid", PidParams.from_si(**pid_si(a.control), max_mv=a.motor_max_mv, tick_s=1.0 / a.loop_hz)
-        )
+        if "pid" not in kw:
+            try:
+                kw["pid"] = PidParams.from_si(
+                    **pid_si(a.control), max_mv=a.motor_max_mv, tick_s=1.0 / a.loop_hz
+                )
+            except GainRangeError as e:
+                raise GainRangeError(f"actuator '{a.name}': {e}") from None
         kw.setdefault("force_max", q16(a.control.force_max_n))
         return cls(act=a, enc_jump_max=a.enc_jump_max, pot_stuck_ticks=a.pot_stuck_ticks, **kw)
 

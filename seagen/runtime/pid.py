@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from seagen.actuator import Control, default_actuator
+from seagen.errors import UserError
 from seagen.runtime.actq import act_q_of
 from seagen.runtime.fixed import COMP_FRAC_BITS, clamp, rshift_rne, sat32
 
@@ -17,6 +18,25 @@ OUT_FRAC = 16  # SEA_PID_OUT_FRAC
 TERM_SHIFT = GAIN_FRAC + COMP_FRAC_BITS - OUT_FRAC
 MOTOR_MAX_MV = act_q_of().motor_max_mv  # the paper's actuator: its supply (sea_act.motor_max_mv)
 TICK_S = 1.0 / act_q_of().loop_hz  # its controller tick (100 Hz)
+
+
+I32_MAX = 2**31 - 1
+# PidParams.from_si's gain -> (the description's [control] field, its unit, its power of the tick in the Q12
+# integer: kp per mm, ki per mm per tick, kd per mm per tick^-1)
+GAINS = {
+    "kp_v_mm": ("kp_v_per_mm", "V/mm", 0),
+    "ki_v_mm_s": ("ki_v_per_mm_s", "V/(mm s)", 1),
+    "kd_v_s_mm": ("kd_v_s_per_mm", "V s/mm", -1),
+}
+
+
+class GainRangeError(UserError):
+    """A PID gain whose Q12 integer does not fit the C's int32 field at this loop rate (exit 2)."""
+
+
+def gain_max_si(tick_s: float) -> dict[str, float]:
+    """The largest value of each gain (GAINS, SI) whose Q12 integer fits int32 at tick `tick_s`."""
+    return {k: I32_MAX / (1000.0 * (1 << GAIN_FRAC) * tick_s**p) for k, (_f, _u, p) in GAINS.items()}
 
 
 @dataclass(frozen=True)
@@ -46,11 +66,24 @@ class PidParams:
         """Quantize gains given in V/mm, V/(mm s), V s/mm at the tick `tick_s` (rounded to nearest); the
         output is limited to +-limit_v within the motor's +-max_mv (sea_act.motor_max_mv)."""
         q = float(1 << GAIN_FRAC)
+        gains = {
+            "kp_v_mm": round(kp_v_mm * 1000 * q),
+            "ki_v_mm_s": round(ki_v_mm_s * 1000 * tick_s * q),
+            "kd_v_s_mm": round(kd_v_s_mm * 1000 / tick_s * q),
+        }
+        for k, v in gains.items():
+            if abs(v) > I32_MAX:
+                field, unit, _p = GAINS[k]
+                si = {"kp_v_mm": kp_v_mm, "ki_v_mm_s": ki_v_mm_s, "kd_v_s_mm": kd_v_s_mm}[k]
+                raise GainRangeError(
+                    f"control.{field} {si:g} {unit} at {1.0 / tick_s:g} Hz does not fit the C's Q12 gain in "
+                    f"int32 (at most {gain_max_si(tick_s)[k]:.4g} {unit} at this loop rate)"
+                )
         lim = min(round(limit_v * 1000), max_mv)
         return cls(
-            kp=round(kp_v_mm * 1000 * q),
-            ki=round(ki_v_mm_s * 1000 * tick_s * q),
-            kd=round(kd_v_s_mm * 1000 / tick_s * q),
+            kp=gains["kp_v_mm"],
+            ki=gains["ki_v_mm_s"],
+            kd=gains["kd_v_s_mm"],
             d_alpha=round(d_alpha * (1 << ALPHA_FRAC)),
             margin=round(margin_mm * (1 << COMP_FRAC_BITS)),
             out_min=-lim,
@@ -75,7 +108,7 @@ def pid_si(c: Control) -> dict[str, Any]:
 
 
 # The paper's description's gains, tuned on its simulated plant (c_runtime/README.md "Tuned gains";
-# python -m seagen.control.tune).
+# seagen tune).
 DEFAULT_PID_SI: dict[str, Any] = pid_si(default_actuator().control)
 DEFAULT_PID = PidParams.from_si(**DEFAULT_PID_SI)
 
