@@ -23,6 +23,7 @@ from seagen.discrepancy.candidates import box, full_scale
 from seagen.discrepancy.families import family_case
 from seagen.discrepancy.recalibrate import plausible_range
 from seagen.discrepancy.replay import runs_from_frames, simulate
+from seagen.discrepancy.residuals import region_labels
 from seagen.discrepancy.riglog import rig_csv, rig_map
 from seagen.fit.kinematics import compression_for, shaft_force
 from seagen.geometry import geometry
@@ -84,6 +85,7 @@ RAW = pd.DataFrame(
         "force_n": np.linspace(0.0, 6.0, 12),
     }
 )
+RAW_RUNS = runs_from_frames([("raw", RAW)])
 LOG_MAP = """
 [columns.t_s]
 column = "ms"
@@ -151,7 +153,10 @@ def _consumers(act, tmp: Path) -> dict[str, object]:
     out["experiment"] = (targets_n(act), contact_deg(act))  # simulate's targets and contact angles
     walk = sensor_walk(1, 4, pot_max=aq.pot_max)[1]  # verify's tick sequence: the pot's start, its range
     out["verify"] = (enc_span(act), walk)  # and verify's synthetic encoder range
-    out["discrepancy"] = box("pot_voltage_drop", "counts_per_unit_current", full_scale(cfg))  # search box
+    out["discrepancy"] = (
+        box("pot_voltage_drop", "counts_per_unit_current", full_scale(cfg)),  # search box
+        list(region_labels(RAW_RUNS, cfg.motor, act.control.force_max_n)["force"].ravel()),  # force regions
+    )
     fx = PlantConfig(actuator=act).effects  # the catalogue's pot effects: shares of the pot's full scale
     out["catalogue"] = (
         fx.pot_voltage_drop.counts_per_unit_current,
@@ -221,7 +226,8 @@ EXPECTED = {
         "c_act",
         "controller",
     },  # replay: the protocol's rows
-    "control.force_max_n": {"controller", "experiment", "verify", "protocol"},  # faults, targets, peaks
+    # faults, targets, peaks, the discrepancy report's force regions
+    "control.force_max_n": {"controller", "experiment", "verify", "protocol", "discrepancy"},
     "control.kp_v_per_mm": {"controller"},
     "control.ki_v_per_mm_s": {"controller"},
     "control.kd_v_s_per_mm": {"controller"},

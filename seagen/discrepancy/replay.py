@@ -10,7 +10,6 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from seagen.actuator import default_actuator
 from seagen.data.logimport import clock_resolution
 from seagen.plant import Plant, PlantConfig, kernel
 from seagen.plant.config import CATALOGUE
@@ -57,7 +56,7 @@ class Runs:
     meas: dict[str, np.ndarray]
     mask: np.ndarray
     names: list[str]
-    t: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    t: np.ndarray
     lag: np.ndarray = field(default_factory=lambda: np.zeros(0))
     res: np.ndarray = field(default_factory=lambda: np.zeros(0))
     declared: float | None = None
@@ -66,8 +65,8 @@ class Runs:
 
     def __post_init__(self) -> None:
         n, t = self.mask.shape
-        if self.t.shape != (n, t):  # rows on the paper's loop grid (runs_from_frames passes the logged t)
-            self.t = np.broadcast_to(np.arange(t) / default_actuator().loop_hz, (n, t)).copy()
+        if self.t.shape != (n, t):  # the logged instants, never a loop rate assumed
+            raise ValueError(f"Runs.t has shape {self.t.shape}, the trials {(n, t)}")
         if self.lag.shape != (n,):
             self.lag = np.ones(n)
         if self.res.shape != (n,):

@@ -1,0 +1,70 @@
+"""Consumers that must read the actuator (or the record of its loop) rather than the paper's numbers: the
+experiment's smoothing window, the discrepancy report's force regions, verify's controller sequence."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from seagen.actuator import actuator_from_dict, default_actuator, load_actuator
+from seagen.control.experiment import SMOOTH_S, smoothed
+from seagen.discrepancy.replay import Runs, runs_from_frames
+from seagen.discrepancy.residuals import region_labels
+from seagen.plant import PlantConfig
+from seagen.runtime.actq import act_q
+from seagen.runtime.control import ControlConfig, control_reset, control_step
+from seagen.verify.tick import sequence
+from tests.conftest import EXAMPLE_ACTUATOR as EXAMPLE
+
+
+@pytest.mark.parametrize("loop_hz", [default_actuator().loop_hz, load_actuator(EXAMPLE).loop_hz])
+def test_smoothing_window_is_50_ms_at_any_loop_rate(loop_hz):
+    """A force step is fully in the trailing mean SMOOTH_S after it: 5 ticks at 100 Hz, 10 at 200 Hz."""
+    n = round(SMOOTH_S * loop_hz)
+    t = np.arange(40) / loop_hz
+    force = (np.arange(40) >= 20).astype(float)
+    f = smoothed({"t_s": t[:, None], "force_n": force[:, None]})[:, 0]
+    assert f[20 + n - 2] < 1.0 and f[20 + n - 1] == 1.0
+
+
+def test_force_regions_are_shares_of_the_force_range():
+    """The report's force regions: 1, 5, 10 N on the paper's 20 N range; 5, 25, 50 N on a 100 N one."""
+    t = np.arange(6) / 100.0
+    frame = {"trial": 0, "t_s": t, "angle_set_deg": 12.0, "motor_v": 0.0, "enc": 0, "pot": 2000}
+    df = pd.DataFrame({**frame, "load_cell_n": 0.0, "force_n": [0.5, 3.0, 7.0, 12.0, 30.0, 60.0]})
+    runs = runs_from_frames([("x", df)])
+    d = default_actuator().to_dict()
+    d["control"]["force_max_n"] = 100.0
+    strong = actuator_from_dict(d, "100 N")
+    paper = region_labels(runs, PlantConfig().motor, default_actuator().control.force_max_n)["force"][0]
+    big = region_labels(runs, PlantConfig(actuator=strong).motor, 100.0)["force"][0]
+    assert list(paper) == ["<1 N", "1-5 N", "5-10 N", ">10 N", ">10 N", ">10 N"]
+    assert list(big) == ["<5 N", "<5 N", "5-25 N", "5-25 N", "25-50 N", ">50 N"]
+
+
+def test_runs_need_their_logged_instants():
+    """Runs without the logged instants is refused (no loop rate is assumed for them)."""
+    meas = {c: np.zeros((1, 3)) for c in ("enc", "pot", "load_cell_n", "force_n")}
+    with pytest.raises(ValueError, match="Runs.t"):
+        Runs(np.zeros(1), np.zeros((1, 3)), meas, np.ones((1, 3), bool), ["x"], np.zeros((0, 0)))
+
+
+def test_verify_sequence_runs_the_controller_on_a_fast_loop():
+    """verify's controller sequence on the paper's motor at a 1 kHz loop (encoder-jump bound 13 counts per
+    tick): its encoder steps stay within the bound, so the controller ticks without a fault (a walk of the
+    paper's 40-count steps would latch the encoder-jump fault at once and compare only zeros)."""
+    d = default_actuator().to_dict()
+    d["control"]["loop_hz"] = 1000.0
+    aq = act_q(actuator_from_dict(d, "1 kHz"))
+    assert aq.enc_jump_max < 40
+    qm = SimpleNamespace(inputs=[SimpleNamespace(signal=SimpleNamespace(name="force_n", lo=2.0, hi=18.0))])
+    enc, pot, force = sequence(qm, act=aq)
+    assert np.abs(np.diff(enc)).max() <= aq.enc_jump_max
+    cfg = ControlConfig.for_act(aq)
+    s = control_reset(cfg, enc[:1], pot[:1])
+    for k in range(len(enc)):
+        s = control_step(cfg, s, enc[k : k + 1], pot[k : k + 1], force[k : k + 1])
+    assert s.fault[0] == 0
