@@ -1,5 +1,6 @@
 """Consumers that must read the actuator (or the record of its loop) rather than the paper's numbers: the
-experiment's smoothing window, the discrepancy report's force regions, verify's controller sequence."""
+experiment's smoothing window, the discrepancy report's force regions, the replay's neutral series
+compliance, verify's controller sequence."""
 
 from __future__ import annotations
 
@@ -11,7 +12,8 @@ import pytest
 
 from seagen.actuator import actuator_from_dict, default_actuator, load_actuator
 from seagen.control.experiment import SMOOTH_S, smoothed
-from seagen.discrepancy.replay import Runs, runs_from_frames
+from seagen.data.protocol import Move, run_trials
+from seagen.discrepancy.replay import Runs, runs_from_frames, simulate
 from seagen.discrepancy.residuals import region_labels
 from seagen.plant import PlantConfig
 from seagen.runtime.actq import act_q
@@ -68,3 +70,15 @@ def test_verify_sequence_runs_the_controller_on_a_fast_loop():
     for k in range(len(enc)):
         s = control_step(cfg, s, enc[k : k + 1], pot[k : k + 1], force[k : k + 1])
     assert s.fault[0] == 0
+
+
+@pytest.mark.parametrize("act", [default_actuator(), load_actuator(EXAMPLE)], ids=["paper", "example"])
+def test_neutral_series_compliance_is_the_plant_without_it(act):
+    """A replayed set that switches series_compliance on at its neutral values moves the plant exactly as
+    the base with it off, on either design (the rigid structure is relative to the described spring)."""
+    base = PlantConfig(actuator=act).with_effect("series_compliance", False)
+    frame = run_trials(base, [Move(12.0, 3.0, 8.0, -6.0, 0.5)], seed=2, max_s=1.0)[0]
+    runs = runs_from_frames([("x", frame.assign(trial=0))])
+    off = simulate(base, [{}], runs)
+    on = simulate(base, [{"series_compliance": {"beta_mm_per_n2": 0.0}}], runs)
+    assert all(np.array_equal(off[c], on[c], equal_nan=True) for c in off)
