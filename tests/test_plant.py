@@ -42,7 +42,7 @@ def loading(df: pd.DataFrame, lo: float, hi: float) -> pd.DataFrame:
 def m_onset_friction(df):  # k x compression at which the load cell leaves zero
     from seagen.data.friction import friction_from_trial
 
-    return friction_from_trial(df)
+    return friction_from_trial(df, geometry().spring_n_per_mm)
 
 
 METRICS = {
