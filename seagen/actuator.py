@@ -41,9 +41,10 @@ Fields and units (the paper's actuator, `seagen/actuators/paper.toml`, is the de
               pot_avg_hz         Hz         rate at which the controller refreshes its block average of
                                             the pot (the average spans loop_hz / pot_avg_hz ticks)
     pot.vref_mv and the [control] fields after loop_hz are optional: a file without one takes the paper's
-    value (seagen/actuators/paper.toml: gains tuned on its simulated plant; retune yours with
-    `python -m seagen.control.tune`). A value equal to that default is left out of the recorded values and
-    the hash, so descriptions and model files written before these fields existed keep their hash.
+    value (seagen/actuators/paper.toml: gains tuned on its simulated plant; tune yours on your plant with
+    `python -m seagen.control.tune --actuator FILE`). A value equal to that default is left out of the
+    recorded values and the hash, so descriptions and model files written before these fields existed keep
+    their hash.
 
 Errors name the file and the field (`ActuatorError`, a user error: exit 2).
 """

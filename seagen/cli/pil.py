@@ -30,7 +30,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--cal-model", metavar="FILE", help="a calibration model exported into DIR: its NAME_step runs too"
     )
-    p.add_argument("--ticks", type=int, default=600, metavar="N", help="ticks per run (default 600 = 6 s)")
+    p.add_argument(
+        "--ticks", type=int, default=600, metavar="N", help="ticks per run (default 600: 6 s at 100 Hz)"
+    )
     p.add_argument("--actuators", type=int, default=10, metavar="K", help="contact angles (default 10)")
     p.add_argument(
         "--allow-pickle", action="store_true", help="unpickle a .pt (RUNS CODE: trusted files only)"
