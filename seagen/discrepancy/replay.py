@@ -415,7 +415,7 @@ def rows_place(p: Path) -> Path:
 
 def load_measured(path: str) -> list:
     """(name, DataFrame) for a CSV or every CSV in a directory, validated by the data schema; a folder
-    `data import` wrote is read from its logged/ rows (each at its own instant), not its 100 Hz copy."""
+    `data import` wrote is read from its logged/ rows (each at its own instant), not its loop-rate copy."""
     from seagen.data.schema import DataError, load_csv
 
     p = rows_place(Path(path))
