@@ -24,11 +24,11 @@ def test_shipped_parameters_are_the_defaults():
     """The tuner's baseline trial is exactly what ships (DEFAULT_PID and the MLP prediction average)."""
     from seagen.control.experiment import CONFIGS
     from seagen.control.tune import SHIPPED
-    from seagen.runtime.pid import DEFAULT_PID, PidParams
+    from seagen.runtime.pid import DEFAULT_PID, MOTOR_MAX_MV, TICK_S, PidParams
 
     p = dict(SHIPPED)
     pred_avg = p.pop("pred_avg")
-    assert PidParams.from_si(**p) == DEFAULT_PID
+    assert PidParams.from_si(**p, max_mv=MOTOR_MAX_MV, tick_s=TICK_S) == DEFAULT_PID
     assert CONFIGS["mlp_mcu"](0.1)[1].pred_avg == pred_avg and CONFIGS["mlp_mcu"](0.1)[1].pid == DEFAULT_PID
 
 

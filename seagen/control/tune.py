@@ -23,7 +23,7 @@ from seagen.control.experiment import (
 from seagen.errors import UserError
 from seagen.plant import PlantConfig
 from seagen.runtime.actq import act_q
-from seagen.runtime.pid import DEFAULT_PID_SI, PidParams, pid_si
+from seagen.runtime.pid import DEFAULT_PID_SI, MOTOR_MAX_MV, TICK_S, PidParams, pid_si
 
 # The shipped choice (DEFAULT_PID, MLP_PRED_AVG) in the search's parameters: the first trial, as a baseline.
 SHIPPED = {**DEFAULT_PID_SI, "pred_avg": MLP_PRED_AVG}
@@ -77,6 +77,8 @@ def tune(trials: int, seeds: tuple[int, ...], sampler_seed: int = 1):
             trial.suggest_float("d_alpha", 0.5, 1.0),
             margin_mm=trial.suggest_float("margin_mm", 0.02, 0.05),
             limit_v=trial.suggest_float("limit_v", 6.0, 10.0, step=0.5),
+            max_mv=MOTOR_MAX_MV,
+            tick_s=TICK_S,
         )
         mlp = mean_settling("mlp_mcu", pid, trial.suggest_int("pred_avg", 4, 10), seeds)
         sf = mean_settling("sf_mcu", pid, 1, seeds[:2])
