@@ -1,6 +1,6 @@
 """Consumers that must read the actuator (or the record of its loop) rather than the paper's numbers: the
 experiment's smoothing window, the discrepancy report's force regions, the replay's neutral series
-compliance, verify's controller sequence."""
+compliance, verify's controller sequence, export's calibration ranges."""
 
 from __future__ import annotations
 
@@ -82,3 +82,32 @@ def test_neutral_series_compliance_is_the_plant_without_it(act):
     off = simulate(base, [{}], runs)
     on = simulate(base, [{"series_compliance": {"beta_mm_per_n2": 0.0}}], runs)
     assert all(np.array_equal(off[c], on[c], equal_nan=True) for c in off)
+
+
+def test_export_calib_ranges_are_the_data_actuator_features(tmp_path):
+    """`export --calib DIR`: the feature ranges come from DIR's data on the actuator it was recorded on (its
+    actuator.toml: here the example's, its encoder and 200 Hz rows; the paper's geometry refuses the rows)."""
+    from seagen.actuator import to_toml
+    from seagen.data.features import derive
+    from seagen.data.schema import load_split, save_csv
+    from seagen.export import calib_ranges
+    from seagen.geometry import geometry
+
+    act = load_actuator(EXAMPLE)
+    raw = pd.DataFrame(
+        {
+            "trial": 0,
+            "t_s": np.arange(12) / act.loop_hz,
+            "angle_set_deg": 12.0,
+            "motor_v": 3.0,
+            "enc": np.arange(12) * 4000,
+            "pot": np.arange(1000, 1012),
+            "load_cell_n": 0.0,
+            "force_n": np.linspace(0.0, 6.0, 12),
+        }
+    )
+    save_csv(raw, tmp_path / "train.csv")
+    (tmp_path / "actuator.toml").write_text(to_toml(act))
+    names = ["compression_mm", "angle_deg"]
+    df = derive(load_split(tmp_path, "train"), geometry(act))
+    assert calib_ranges(str(tmp_path), names) == [[float(df[n].min()), float(df[n].max())] for n in names]

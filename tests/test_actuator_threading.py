@@ -317,6 +317,7 @@ def test_generate_and_train_on_the_second_design(tmp_path, monkeypatch, capsys):
     ctl = tmp_path / "ctl.pt"
     assert main(["train", "--data", str(data), "--model", "sf", "--task", "control", "--out", str(ctl)]) == 0
     _closed_loop_c_equals_twin(str(ctl), act)
+    _cloud_features_of_the_model_actuator(ctl, act, tmp_path)
     capsys.readouterr()
     assert main(["simulate", "--model", str(ctl), "--config", "mlp_mcu"]) == 2  # a shipped model's config
     err = capsys.readouterr().err.strip()
@@ -347,6 +348,32 @@ def _closed_loop_c_equals_twin(ctl: str, act) -> None:
     for f in ("out_mv", "desired", "comp", "pot_avg", "fault", "enc"):
         assert np.array_equal(recs["c"][f], recs["py"][f]), f
     assert np.abs(recs["c"]["out_mv"]).max() > 0  # the loop drove the motor
+
+
+def _cloud_features_of_the_model_actuator(ctl: Path, act, tmp: Path) -> None:
+    """A control model's cloud configuration feeds its float model the features of the actuator the model
+    file records (here one with another pot offset: other angles), not the paper's."""
+    from seagen.control.gentwin import float_features
+    from seagen.control.user import control_setups
+    from seagen.frontends.load import load_float_model
+    from seagen.modelfile import save_model
+    from seagen.reference import float_ref
+
+    d = act.to_dict()
+    d["pot"]["offset_deg"] -= 2.0
+    shifted = actuator_from_dict(d, "pot offset -2 deg")
+    saved = load_model(ctl)
+    saved["actuator"] = shifted.record()
+    save_model(saved, tmp / "ctl_shifted.pt")
+    setups, _row = control_setups(str(tmp / "ctl_shifted.pt"))
+    pred = setups["ctl_shifted_cloud"](0.1)[0]
+    fm = load_float_model(str(tmp / "ctl_shifted.pt"))
+    names = [s.name for s in fm.inputs]
+    enc, pot = np.array([[0, 90], [40, 130], [90, 180]]), np.array([[900, 1500]] * 3)
+    force = np.array([6.0, 12.0])
+    want = float_ref.predict(fm, float_features(names, enc, pot, force, geometry(shifted)))
+    paper = float_ref.predict(fm, float_features(names, enc, pot, force, geometry()))
+    assert np.array_equal(pred.fn(enc, pot, force), want) and not np.array_equal(want, paper)
 
 
 def test_simulate_on_another_design_runs_the_model_free_configs(tmp_path, capsys):
