@@ -11,13 +11,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from seagen.actuator import ActuatorError, actuator_from_dict, default_actuator, load_actuator
+from seagen.actuator import ActuatorError, actuator_from_dict, default_actuator, load_actuator, to_toml
 from seagen.cli import main
 from seagen.control.experiment import contact_deg, targets_n
 from seagen.data import protocol
 from seagen.data.features import derive
 from seagen.data.logimport import import_log, load_map
 from seagen.data.protocol import PUSH_MOVES, Move, run_trials, scaled_move
+from seagen.data.schema import save_csv
 from seagen.discrepancy.bench import draw
 from seagen.discrepancy.candidates import box, full_scale
 from seagen.discrepancy.families import family_case
@@ -25,6 +26,8 @@ from seagen.discrepancy.recalibrate import plausible_range
 from seagen.discrepancy.replay import runs_from_frames, simulate
 from seagen.discrepancy.residuals import region_labels
 from seagen.discrepancy.riglog import rig_csv, rig_map
+from seagen.export import calib_ranges
+from seagen.fit.data_summary import summarize
 from seagen.fit.kinematics import compression_for, shaft_force
 from seagen.geometry import geometry
 from seagen.modelfile import load_model
@@ -166,6 +169,14 @@ def _consumers(act, tmp: Path) -> dict[str, object]:
         family_case("lagged_pot_bias", 1, act)[0].gain,  # the lagged pot bias family
     )
     out["riglog"] = (rig_csv([RAW], act=act), rig_map(act))  # the rig log: PWM %, pot mV of its reference
+    folder = tmp / "data"  # a data folder recorded on `act`: export --calib's ranges, data summary
+    folder.mkdir(exist_ok=True)
+    save_csv(RAW, folder / "train.csv")
+    (folder / "actuator.toml").write_text(to_toml(act))
+    try:
+        out["data_folder"] = (calib_ranges(str(folder), ["angle_deg", "compression_mm"]), summarize(folder))
+    except Exception as e:  # another loop rate: rows 10 ms apart are refused
+        out["data_folder"] = str(e)
     return out
 
 
@@ -177,7 +188,8 @@ def _same(a, b) -> bool:
     return type(a) is type(b) and a == b
 
 
-GEOMETRY = {"plant", "protocol", "features", "replay", "c_act"}  # Eq. 2-6 (features: angle, compression)
+# Eq. 2-6 (features: angle, compression; a data folder's: export --calib's ranges, data summary)
+GEOMETRY = {"plant", "protocol", "features", "replay", "c_act", "data_folder"}
 MOTOR = {"plant", "protocol", "replay"}  # the simulated motor
 # Which consumers each field of the description must move (a consumer that ignores one fails the test).
 EXPECTED = {
@@ -188,8 +200,8 @@ EXPECTED = {
     "motor.stall_force_n": MOTOR,
     "motor.time_constant_s": MOTOR,
     "transmission.lead_mm": GEOMETRY | {"verify"},
-    "transmission.friction_n": {"kinematics"},
-    "spring.stiffness_n_per_mm": MOTOR | {"kinematics", "verify"},
+    "transmission.friction_n": {"kinematics", "data_folder"},  # and data summary's kinematics error
+    "spring.stiffness_n_per_mm": MOTOR | {"kinematics", "verify", "data_folder"},  # and its friction
     "linkage.cb_mm": GEOMETRY | {"verify"},
     "linkage.home_deg": GEOMETRY | {"verify"},
     "linkage.angle_min_deg": MOTOR
@@ -217,6 +229,7 @@ EXPECTED = {
         "catalogue",
         "riglog",
         "verify",
+        "data_folder",
     },
     "pot.vref_mv": {"riglog"},  # the pot in mV of a rig log
     "control.loop_hz": {
@@ -225,7 +238,8 @@ EXPECTED = {
         "replay",
         "c_act",
         "controller",
-    },  # replay: the protocol's rows
+        "data_folder",
+    },  # replay: the protocol's rows; a data folder's rows at another rate are refused
     # faults, targets, peaks, the discrepancy report's force regions
     "control.force_max_n": {"controller", "experiment", "verify", "protocol", "discrepancy"},
     "control.kp_v_per_mm": {"controller"},
