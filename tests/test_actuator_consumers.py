@@ -111,3 +111,29 @@ def test_export_calib_ranges_are_the_data_actuator_features(tmp_path):
     names = ["compression_mm", "angle_deg"]
     df = derive(load_split(tmp_path, "train"), geometry(act))
     assert calib_ranges(str(tmp_path), names) == [[float(df[n].min()), float(df[n].max())] for n in names]
+
+
+def test_relative_errors_count_rows_above_a_share_of_the_force_range():
+    """The paper-style relative errors take rows above 5 N on its 20 N range, 1 N on a 4 N one (its trials
+    peak below 5 N: the paper's threshold would leave no row and the errors NaN)."""
+    import warnings
+
+    from seagen.data.features import derive
+    from seagen.data.protocol import PUSH_MOVES, scaled_move
+    from seagen.fit.kinematics import error_threshold_n, kinematics_errors
+    from seagen.geometry import geometry
+
+    d = default_actuator().to_dict()
+    d["control"]["force_max_n"] = 4.0
+    small = actuator_from_dict(d, "4 N")
+    assert error_threshold_n(default_actuator()) == 5.0 and error_threshold_n(small) == 1.0
+    cfg = PlantConfig(actuator=small)
+    frames = run_trials(cfg, [scaled_move(a, PUSH_MOVES[0], small) for a in (8.0, 16.0, 24.0)], seed=1)
+    df = derive(
+        pd.concat([f.assign(trial=i) for i, f in enumerate(frames)], ignore_index=True), geometry(small)
+    )
+    assert df.force_n.max() < 5.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no mean of an empty selection
+        errs = kinematics_errors(df, geometry(small))
+    assert errs["rows"] > 0 and np.isfinite(errs["error_avg_pct"]) and np.isfinite(errs["error_max_pct"])

@@ -240,8 +240,8 @@ EXPECTED = {
         "controller",
         "data_folder",
     },  # replay: the protocol's rows; a data folder's rows at another rate are refused
-    # faults, targets, peaks, the discrepancy report's force regions
-    "control.force_max_n": {"controller", "experiment", "verify", "protocol", "discrepancy"},
+    # faults, targets, peaks, the discrepancy report's force regions, the rows of the relative errors
+    "control.force_max_n": {"controller", "experiment", "verify", "protocol", "discrepancy", "data_folder"},
     "control.kp_v_per_mm": {"controller"},
     "control.ki_v_per_mm_s": {"controller"},
     "control.kd_v_s_per_mm": {"controller"},
