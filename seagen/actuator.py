@@ -176,6 +176,24 @@ class Actuator:
         """sha256 of the recorded values (formatting, comments and defaulted optional fields do not count)."""
         return hashlib.sha256(json.dumps(self.recorded(), sort_keys=True).encode()).hexdigest()
 
+    def differences(self, other: Actuator, most: int = 3) -> str:
+        """The fields `other` gives otherwise, as 'table.field X, not Y' (at most `most`, then a count)."""
+        mine, theirs = self.to_dict(), other.to_dict()
+        out = []
+        for table, fields in mine.items():
+            if not isinstance(fields, dict):
+                if fields != theirs[table]:
+                    out.append(f"{table} {theirs[table]!r}, not {fields!r}")
+                continue
+            out += [
+                f"{table}.{k} {theirs[table][k]!r}, not {v!r}"
+                for k, v in fields.items()
+                if v != theirs[table][k]
+            ]
+        out = [x for x in out if not x.startswith("name ")] or out  # the messages show both names
+        more = f" and {len(out) - most} more" if len(out) > most else ""
+        return "; ".join(out[:most]) + more
+
     def record(self) -> dict[str, Any]:
         """What a model file stores: the parsed values and their hash (`actuator_from_record` reads it)."""
         return {"values": self.recorded(), "sha256": self.digest()}

@@ -286,6 +286,7 @@ def same_actuator(act: Actuator, given: Actuator | None, where: str) -> Actuator
     if given is not None and given.digest() != act.digest():
         raise ActuatorError(
             f"{where}: the model was trained for actuator '{act.name}' (sha256 {act.digest()[:12]}), "
-            f"not the given '{given.name}' (sha256 {given.digest()[:12]})"
+            f"not the given '{given.name}' (sha256 {given.digest()[:12]}): the given one has "
+            f"{act.differences(given)}"
         )
     return act

@@ -165,3 +165,26 @@ def test_pot_reference_and_pot_average_are_optional_and_default_to_the_papers():
     d["control"]["pot_avg_hz"] = 200.0  # faster than the 100 Hz loop: the C constants are refused
     with pytest.raises(ActuatorError, match="below the 200 Hz of the pot average \\(control.pot_avg_hz\\)"):
         act_q(actuator_from_dict(d, "fast.toml"))
+
+
+def test_a_refusal_names_the_fields_that_differ():
+    """Two descriptions of one name that differ in a controller setting: the model's and the data's refusal
+    name the field and both values (the message showed the same name twice and two hashes); the names
+    are left out of the list when other fields differ, and at most three fields are spelled out."""
+    import dataclasses
+
+    from seagen.data.schema import data_actuator
+    from seagen.modelfile import same_actuator
+
+    paper = default_actuator()
+    tuned = dataclasses.replace(paper, control=dataclasses.replace(paper.control, limit_v=9.0))
+    assert paper.differences(tuned) == "control.limit_v 9.0, not 6.5"
+    with pytest.raises(ActuatorError, match=r"the given one has control\.limit_v 9\.0, not 6\.5$"):
+        same_actuator(paper, tuned, "m.pt")
+    other = load_actuator(EXAMPLE_ACTUATOR)
+    said = paper.differences(other)
+    assert not said.startswith("name") and said.endswith(" more") and said.count(";") == 2
+    renamed = dataclasses.replace(paper, name="mine")
+    assert paper.differences(renamed) == "name 'mine', not " + repr(paper.name)
+    with pytest.raises(ActuatorError, match=r"control\.limit_v 9\.0, not 6\.5\); drop"):
+        data_actuator("/nonexistent-folder", tuned)

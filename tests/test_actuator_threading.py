@@ -407,6 +407,7 @@ def test_simulate_on_another_design_runs_the_model_free_configs(tmp_path, capsys
     assert main(["simulate", "--actuator", str(EXAMPLE), "--calibration", "default:mlp_calibration"]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "default:mlp_calibration" in err and "trained for actuator" in err
+    assert f"the simulated actuator is --actuator {EXAMPLE}" in err and "motor.supply_v 24.0, not 12.0" in err
     bad = tmp_path / "bad.toml"
     bad.write_text(EXAMPLE.read_text().replace("stiffness_n_per_mm = 8.4", "stiffness_n_per_mm = -1.0"))
     assert main(["simulate", "--actuator", str(bad)]) == 2
@@ -474,3 +475,20 @@ def test_protocol_peaks_follow_the_force_range():
         assert mv.peak_n == pytest.approx(1.5 * m[1]) and abs(mv.retract_v) <= act.motor.supply_v
     for mv, df in zip(moves, run_trials(PlantConfig(actuator=act), moves, seed=2), strict=True):
         assert df.force_n.max() >= mv.peak_n and df.t_s.iloc[-1] < 4.0, mv
+
+
+def test_a_geometry_the_c_cannot_hold_is_refused_before_any_work(tmp_path, capsys):
+    """A pot offset beyond the C's Q24 degrees (|deg| < 128), given with --actuator: `data generate`
+    refuses it at once (exit 2, one line naming the file, the field and the bound), writing nothing; it
+    used to pass data generation and training and be refused only by `seagen export`."""
+    bad = tmp_path / "wide_pot.toml"
+    text = EXAMPLE.read_text()
+    assert "offset_deg = " in text
+    bad.write_text(
+        "\n".join("offset_deg = -200.0" if x.startswith("offset_deg") else x for x in text.splitlines())
+    )
+    out = tmp_path / "data"
+    assert main(["data", "generate", "--out", str(out), "--actuator", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and str(bad) in err and "pot.offset_deg -200" in err and "|deg| < 128" in err
+    assert not out.exists()

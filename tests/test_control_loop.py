@@ -137,3 +137,34 @@ def test_cloud_kinematic_inverse_is_the_given_actuators():
     assert np.allclose(got, (force + act.friction_n) / act.stiffness_n_per_mm)
     paper = kinematic_cloud(0.1, 10.0).fn(None, None, force)
     assert not np.allclose(got, paper)
+
+
+def test_runs_stuck_at_the_command_limit_are_named():
+    """A run that never settles and sits at +-limit_v after contact counts toward the share at the limit
+    (settled runs and ticks before contact do not); `simulate` then prints a note naming the limit, where
+    it comes from and the field to change, and prints 'never' (no nan, no warning) for a settling time to
+    the final force that no run reached."""
+    import dataclasses
+    import warnings
+
+    from seagen.actuator import default_actuator
+    from seagen.cli.control import limit_notes
+    from seagen.control.experiment import format_table2, limit_share
+
+    act = default_actuator()
+    act48 = dataclasses.replace(act, motor=dataclasses.replace(act.motor, supply_v=48.0))
+    lim = round(act.control.limit_v * 1000)
+    out = np.array([[0, 0, 0], [lim, 0, -lim], [lim, lim, -lim], [lim - 1, lim, -lim]])
+    rec = {"out_mv": out, "true_force_n": np.array([[0, 0, 0], [1, 0, 1], [1, 1, 1], [1, 1, 1]])}
+    # column 0: 2 of 3 ticks after contact at the limit; 1: settled (ignored); 2: 3 of 3
+    assert limit_share(rec, np.array([np.nan, 0.5, np.nan]), act48) == 5 / 6
+    assert limit_share(rec, np.array([0.1, 0.5, 0.2]), act48) == 0.0
+    row = {"error_avg_n": 9.0, "settling_s": None, "settled": 0, "angles": 10, "settling_final_s": None}
+    table = {"kin_mcu": {"30": {**row, "at_limit": 0.85}, "15": {**row, "at_limit": 0.2}}}
+    (note,) = limit_notes(table, act48)
+    assert "+-6.5 V" in note and "control.limit_v" in note and "supply 48 V" in note and "30 N (85%)" in note
+    assert "15 N" not in note
+    assert limit_notes({"kin_mcu": {"15": table["kin_mcu"]["15"]}}, act48) == []
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert "never" in format_table2(table, paper_figures=False).splitlines()[1].split()[-1]

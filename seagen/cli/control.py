@@ -92,7 +92,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Run each configuration at its actuator's targets over the contact angles; print Table II or JSON."""
-    from seagen.actuator import is_default
+    from seagen.actuator import ActuatorError, is_default
     from seagen.control.experiment import (
         CONFIGS,
         MODEL_FREE,
@@ -124,7 +124,17 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.calibration:  # first: one for another actuator is refused before the control model's export
         from seagen.control.user import force_estimator
 
-        estimator = force_estimator(args.calibration, args.allow_pickle, act)
+        try:
+            estimator = force_estimator(args.calibration, args.allow_pickle, act)
+        except ActuatorError as e:  # say where the simulated ("given") actuator came from
+            origin = (
+                f"the one --model {args.model} was trained for"
+                if args.model
+                else f"--actuator {args.actuator}"
+                if args.actuator
+                else "the paper's (no --model or --actuator)"
+            )
+            raise ActuatorError(f"--calibration {e}; the simulated actuator is {origin}") from None
     if args.model:
         from seagen.control.user import control_setups
 
@@ -154,7 +164,35 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                 plant_cfg,
             )
     print(json.dumps(table, indent=2) if args.json else format_table2(table, rows, paper_figures=paper))
+    for note in limit_notes(table, act):
+        print(note, file=sys.stderr)
     return 0
+
+
+LIMIT_NOTE_SHARE = 0.5  # runs that never settle and sit at the command limit this share of the time
+
+
+def limit_notes(table: dict[str, dict[str, dict]], act: Actuator) -> list[str]:
+    """One line per configuration whose unsettled runs sit at the command limit most of the time after
+    contact: the limit, where it comes from, and what to change."""
+    from seagen.actuator import default_actuator
+
+    lim = min(act.control.limit_v, act.motor.supply_v)
+    left_out = act.control.limit_v == default_actuator().control.limit_v
+    out = []
+    for name, rows in table.items():
+        hit = [(t, r["at_limit"]) for t, r in rows.items() if r["settled"] < r["angles"]]
+        hit = [(t, share) for t, share in hit if share >= LIMIT_NOTE_SHARE]
+        if hit:
+            where = ", ".join(f"{t} N ({share:.0%})" for t, share in hit)
+            why = ", the paper's value, taken when left out" if left_out else ""
+            out.append(
+                f"seagen simulate: note: {name}'s runs that never settle sit at the command limit "
+                f"+-{lim:g} V ({act.source}: control.limit_v{why}; supply {act.motor.supply_v:g} V) for "
+                f"this share of the time after contact: {where}; a higher control.limit_v may let them "
+                "settle (the gains are set in the same table)"
+            )
+    return out
 
 
 def model_free_note(act: Actuator) -> str:

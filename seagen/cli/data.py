@@ -24,10 +24,20 @@ def add_actuator(p: argparse.ArgumentParser, help: str = ACTUATOR_HELP) -> None:
 
 
 def given_actuator(args: argparse.Namespace) -> Actuator | None:
-    """The description --actuator names, validated (errors name the file and field), or None."""
-    from seagen.actuator import load_actuator
+    """The description --actuator names, validated (errors name the file and field) and its fixed-point
+    formats proven (a geometry the generated C cannot hold is refused now, not at export after the data
+    and the training), or None."""
+    from seagen.actuator import ActuatorError, load_actuator
+    from seagen.runtime.actq import act_q
 
-    return load_actuator(args.actuator) if getattr(args, "actuator", None) else None
+    if not getattr(args, "actuator", None):
+        return None
+    act = load_actuator(args.actuator)
+    try:
+        act_q(act)
+    except ActuatorError as e:
+        raise ActuatorError(f"{e}; the generated C could not run this design") from None
+    return act
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -91,11 +101,12 @@ def cmd_generate(args: argparse.Namespace) -> int:
         raise UserError(f"{out}: {why}")
     with tqdm(total=3, desc="simulating", unit="split") as bar:
 
-        def step(split: str) -> None:
-            bar.set_postfix_str(split)
+        def step(split: str) -> None:  # called as each split starts: the count is of the splits done
             bar.update(0 if split == "train" else 1)
+            bar.set_description_str(f"simulating {split}")
 
         splits = generate(cfg, seed=args.seed, progress=step)
+        bar.set_description_str("simulated")
         bar.update(1)
     info = {
         ACTUATOR_FILE: to_toml(act, "the actuator these data were simulated on"),

@@ -102,6 +102,23 @@ def metrics(rec: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     }
 
 
+def _mean_or_none(x: np.ndarray) -> float | None:
+    """The mean of the finite values (3 decimals), None when there are none."""
+    return None if np.isnan(x).all() else round(float(np.nanmean(x)), 3)
+
+
+def limit_share(rec: dict[str, np.ndarray], settling_s: np.ndarray, act: Actuator) -> float:
+    """Share of the ticks after contact, over the runs that never settle, at which the command sits at
+    the controller's limit (control.limit_v within the supply); 0 when every run settles."""
+    never = np.isnan(settling_s)
+    if not never.any():
+        return 0.0
+    lim_mv = min(round(act.control.limit_v * 1000), round(act.motor.supply_v * 1000))
+    after = rec["true_force_n"] > 0
+    at = (np.abs(rec["out_mv"]) >= lim_mv) & after
+    return float(at[:, never].sum() / max(int(after[:, never].sum()), 1))
+
+
 def runs(
     pred: McuPredictor | CloudPredictor,
     ctl: ControlConfig,
@@ -155,10 +172,11 @@ def run_config(
         s = m["settling_s"]
         out[f"{target:g}"] = {
             "error_avg_n": round(float(m["error_avg_n"].mean()), 4),
-            "settling_s": None if np.isnan(s).all() else round(float(np.nanmean(s)), 3),
+            "settling_s": _mean_or_none(s),
             "settled": int(np.isfinite(s).sum()),
             "angles": len(s),
-            "settling_final_s": round(float(np.nanmean(m["settling_final_s"])), 3),
+            "settling_final_s": _mean_or_none(m["settling_final_s"]),
+            "at_limit": round(limit_share(rec, s, (plant_cfg or PlantConfig()).actuator), 3),
             "trace": rec,
         }
         if estimator is not None:
@@ -230,7 +248,8 @@ def sweep(
                 "settling_max_s": round(max(st), 3) if st else None,
                 "settled": sum(r["settled"] for r in rows),
                 "angles": sum(r["angles"] for r in rows),
-                "settling_final_s": round(float(np.mean([r["settling_final_s"] for r in rows])), 3),
+                "settling_final_s": _mean_or_none(np.array([r["settling_final_s"] for r in rows], float)),
+                "at_limit": round(float(np.mean([r["at_limit"] for r in rows])), 3),
                 "seeds": seeds,
             }
             if "estimate_error_n" in rows[0]:
@@ -269,11 +288,11 @@ def format_table2(
                 lo, hi = r.get("settling_min_s"), r.get("settling_max_s")
                 rng = f"{'-' if lo is None else f'{lo:.2f}-{hi:.2f}':>12}"
             pe, ps = paper.get(t, (np.nan, np.nan))  # a target the paper did not run: nan
-            settled = f"{r['settled']}/{r['angles']}"
+            settled, fs = f"{r['settled']}/{r['angles']}", r["settling_final_s"]
             e = f"{r['estimate_error_n']:>12.2f}" if est else ""
             p = f"{rows_of.get(name, 'SF'):>8}{pe:>9.2f}{ps:>12.2f}" if paper_shown else ""
             lines.append(
                 f"{name:<{width}}{t + ' N':>{fw}}{r['error_avg_n']:>9.2f}{s:>12}{rng}{settled:>9}"
-                f"{r['settling_final_s']:>12.2f}{e}{p}"
+                f"{'never' if fs is None else f'{fs:.2f}':>12}{e}{p}"
             )
     return "\n".join(lines)

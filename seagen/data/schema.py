@@ -117,6 +117,6 @@ def data_actuator(
         shown = path if path.is_file() else f"{data_dir} (no {ACTUATOR_FILE}: the paper's actuator)"
         raise ActuatorError(
             f"{shown}: the data were recorded on actuator '{act.name}' (sha256 {act.digest()[:12]}), but "
-            f"{given_as} '{given.name}' (sha256 {given.digest()[:12]}); {remedy}"
+            f"{given_as} '{given.name}' (sha256 {given.digest()[:12]}: {act.differences(given)}); {remedy}"
         )
     return act

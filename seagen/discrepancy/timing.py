@@ -123,8 +123,10 @@ def fit_timing(base, runs: Runs, sig_enc: np.ndarray, pinned: float | None = Non
         best = float(band[int(np.argmin(_whole(base, runs, sig_enc, band)))])
     out = Timing(best if pinned is None else float(pinned), best, pinned, period, chi)
     if pinned is not None:
-        if float(pinned) not in chi:
-            chi[float(pinned)] = float(_profile(base, runs, sig_enc, np.array([float(pinned)]))[0])
+        # the polish may end between the grids' lags: score both on the switch steps
+        missing = np.array([lag for lag in sorted({float(pinned), best}) if lag not in chi])
+        if missing.size:
+            chi.update(zip(missing.tolist(), _profile(base, runs, sig_enc, missing).tolist(), strict=True))
         worse = chi[float(pinned)] - chi[best]
         if worse > DISAGREE_CHI2 and abs(best - float(pinned)) >= 0.25:
             name = NAMES.get(float(pinned), f"lag {pinned}")
