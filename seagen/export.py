@@ -49,11 +49,13 @@ class Export:
 
 
 def calib_ranges(data_dir: str, names: list[str]) -> list[list[float]]:
-    """Observed [min, max] of each named feature on the training split of a data directory."""
+    """Observed [min, max] of each named feature on the training split of a data directory (its features on
+    the actuator the data were recorded on)."""
     from seagen.data.features import derive
-    from seagen.data.schema import load_split
+    from seagen.data.schema import data_actuator, load_split
+    from seagen.geometry import geometry
 
-    df = derive(load_split(data_dir, "train"))
+    df = derive(load_split(data_dir, "train"), geometry(data_actuator(data_dir)))
     missing = [n for n in names if n not in df.columns]
     if missing:
         raise UserError(f"{data_dir}: cannot compute a calibration range for {', '.join(missing)}")

@@ -11,19 +11,23 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from seagen.actuator import ActuatorError, actuator_from_dict, default_actuator, load_actuator
+from seagen.actuator import ActuatorError, actuator_from_dict, default_actuator, load_actuator, to_toml
 from seagen.cli import main
 from seagen.control.experiment import contact_deg, targets_n
 from seagen.data import protocol
 from seagen.data.features import derive
 from seagen.data.logimport import import_log, load_map
 from seagen.data.protocol import PUSH_MOVES, Move, run_trials, scaled_move
+from seagen.data.schema import save_csv
 from seagen.discrepancy.bench import draw
 from seagen.discrepancy.candidates import box, full_scale
 from seagen.discrepancy.families import family_case
 from seagen.discrepancy.recalibrate import plausible_range
 from seagen.discrepancy.replay import runs_from_frames, simulate
+from seagen.discrepancy.residuals import region_labels
 from seagen.discrepancy.riglog import rig_csv, rig_map
+from seagen.export import calib_ranges
+from seagen.fit.data_summary import summarize
 from seagen.fit.kinematics import compression_for, shaft_force
 from seagen.geometry import geometry
 from seagen.modelfile import load_model
@@ -84,6 +88,7 @@ RAW = pd.DataFrame(
         "force_n": np.linspace(0.0, 6.0, 12),
     }
 )
+RAW_RUNS = runs_from_frames([("raw", RAW)])
 LOG_MAP = """
 [columns.t_s]
 column = "ms"
@@ -151,7 +156,10 @@ def _consumers(act, tmp: Path) -> dict[str, object]:
     out["experiment"] = (targets_n(act), contact_deg(act))  # simulate's targets and contact angles
     walk = sensor_walk(1, 4, pot_max=aq.pot_max)[1]  # verify's tick sequence: the pot's start, its range
     out["verify"] = (enc_span(act), walk)  # and verify's synthetic encoder range
-    out["discrepancy"] = box("pot_voltage_drop", "counts_per_unit_current", full_scale(cfg))  # search box
+    out["discrepancy"] = (
+        box("pot_voltage_drop", "counts_per_unit_current", full_scale(cfg)),  # search box
+        list(region_labels(RAW_RUNS, cfg.motor, act.control.force_max_n)["force"].ravel()),  # force regions
+    )
     fx = PlantConfig(actuator=act).effects  # the catalogue's pot effects: shares of the pot's full scale
     out["catalogue"] = (
         fx.pot_voltage_drop.counts_per_unit_current,
@@ -161,6 +169,14 @@ def _consumers(act, tmp: Path) -> dict[str, object]:
         family_case("lagged_pot_bias", 1, act)[0].gain,  # the lagged pot bias family
     )
     out["riglog"] = (rig_csv([RAW], act=act), rig_map(act))  # the rig log: PWM %, pot mV of its reference
+    folder = tmp / "data"  # a data folder recorded on `act`: export --calib's ranges, data summary
+    folder.mkdir(exist_ok=True)
+    save_csv(RAW, folder / "train.csv")
+    (folder / "actuator.toml").write_text(to_toml(act))
+    try:
+        out["data_folder"] = (calib_ranges(str(folder), ["angle_deg", "compression_mm"]), summarize(folder))
+    except Exception as e:  # another loop rate: rows 10 ms apart are refused
+        out["data_folder"] = str(e)
     return out
 
 
@@ -172,7 +188,8 @@ def _same(a, b) -> bool:
     return type(a) is type(b) and a == b
 
 
-GEOMETRY = {"plant", "protocol", "features", "replay", "c_act"}  # Eq. 2-6 (features: angle, compression)
+# Eq. 2-6 (features: angle, compression; a data folder's: export --calib's ranges, data summary)
+GEOMETRY = {"plant", "protocol", "features", "replay", "c_act", "data_folder"}
 MOTOR = {"plant", "protocol", "replay"}  # the simulated motor
 # Which consumers each field of the description must move (a consumer that ignores one fails the test).
 EXPECTED = {
@@ -183,8 +200,8 @@ EXPECTED = {
     "motor.stall_force_n": MOTOR,
     "motor.time_constant_s": MOTOR,
     "transmission.lead_mm": GEOMETRY | {"verify"},
-    "transmission.friction_n": {"kinematics"},
-    "spring.stiffness_n_per_mm": MOTOR | {"kinematics", "verify"},
+    "transmission.friction_n": {"kinematics", "data_folder"},  # and data summary's kinematics error
+    "spring.stiffness_n_per_mm": MOTOR | {"kinematics", "verify", "data_folder"},  # and its friction
     "linkage.cb_mm": GEOMETRY | {"verify"},
     "linkage.home_deg": GEOMETRY | {"verify"},
     "linkage.angle_min_deg": MOTOR
@@ -212,6 +229,7 @@ EXPECTED = {
         "catalogue",
         "riglog",
         "verify",
+        "data_folder",
     },
     "pot.vref_mv": {"riglog"},  # the pot in mV of a rig log
     "control.loop_hz": {
@@ -220,8 +238,10 @@ EXPECTED = {
         "replay",
         "c_act",
         "controller",
-    },  # replay: the protocol's rows
-    "control.force_max_n": {"controller", "experiment", "verify", "protocol"},  # faults, targets, peaks
+        "data_folder",
+    },  # replay: the protocol's rows; a data folder's rows at another rate are refused
+    # faults, targets, peaks, the discrepancy report's force regions, the rows of the relative errors
+    "control.force_max_n": {"controller", "experiment", "verify", "protocol", "discrepancy", "data_folder"},
     "control.kp_v_per_mm": {"controller"},
     "control.ki_v_per_mm_s": {"controller"},
     "control.kd_v_s_per_mm": {"controller"},
@@ -311,6 +331,7 @@ def test_generate_and_train_on_the_second_design(tmp_path, monkeypatch, capsys):
     ctl = tmp_path / "ctl.pt"
     assert main(["train", "--data", str(data), "--model", "sf", "--task", "control", "--out", str(ctl)]) == 0
     _closed_loop_c_equals_twin(str(ctl), act)
+    _cloud_features_of_the_model_actuator(ctl, act, tmp_path)
     capsys.readouterr()
     assert main(["simulate", "--model", str(ctl), "--config", "mlp_mcu"]) == 2  # a shipped model's config
     err = capsys.readouterr().err.strip()
@@ -341,6 +362,32 @@ def _closed_loop_c_equals_twin(ctl: str, act) -> None:
     for f in ("out_mv", "desired", "comp", "pot_avg", "fault", "enc"):
         assert np.array_equal(recs["c"][f], recs["py"][f]), f
     assert np.abs(recs["c"]["out_mv"]).max() > 0  # the loop drove the motor
+
+
+def _cloud_features_of_the_model_actuator(ctl: Path, act, tmp: Path) -> None:
+    """A control model's cloud configuration feeds its float model the features of the actuator the model
+    file records (here one with another pot offset: other angles), not the paper's."""
+    from seagen.control.gentwin import float_features
+    from seagen.control.user import control_setups
+    from seagen.frontends.load import load_float_model
+    from seagen.modelfile import save_model
+    from seagen.reference import float_ref
+
+    d = act.to_dict()
+    d["pot"]["offset_deg"] -= 2.0
+    shifted = actuator_from_dict(d, "pot offset -2 deg")
+    saved = load_model(ctl)
+    saved["actuator"] = shifted.record()
+    save_model(saved, tmp / "ctl_shifted.pt")
+    setups, _row = control_setups(str(tmp / "ctl_shifted.pt"))
+    pred = setups["ctl_shifted_cloud"](0.1)[0]
+    fm = load_float_model(str(tmp / "ctl_shifted.pt"))
+    names = [s.name for s in fm.inputs]
+    enc, pot = np.array([[0, 90], [40, 130], [90, 180]]), np.array([[900, 1500]] * 3)
+    force = np.array([6.0, 12.0])
+    want = float_ref.predict(fm, float_features(names, enc, pot, force, geometry(shifted)))
+    paper = float_ref.predict(fm, float_features(names, enc, pot, force, geometry()))
+    assert np.array_equal(pred.fn(enc, pot, force), want) and not np.array_equal(want, paper)
 
 
 def test_simulate_on_another_design_runs_the_model_free_configs(tmp_path, capsys):

@@ -26,11 +26,11 @@ def test_shipped_parameters_are_the_defaults():
     """The tuner's baseline trial is exactly what ships (DEFAULT_PID and the MLP prediction average)."""
     from seagen.control.experiment import CONFIGS
     from seagen.control.tune import SHIPPED
-    from seagen.runtime.pid import DEFAULT_PID, PidParams
+    from seagen.runtime.pid import DEFAULT_PID, MOTOR_MAX_MV, TICK_S, PidParams
 
     p = dict(SHIPPED)
     pred_avg = p.pop("pred_avg")
-    assert PidParams.from_si(**p) == DEFAULT_PID
+    assert PidParams.from_si(**p, max_mv=MOTOR_MAX_MV, tick_s=TICK_S) == DEFAULT_PID
     assert CONFIGS["mlp_mcu"](0.1)[1].pred_avg == pred_avg and CONFIGS["mlp_mcu"](0.1)[1].pid == DEFAULT_PID
 
 
@@ -81,9 +81,10 @@ def test_a_gain_the_c_cannot_hold_is_refused_naming_the_field_and_its_bound(tmp_
     from tests.conftest import EXAMPLE_ACTUATOR
 
     top = gain_max_si(1 / 500.0)["kd_v_s_mm"]
-    PidParams.from_si(30.0, 5.0, top * 0.999, 0.9, tick_s=1 / 500.0)
+    rest = {"margin_mm": 0.02, "limit_v": 6.5, "max_mv": 12000, "tick_s": 1 / 500.0}
+    PidParams.from_si(30.0, 5.0, top * 0.999, 0.9, **rest)
     with pytest.raises(GainRangeError, match=r"control\.kd_v_s_per_mm 3 V s/mm at 500 Hz .*at most 1\.049"):
-        PidParams.from_si(30.0, 5.0, 3.0, 0.9, tick_s=1 / 500.0)
+        PidParams.from_si(30.0, 5.0, 3.0, 0.9, **rest)
     bad = tmp_path / "kd.toml"
     bad.write_text(EXAMPLE_ACTUATOR.read_text() + "kd_v_s_per_mm = 30.0\n")  # [control] is the last table
     out = tmp_path / "data"

@@ -56,5 +56,6 @@ def test_current_estimate_follows_the_base_motor() -> None:
     case, held, _, _ = _held_residual("load_cell_offset")
     other = dataclasses.replace(case.base.motor, supply_v=2 * case.base.motor.supply_v)
     assert not np.allclose(features(held, case.base.motor)["current"], features(held, other)["current"])
-    a, b = region_labels(held, case.base.motor)["current"], region_labels(held, other)["current"]
+    top = case.base.actuator.control.force_max_n
+    a, b = region_labels(held, case.base.motor, top)["current"], region_labels(held, other, top)["current"]
     assert (a != b).any()

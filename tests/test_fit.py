@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 from conftest_fit import default_models, fit_data, fit_frames  # noqa: F401  (session fixtures)
 
+from seagen.actuator import default_actuator
+from seagen.fit.kinematics import error_threshold_n
 from seagen.fit.predict import kinematics_predict, predict, task_errors
 from seagen.modelfile import FORMAT, FeatureSpec, load_model
 
@@ -19,6 +21,7 @@ CONTRACT_KEYS = (
 )  # fmt: skip
 # (model, paper's test average error in %, the bar to beat: Table IV)
 PAPER_BARS = (("mlp_calibration", 10.18), ("sf_calibration", 8.06))
+PAPER_THRESHOLD_N = error_threshold_n(default_actuator())  # the paper's rows above 5 N
 
 
 @pytest.mark.parametrize("name", DEFAULT_NAMES)
@@ -26,8 +29,10 @@ def test_cuts_kinematics_error_by_65_percent(name: str, default_models: dict, fi
     """Each default model's test average error is <= 35 % of the naive kinematics' ('over 65 %')."""
     model = load_model(default_models[name])
     test = fit_frames["test"]
-    base = task_errors(model["task"], kinematics_predict(model["task"], test), test)["error_avg_pct"]
-    ours = task_errors(model["task"], predict(model, test), test)["error_avg_pct"]
+    base = task_errors(model["task"], kinematics_predict(model["task"], test), test, PAPER_THRESHOLD_N)[
+        "error_avg_pct"
+    ]
+    ours = task_errors(model["task"], predict(model, test), test, PAPER_THRESHOLD_N)["error_avg_pct"]
     assert ours <= 0.35 * base, f"{name}: {ours:.2f} % vs kinematics {base:.2f} %"
 
 
@@ -67,7 +72,7 @@ def test_model_file_round_trip(name: str, default_models: dict, fit_frames: dict
     else:
         assert model["sf"]["inputs"] == list(spec.inputs) and len(model["sf"]["coef"]) == 10
     test = fit_frames["test"]
-    again = task_errors(model["task"], predict(model, test), test)
+    again = task_errors(model["task"], predict(model, test), test, PAPER_THRESHOLD_N)
     assert again["error_avg_pct"] == pytest.approx(model["metrics"]["test"]["error_avg_pct"], rel=1e-9)
 
 
@@ -88,6 +93,6 @@ def test_default_paths(default_models: dict) -> None:  # noqa: F811
 def test_kinematics_baseline_is_the_paper_size(fit_frames: dict) -> None:  # noqa: F811
     """The naive estimate is tens of percent off (paper 34.31 %), so the 65 % cut means something."""
     test = fit_frames["test"]
-    errs = task_errors("calibration", kinematics_predict("calibration", test), test)
+    errs = task_errors("calibration", kinematics_predict("calibration", test), test, PAPER_THRESHOLD_N)
     assert 20.0 < errs["error_avg_pct"] < 50.0
     assert np.isfinite(errs["error_max_pct"])

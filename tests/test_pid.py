@@ -9,7 +9,15 @@ import numpy as np
 import pytest
 
 from seagen.codegen.runtime import cdef_of, runtime_sources
-from seagen.runtime.pid import DEFAULT_PID, PidParams, pid_reset, pid_step
+from seagen.runtime.pid import (
+    DEFAULT_PID,
+    DEFAULT_PID_SI,
+    MOTOR_MAX_MV,
+    TICK_S,
+    PidParams,
+    pid_reset,
+    pid_step,
+)
 from seagen.toolchain.host import build, build_exe
 
 # Harness: run n ticks; where reset[k] != 0 the PID is reset (meas[k], rout[k]) before ticking.
@@ -118,11 +126,17 @@ def _c_run(c, p: PidParams, sp, meas, reset, rout) -> tuple[np.ndarray, ...]:
     return tuple(np.array(list(a), dtype=np.int64) for a in (out, integ, dfilt))
 
 
+PAPER_RANGE = {"out_min": -MOTOR_MAX_MV, "out_max": MOTOR_MAX_MV}  # the paper's 12 V supply, in mV
+PAPER_SI = {"limit_v": MOTOR_MAX_MV / 1000, "max_mv": MOTOR_MAX_MV, "tick_s": TICK_S}  # and its 100 Hz tick
 PARAMS = {
     "default": DEFAULT_PID,
-    "stiff": PidParams(kp=2**28, ki=2**24, kd=2**26, d_alpha=65536, margin=6554),
-    "no_margin_neg_gains": PidParams(kp=-(2**20), ki=-3000, kd=-(2**18), d_alpha=1000, margin=-5),
-    "extreme": PidParams(kp=2**31 - 1, ki=-(2**31), kd=2**31 - 1, d_alpha=2**31 - 1, margin=2**31 - 1),
+    "stiff": PidParams(kp=2**28, ki=2**24, kd=2**26, d_alpha=65536, margin=6554, **PAPER_RANGE),
+    "no_margin_neg_gains": PidParams(
+        kp=-(2**20), ki=-3000, kd=-(2**18), d_alpha=1000, margin=-5, **PAPER_RANGE
+    ),
+    "extreme": PidParams(
+        kp=2**31 - 1, ki=-(2**31), kd=2**31 - 1, d_alpha=2**31 - 1, margin=2**31 - 1, **PAPER_RANGE
+    ),
     "narrow_range": PidParams(kp=50_000, ki=900, kd=4000, d_alpha=20_000, margin=0, out_min=-3, out_max=700),
     "alpha_negative": PidParams(
         kp=90_000, ki=77, kd=123_456, d_alpha=-7, margin=100, out_min=-32768, out_max=32767
@@ -172,7 +186,7 @@ def test_bumpless_reset(c, meas, out):
 @pytest.mark.parametrize("err", [-1.0, -1e-5, 0.0, 1e-5, 1.0])  # x the margin (paper: 0.1 mm = 6554 Q16)
 def test_margin_holds_integrator(c, err, pid):
     """Inside the margin the integrator is held and P is zero: out = integrator with a still measurement."""
-    p = PidParams.from_si(24.0, 6.0, 0.1, 0.5, margin_mm=0.1) if pid == "paper" else DEFAULT_PID
+    p = PidParams.from_si(24.0, 6.0, 0.1, 0.5, margin_mm=0.1, **PAPER_SI) if pid == "paper" else DEFAULT_PID
     err = int(np.sign(err)) if abs(err) < 1 and err else int(err * p.margin)
     n = 20
     got = _c_run(
@@ -185,7 +199,7 @@ def test_margin_holds_integrator(c, err, pid):
 def test_anti_windup(c, sign):
     """Saturated for 500 ticks, the integrator stays within range and the output leaves saturation the
     tick the error reverses (no wound-up integral to unwind)."""
-    p = PidParams.from_si(2.0, 50.0, 0.0, 1.0)
+    p = PidParams.from_si(2.0, 50.0, 0.0, 1.0, margin_mm=DEFAULT_PID_SI["margin_mm"], **PAPER_SI)
     n = 520
     err = np.r_[np.full(500, sign * 2**22), np.full(20, -sign * 2**17)]
     out, integ, _ = _c_run(c, p, err, np.zeros(n, int), np.zeros(n, int), np.zeros(n, int))

@@ -7,10 +7,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from seagen.actuator import default_actuator
 from seagen.data.features import derive
 from seagen.data.friction import measure_friction
 from seagen.data.protocol import Move, run_trials
-from seagen.fit.kinematics import ERROR_THRESHOLD_N, kinematics_errors, shaft_force
+from seagen.fit.kinematics import error_threshold_n, kinematics_errors, shaft_force
 from seagen.geometry import geometry
 from seagen.plant import EFFECT_NAMES, Plant, PlantConfig, load_config, save_config
 from seagen.plant.config import ConfigError
@@ -42,7 +43,7 @@ def loading(df: pd.DataFrame, lo: float, hi: float) -> pd.DataFrame:
 def m_onset_friction(df):  # k x compression at which the load cell leaves zero
     from seagen.data.friction import friction_from_trial
 
-    return friction_from_trial(df)
+    return friction_from_trial(df, geometry().spring_n_per_mm)
 
 
 METRICS = {
@@ -119,7 +120,7 @@ def test_friction_the_papers_way_spans_paper_values():
 
 def test_compensated_error_grows_with_force(test_split):
     """The friction-compensated kinematics error (relative, loading rows) grows with force (paper §IV-C)."""
-    d = test_split[(test_split.force_n > ERROR_THRESHOLD_N) & (test_split.d_enc > 0)]
+    d = test_split[(test_split.force_n > error_threshold_n(default_actuator())) & (test_split.d_enc > 0)]
     rel = (shaft_force(d.compression_mm) - d.force_n) / d.force_n
     means = rel.groupby(pd.cut(d.force_n, [5, 8, 11, 14, 20])).mean().to_numpy()
     assert np.all(np.diff(means) > 0), means

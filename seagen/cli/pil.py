@@ -16,12 +16,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="processor in the loop: the export's firmware on an emulated board (QEMU) against the plant",
         description="Build the controller export in DIR (made with seagen export --controller) into firmware "
         "for the board of --core (Cortex-M4: QEMU mps2-an386; Cortex-M0+ build: QEMU microbit), boot it in "
-        "qemu-system-arm and close the paper's force loop (targets 5/10/15 N at --actuators contact angles) "
-        "with the Python plant over the board's UART, one frame per 10 ms tick. Every tick's command and "
-        "controller state (and, with --cal-model, the force estimate) is compared bit for bit with the "
-        "Python twins; the firmware reports its own instruction count per tick (SysTick under -icount). "
-        "Exit 0: every tick agrees; 1: a disagreement (the first tick is printed); 2: bad input, or QEMU "
-        "missing, crashed or silent.",
+        "qemu-system-arm and close the paper's force loop (targets 1/4, 1/2, 3/4 of the actuator's force "
+        "range at --actuators contact angles) with the Python plant over the board's UART, one frame per "
+        "tick. Every tick's command and controller state (and, with --cal-model, the force estimate) is "
+        "compared bit for bit with the Python twins; the firmware reports its own instruction count per "
+        "tick (SysTick under -icount). Exit 0: every tick agrees; 1: a disagreement (the first tick is "
+        "printed); 2: bad input, or QEMU missing, crashed or silent.",
     )
     p.add_argument("dir", metavar="DIR", help="folder holding the export (NAME.c, NAME_controller.c, ...)")
     p.add_argument("--model", required=True, help="the control model file the export was made from")
@@ -30,7 +30,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--cal-model", metavar="FILE", help="a calibration model exported into DIR: its NAME_step runs too"
     )
-    p.add_argument("--ticks", type=int, default=600, metavar="N", help="ticks per run (default 600 = 6 s)")
+    p.add_argument(
+        "--ticks", type=int, default=600, metavar="N", help="ticks per run (default 600: 6 s at 100 Hz)"
+    )
     p.add_argument("--actuators", type=int, default=10, metavar="K", help="contact angles (default 10)")
     p.add_argument(
         "--allow-pickle", action="store_true", help="unpickle a .pt (RUNS CODE: trusted files only)"

@@ -19,7 +19,7 @@ TARGET_FRACTIONS = (0.25, 0.5, 0.75)
 N_CONTACT = 10
 CONTACT_MARGIN_DEG = (2.0, 3.0)
 BAND_N = 0.3  # settling band around the target (paper: 0.3 N)
-SMOOTH_TICKS = 5  # the reference force is judged on its 50 ms trailing mean (load-cell noise)
+SMOOTH_S = 0.05  # the reference force is judged on its 50 ms trailing mean (load-cell noise), any loop rate
 ERROR_WINDOW_S = 2.0  # the average error is taken over the last 2 s of the run
 DURATION_S = 6.0
 
@@ -67,8 +67,11 @@ def contact_deg(act: Actuator, n: int | None = None) -> tuple[float, ...]:
     return tuple(float(a) for a in np.linspace(lo, hi, N_CONTACT if n is None else n))
 
 
-def smoothed(force: np.ndarray, n: int = SMOOTH_TICKS) -> np.ndarray:
-    """Trailing mean over n ticks along axis 0 (shorter at the start)."""
+def smoothed(rec: dict[str, np.ndarray], key: str = "force_n") -> np.ndarray:
+    """Trailing mean of rec[key] over SMOOTH_S along axis 0, in ticks of the record's loop (shorter at the
+    start)."""
+    force, t = rec[key], rec["t_s"][:, 0]
+    n = max(1, round(SMOOTH_S / float(t[1] - t[0]))) if len(t) > 1 else 1
     c = np.cumsum(np.vstack([np.zeros((1, force.shape[1])), force]), axis=0)
     k = np.arange(1, force.shape[0] + 1)
     lo = np.maximum(k - n, 0)
@@ -87,7 +90,7 @@ def settling(t: np.ndarray, f: np.ndarray, ref: np.ndarray, start: np.ndarray) -
 def metrics(rec: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Per actuator, on the smoothed reference force: settling time to the target band from contact,
     settling time to a band around the force's own final mean, and mean |error| over the last window."""
-    t, f = rec["t_s"][:, 0], smoothed(rec["force_n"])
+    t, f = rec["t_s"][:, 0], smoothed(rec)
     target = rec["target_n"]
     contact = np.argmax(rec["true_force_n"] > 0, axis=0)
     win = t >= t[-1] - ERROR_WINDOW_S
@@ -148,7 +151,7 @@ def estimate_error(rec: dict[str, np.ndarray]) -> float:
     """Mean |estimated - load-cell force| over the last window (both smoothed), over the contact angles."""
     t = rec["t_s"][:, 0]
     win = t >= t[-1] - ERROR_WINDOW_S
-    return float(np.abs(smoothed(rec["estimate_n"])[win] - smoothed(rec["force_n"])[win]).mean())
+    return float(np.abs(smoothed(rec, "estimate_n")[win] - smoothed(rec)[win]).mean())
 
 
 def run_config(

@@ -8,8 +8,10 @@ from functools import cache
 import numpy as np
 import pandas as pd
 
+from seagen.actuator import default_actuator
 from seagen.data.features import derive
 from seagen.defaults import DEFAULT_PREFIX, GENERATED
+from seagen.geometry import Geometry, geometry
 from seagen.ir import FloatModel, QModel
 from seagen.reference import float_ref, numpy_ref
 from seagen.runtime import features as F
@@ -76,12 +78,15 @@ class StepTwin:
         return K.to_s32(y, self.qm.out_frac, P.COMP_FRAC_BITS)
 
 
-def float_features(names: list[str], enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
+def float_features(
+    names: list[str], enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray, geo: Geometry
+) -> np.ndarray:
     """Physical model inputs (n, n_in) from the last three samples (rows k-2, k-1, k) of enc and pot,
-    computed by the one feature function (seagen.data.features.derive), one trial per actuator."""
+    computed by the one feature function (seagen.data.features.derive) with the actuator's geometry `geo`,
+    one trial per actuator."""
     n = np.shape(enc)[1]
     rows = pd.DataFrame({"trial": np.tile(np.arange(n), 3), "enc": np.ravel(enc), "pot": np.ravel(pot)})
-    last = derive(rows.sort_values("trial", kind="stable")).groupby("trial").tail(1)
+    last = derive(rows.sort_values("trial", kind="stable"), geo).groupby("trial").tail(1)
     return last.assign(force_n=np.asarray(force_n, float))[names].to_numpy(dtype=float)
 
 
@@ -89,8 +94,9 @@ def float_predictor(prefix: str):
     """The float model of `prefix` as a CloudPredictor function: (enc rows, pot rows, force N) -> mm."""
     fm = export(prefix).float_model
     names = [s.name for s in fm.inputs]
+    geo = geometry(default_actuator())  # the shipped models were trained on the paper's actuator
 
     def fn(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
-        return float_ref.predict(fm, float_features(names, enc, pot, force_n))
+        return float_ref.predict(fm, float_features(names, enc, pot, force_n, geo))
 
     return fn

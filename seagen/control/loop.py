@@ -29,7 +29,7 @@ class McuPredictor:
     c_symbol: str
     make_ctx: Callable[[ModuleType], object]
     make_twin: Callable[[], Predictor]
-    predict_every: int = 1  # 1 = 100 Hz, 10 = 10 Hz
+    predict_every: int = 1  # predict every tick (1), every 10th tick (10), ...
     cdef: str = ""
     sources: dict[str, str] = field(default_factory=dict)
     stateful: bool = False

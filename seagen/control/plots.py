@@ -29,11 +29,11 @@ def step_figure(name: str, results: dict[str, dict], angle_index: int = 2):
     angle_index, angle = _angle(results, angle_index)
     for k, (target, r) in enumerate(results.items()):
         rec = r["trace"]
-        f = smoothed(rec["force_n"])[:, angle_index]
+        f = smoothed(rec)[:, angle_index]
         t = rec["t_s"][:, angle_index]
         ax.plot(t, f, color=f"C{k}", label=f"load cell, {target} N target")
         if "estimate_n" in rec:
-            est = smoothed(rec["estimate_n"])[:, angle_index]
+            est = smoothed(rec, "estimate_n")[:, angle_index]
             ax.plot(t, est, ":", color=f"C{k}", label=f"calibration model, {target} N target")
         target_line(ax, float(target), BAND_N, "N")
     ax.set(xlabel="time (s)", ylabel="force at the SEA shaft (N)")
@@ -54,7 +54,7 @@ def comparison_plot(results: dict[str, dict[str, dict]], path: Path, angle_index
     for (name, res), color in zip(results.items(), ("C0", "C1", "C2", "C3"), strict=False):
         for k, r in enumerate(res.values()):
             rec = r["trace"]
-            f = smoothed(rec["force_n"])[:, angle_index]
+            f = smoothed(rec)[:, angle_index]
             ax.plot(rec["t_s"][:, angle_index], f, styles[name], color=color, label=name if k == 0 else None)
     for target in next(iter(results.values()), {}):
         target_line(ax, float(target), BAND_N, "N")

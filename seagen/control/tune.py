@@ -83,15 +83,21 @@ def search_space(act: Actuator) -> dict[str, tuple[float, float]]:
 
 
 def mean_settling(
-    setup: Setup, pid: PidParams, pred_avg: int | None, seeds: tuple[int, ...], plant_cfg: PlantConfig
+    setup: Setup,
+    pid: PidParams,
+    pred_avg: int | None,
+    seeds: tuple[int, ...],
+    plant_cfg: PlantConfig,
+    metric: str = "settling_s",
 ) -> dict[float, float]:
-    """Per target: settling time of a configuration averaged over angles and seeds (NaN = the run)."""
+    """Per target: settling time (`metric` of experiment.metrics) of a configuration averaged over angles
+    and seeds (NaN = the run)."""
     pred, ctl = setup
     cfg = replace(ctl, pid=pid) if pred_avg is None else replace(ctl, pid=pid, pred_avg=pred_avg)
     out: dict[float, list[float]] = {t: [] for t in targets_n(plant_cfg.actuator)}
     for seed in seeds:
         for target, rec in runs(pred, cfg, seed=seed, plant_cfg=plant_cfg):
-            out[target].append(float(np.nan_to_num(metrics(rec)["settling_s"], nan=NEVER_S).mean()))
+            out[target].append(float(np.nan_to_num(metrics(rec)[metric], nan=NEVER_S).mean()))
     return {t: float(np.mean(v)) for t, v in out.items()}
 
 
@@ -127,12 +133,14 @@ def tune(
     act: Actuator | None = None,
     progress: bool = True,
     name: str = "mine",
+    metric: str = "settling_s",
 ):
     """Search gains, margin and output limit; returns the Optuna study. On the paper's actuator with no
     `setup`: the shipped search (the shipped MLP's settling, its prediction average searched too, the
     shipped SF kept within +-50 % of the paper's Table II; the first trial is what ships). Otherwise
-    `setup` (a configuration factory, `name`: your control model, or kin_mcu) on `act`, scored by
-    worst_plus_mean; the first trial is the description's own [control]."""
+    `setup` (a configuration factory, `name`: your control model, or kin_mcu) on `act`, its `metric`
+    (experiment.metrics: settling to the target, or to the force's own final level for a biased estimate
+    such as kin_mcu's) scored by worst_plus_mean; the first trial is the description's own [control]."""
     import optuna
 
     act = act or default_actuator()
@@ -152,7 +160,7 @@ def tune(
             trial.set_user_attr("sf_mcu", sf)
             return objective(mlp, sf)
         assert setup is not None
-        mine = mean_settling(setup(0.1), pid, None, seeds, plant_cfg)
+        mine = mean_settling(setup(0.1), pid, None, seeds, plant_cfg, metric)
         trial.set_user_attr(name, mine)
         return worst_plus_mean(mine)
 

@@ -28,6 +28,7 @@ class Exported:
     prefix: str
     files: dict[str, str]
     act: Any = None  # the actuator's constants (seagen.runtime.actq.ActQ) the C was rendered for
+    actuator: Any = None  # its description (seagen.actuator.Actuator)
 
 
 def exported(
@@ -58,7 +59,7 @@ def exported(
     prefix = assert_valid_prefix(prefix_of(model))
     aq = act_q(act)
     files = {**render(qm, prefix, act=aq), **runtime_sources(*RUNTIME)}
-    return Exported(loaded.model, qm, prefix, files, aq)
+    return Exported(loaded.model, qm, prefix, files, aq, act)
 
 
 def prefix_of(model: str) -> str:
@@ -76,6 +77,7 @@ def control_setups(
     from seagen.codegen.controller import shipped_config
     from seagen.codegen.runtime import cdef_of, runtime_sources
     from seagen.control.gentwin import StepTwin, float_features
+    from seagen.geometry import geometry
     from seagen.ir import QMLP
     from seagen.reference import float_ref
     from seagen.runtime.features import has_pipeline, is_predictor
@@ -94,6 +96,7 @@ def control_setups(
     cfg = shipped_config(qm, ex.act)
     fm = ex.float_model
     names = [s.name for s in fm.inputs]
+    geo = geometry(ex.actuator)  # the float model's features on the model's own actuator
 
     def mcu(_latency_s: float) -> Setup:
         pred = McuPredictor(
@@ -108,7 +111,7 @@ def control_setups(
         return pred, cfg
 
     def cloud_fn(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
-        return float_ref.predict(fm, float_features(names, enc, pot, force_n))
+        return float_ref.predict(fm, float_features(names, enc, pot, force_n, geo))
 
     def cloud(latency_s: float) -> Setup:
         return CloudPredictor(cloud_fn, latency_s, 10.0), ControlConfig.for_act(ex.act)

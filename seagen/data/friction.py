@@ -11,9 +11,9 @@ from seagen.plant.config import PlantConfig
 ONSET_BAND_N = (0.5, 3.0)  # reference-force band used to extrapolate the onset compression
 
 
-def friction_from_trial(df: pd.DataFrame, spring_n_per_mm: float | None = None) -> float:
+def friction_from_trial(df: pd.DataFrame, spring_n_per_mm: float) -> float:
     """Friction (N) the paper's way: k_s (the description's spring) x the compression at which the load
-    cell leaves zero (the paper's spring when None).
+    cell leaves zero.
 
     The onset compression is found robustly: a line compression = a + b F fitted to the loading rows with
     reference force inside ONSET_BAND_N, evaluated at F = 0. `df` holds derived columns of one trial.
@@ -27,7 +27,7 @@ def friction_from_trial(df: pd.DataFrame, spring_n_per_mm: float | None = None) 
     if sel.sum() < 3:
         return float("nan")
     b, a = np.polyfit(f[sel], comp[sel], 1)
-    return float(a * (geometry().spring_n_per_mm if spring_n_per_mm is None else spring_n_per_mm))
+    return float(a * spring_n_per_mm)
 
 
 def friction_angles(geo: Geometry) -> tuple[float, float, float]:

@@ -332,7 +332,7 @@ def import_log(
 
 def clock_resolution(t: np.ndarray) -> float:
     """The log clock's resolution (s): 0 when the samples are evenly spaced (the clock's own ticks, e.g.
-    seagen's 100 Hz grid), else the coarsest of 10 ms, 1 ms, 100 us, 10 us, 1 us that every time is a
+    seagen's loop-rate grid), else the coarsest of 10 ms, 1 ms, 100 us, 10 us, 1 us that every time is a
     multiple of (an integer-ms clock under a jittered loop: 1 ms)."""
     d = np.diff(t)
     if len(d) == 0 or np.ptp(d) <= 1e-9 * max(1.0, float(np.max(np.abs(t)))):

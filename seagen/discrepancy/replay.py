@@ -10,22 +10,22 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from seagen.actuator import default_actuator
 from seagen.data.logimport import clock_resolution
 from seagen.plant import Plant, PlantConfig, kernel
 from seagen.plant.config import CATALOGUE
-from seagen.plant.sim import learned_correction
+from seagen.plant.sim import RIGID_PER_SPRING, learned_correction
 
 CHANNELS = ("enc", "pot", "load_cell_n", "force_n")
 # Sensor-side effects: they do not change the motion, so the replay loop applies them per element.
 POST_HOC = ("pot_voltage_drop", "transport_delay", "load_cell_offset")
-# Parameter values that make an enabled effect do nothing (exactly: same numbers as the effect off).
+# Parameter values that make an enabled effect do nothing (exactly: same numbers as the effect off); the
+# series compliance's stiffness is the plant's rigid structure, relative to the actuator's spring (`neutral`).
 NEUTRAL: dict[str, dict[str, float]] = {
     "actuator_friction": {"force_n": 0.0, "reverse_ratio": 1.0},
     "linkage_friction": {"c0_n": 0.0, "c1_n": 0.0, "c2_n": 0.0},
     "viscous_friction": {"b_n_s_per_mm": 0.0},
     "stribeck_friction": {"extra_static_n": 0.0, "v_s_mm_s": 1.0},
-    "series_compliance": {"k_n_per_mm": 5000.0, "beta_mm_per_n2": 0.0},
+    "series_compliance": {"beta_mm_per_n2": 0.0},
     "backlash": {"half_width_mm": 0.0},
     "spring_preload": {"force_n": 0.0},
     "spring_nonlinearity": {"k3_n_per_mm3": 0.0},
@@ -57,7 +57,7 @@ class Runs:
     meas: dict[str, np.ndarray]
     mask: np.ndarray
     names: list[str]
-    t: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    t: np.ndarray
     lag: np.ndarray = field(default_factory=lambda: np.zeros(0))
     res: np.ndarray = field(default_factory=lambda: np.zeros(0))
     declared: float | None = None
@@ -66,8 +66,8 @@ class Runs:
 
     def __post_init__(self) -> None:
         n, t = self.mask.shape
-        if self.t.shape != (n, t):  # rows on the paper's loop grid (runs_from_frames passes the logged t)
-            self.t = np.broadcast_to(np.arange(t) / default_actuator().loop_hz, (n, t)).copy()
+        if self.t.shape != (n, t):  # the logged instants, never a loop rate assumed
+            raise ValueError(f"Runs.t has shape {self.t.shape}, the trials {(n, t)}")
         if self.lag.shape != (n,):
             self.lag = np.ones(n)
         if self.res.shape != (n,):
@@ -221,11 +221,18 @@ def _sample_plan(runs: Runs, dt: float, k_max: int) -> tuple[np.ndarray, ...]:
     return np.searchsorted(k, np.arange(k_max + 2)), rows, cols, wt, first
 
 
+def neutral(base: PlantConfig, effect: str, param: str) -> float:
+    """The value of `param` that makes `effect`, enabled, do nothing on the plant of `base`."""
+    if (effect, param) == ("series_compliance", "k_n_per_mm"):
+        return base.actuator.stiffness_n_per_mm * RIGID_PER_SPRING  # the structure Plant has with it off
+    return NEUTRAL[effect][param]
+
+
 def _value(base: PlantConfig, s: ParamSet, effect: str, param: str) -> float:
     """A parameter for one set: the set's own, else the base's (if on), else neutral."""
     if param in s.get(effect, {}):
         return float(s[effect][param])
-    return float(getattr(base.effect(effect), param)) if base.on(effect) else NEUTRAL[effect][param]
+    return float(getattr(base.effect(effect), param)) if base.on(effect) else neutral(base, effect, param)
 
 
 def _per_element(values: list[float], n: int) -> np.ndarray | float:
@@ -408,7 +415,7 @@ def rows_place(p: Path) -> Path:
 
 def load_measured(path: str) -> list:
     """(name, DataFrame) for a CSV or every CSV in a directory, validated by the data schema; a folder
-    `data import` wrote is read from its logged/ rows (each at its own instant), not its 100 Hz copy."""
+    `data import` wrote is read from its logged/ rows (each at its own instant), not its loop-rate copy."""
     from seagen.data.schema import DataError, load_csv
 
     p = rows_place(Path(path))

@@ -30,7 +30,7 @@ TEST_TEXT = (
 
 def _labels(res: Result) -> dict[str, np.ndarray]:
     """The held-out region labels (computed by identify; recomputed for a Result built without them)."""
-    return res.labels or region_labels(res.held, res.config.motor)
+    return res.labels or region_labels(res.held, res.config.motor, res.config.actuator.control.force_max_n)
 
 
 def region_gap(res: Result) -> pd.DataFrame:

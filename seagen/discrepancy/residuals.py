@@ -15,6 +15,7 @@ SCORE_CHANNELS = ("enc", "pot", "load_cell_n")
 QUANT_SIGMA = 1.0 / np.sqrt(12.0)  # rounding noise of an integer reading (enc has no other noise)
 ALPHA = 0.01  # family-wise error rate of the region tests (Holm)
 MIN_EFFECT = 0.25  # a region counts only if its mean residual is at least this many noise sigmas
+FORCE_SHARES = (0.05, 0.25, 0.5)  # force-region edges, shares of control.force_max_n (1, 5, 10 N: paper)
 
 
 def noise_sigma(runs: Runs) -> dict[str, np.ndarray]:
@@ -82,8 +83,9 @@ def _bins(x: np.ndarray, edges: list[float], names: list[str]) -> np.ndarray:
     return np.asarray(names, dtype=object)[np.digitize(x, edges)]
 
 
-def region_labels(runs: Runs, motor: Motor) -> dict[str, np.ndarray]:
-    """Region of every sample by contact angle, force level, direction, speed and estimated current."""
+def region_labels(runs: Runs, motor: Motor, force_max_n: float) -> dict[str, np.ndarray]:
+    """Region of every sample by contact angle, force level (FORCE_SHARES of the actuator's force range
+    `force_max_n`), direction, speed and estimated current."""
     enc = runs.meas["enc"]
     v = runs.speed("enc") * motor.mm_per_count  # nut speed, mm/s
     m = runs.mask
@@ -93,9 +95,15 @@ def region_labels(runs: Runs, motor: Motor) -> dict[str, np.ndarray]:
     q = [float(np.percentile(speed[moving], 50)) if moving.any() else 1.0]
     cq = [float(np.nanpercentile(cur[m], p)) for p in (33, 67)]
     angle = np.broadcast_to(runs.angle[:, None], enc.shape)
+    edges = [f * force_max_n for f in FORCE_SHARES]
+    names = [
+        f"<{edges[0]:g} N",
+        *(f"{a:g}-{b:g} N" for a, b in zip(edges[:-1], edges[1:], strict=True)),
+        f">{edges[-1]:g} N",
+    ]
     return {
         "angle": np.vectorize(lambda a: f"{a:.1f} deg", otypes=[object])(angle),
-        "force": _bins(runs.meas["force_n"], [1, 5, 10], ["<1 N", "1-5 N", "5-10 N", ">10 N"]),
+        "force": _bins(runs.meas["force_n"], edges, names),
         "direction": _bins(v, [-0.2, 0.2], ["retract", "still", "push"]),
         "speed": _bins(speed, [0.2, q[0]], ["still", "slow", "fast"]),
         "current": _bins(cur, cq, ["low |i|", "mid |i|", "high |i|"]),

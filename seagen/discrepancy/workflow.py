@@ -93,7 +93,7 @@ class Result:
     noise_floor: float
     rounds: list[pd.DataFrame] = field(default_factory=list)
     seconds: float = 0.0
-    labels: dict[str, np.ndarray] = field(default_factory=dict)  # region_labels(held, motor)
+    labels: dict[str, np.ndarray] = field(default_factory=dict)  # region_labels(held, motor, force_max_n)
     recalibrated: list[Named] = field(default_factory=list)  # effects of the base with re-fitted parameters
     signature: list[str] = field(default_factory=list)  # the base's residual in words, before fitting
     ranking: list[tuple[str, float]] = field(default_factory=list)  # catalogue effects by signature likeness
@@ -467,7 +467,7 @@ def identify(
     runs = dataclasses.replace(runs, lag=np.full(len(runs.angle), tim.lag))
     fit, held = runs.take(fit_i), runs.take(held_i)
     sig_f, sig_h = ({c: s[i] for c, s in sig.items()} for i in (fit_i, held_i))
-    labels = region_labels(held, base.motor)
+    labels = region_labels(held, base.motor, base.actuator.control.force_max_n)
     named: list[Named] = []
     cfg, rounds, verdict = base, [], "none"
     refits: list[str] = []  # the command timing fitted again once physics was named (said in words)

@@ -11,7 +11,7 @@ import numpy as np
 from seagen.data.features import derive
 from seagen.data.friction import friction_from_trial
 from seagen.data.schema import SPLITS, DataError, data_actuator, load_split
-from seagen.fit.kinematics import ERROR_THRESHOLD_N, kinematics_errors
+from seagen.fit.kinematics import error_threshold_n, kinematics_errors
 from seagen.geometry import geometry
 
 
@@ -24,7 +24,8 @@ def summarize(data_dir: str | os.PathLike[str]) -> dict[str, Any]:
     if not frames:
         raise DataError(f"{d}: no {', '.join(s + '.csv' for s in SPLITS)} found")
     split = "test" if "test" in frames else next(iter(frames))
-    geo = geometry(data_actuator(d))
+    act = data_actuator(d)
+    geo = geometry(act)
     derived = derive(frames[split], geo)
     errs = kinematics_errors(derived, geo)
     friction: dict[str, float] = {}
@@ -38,7 +39,7 @@ def summarize(data_dir: str | os.PathLike[str]) -> dict[str, Any]:
         "kinematics_split": split,
         "kinematics_error_avg_pct": errs["error_avg_pct"],
         "kinematics_error_max_pct": errs["error_max_pct"],
-        "kinematics_threshold_n": ERROR_THRESHOLD_N,
+        "kinematics_threshold_n": error_threshold_n(act),
         "friction_n_by_angle": friction,
     }
 

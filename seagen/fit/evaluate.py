@@ -10,6 +10,7 @@ import pandas as pd
 
 from seagen.data.schema import data_actuator
 from seagen.errors import UserError
+from seagen.fit.kinematics import error_threshold_n
 from seagen.fit.predict import TASKS, UNIT, kinematics_predict, predict, task_errors
 from seagen.fit.train import load_derived
 from seagen.geometry import geometry
@@ -53,13 +54,13 @@ def model_names(paths: list[str]) -> list[str]:
     return [s if stems.count(s) == 1 else str(p) for s, p in zip(stems, paths, strict=True)]
 
 
-def _scores(task: str, pred_of: Any, frames: dict[str, pd.DataFrame]) -> dict[str, Any]:
+def _scores(task: str, pred_of: Any, frames: dict[str, pd.DataFrame], threshold_n: float) -> dict[str, Any]:
     """Test errors at top level and validation errors under 'validation' (the --json layout)."""
     out: dict[str, Any] = {}
     for split in SCORED_SPLITS:
         if split not in frames:
             continue
-        errs = task_errors(task, pred_of(frames[split]), frames[split])
+        errs = task_errors(task, pred_of(frames[split]), frames[split], threshold_n)
         if split == "test":
             out.update(errs)
         else:
@@ -78,14 +79,14 @@ def evaluate(
     act = data_actuator(data_dir)
     for p, m in zip(paths, models, strict=True):
         model_actuator(m, str(p), act)  # a model of another actuator is refused
-    geo = geometry(act)
+    geo, threshold = geometry(act), error_threshold_n(act)
     result: dict[str, dict[str, Any]] = {}
     for task in TASKS:
         if any(m["task"] == task for m in models):
-            base = _scores(task, lambda df, t=task: kinematics_predict(t, df, geo), frames)
+            base = _scores(task, lambda df, t=task: kinematics_predict(t, df, geo), frames, threshold)
             result[f"kinematics_{task}"] = {"task": task, "kind": "kinematics", "unit": UNIT[task], **base}
     for name, m in zip(model_names(paths), models, strict=True):
-        scores = _scores(m["task"], lambda df, m=m: predict(m, df), frames)
+        scores = _scores(m["task"], lambda df, m=m: predict(m, df), frames, threshold)
         meta = {"task": m["task"], "kind": m["kind"], "loss": m.get("loss"), "unit": UNIT[m["task"]]}
         result[name] = {**meta, "hidden": m.get("hidden"), **scores}
     return result

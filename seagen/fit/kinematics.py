@@ -5,9 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from seagen.actuator import Actuator
 from seagen.geometry import Geometry, geometry
 
-ERROR_THRESHOLD_N = 5.0  # relative errors are taken over rows whose reference force exceeds this
+# Relative errors are taken over rows whose reference force exceeds this share of the actuator's force
+# range (control.force_max_n): the paper's 5 N of its 20 N.
+ERROR_SHARE = 0.25
+
+
+def error_threshold_n(act: Actuator) -> float:
+    """The reference force (N) above which rows count in the paper-style relative errors of `act`."""
+    return ERROR_SHARE * act.control.force_max_n
 
 
 def shaft_force(
@@ -27,7 +35,7 @@ def compression_for(force_n: np.ndarray, geo: Geometry | None = None) -> np.ndar
 
 
 def relative_errors(
-    pred: np.ndarray, ref: np.ndarray, angle: np.ndarray, threshold_n: float = ERROR_THRESHOLD_N
+    pred: np.ndarray, ref: np.ndarray, angle: np.ndarray, threshold_n: float
 ) -> dict[str, float]:
     """Paper-style errors: average over rows with ref > threshold; maximum = worst contact angle's mean.
 
@@ -48,6 +56,9 @@ def relative_errors(
 
 
 def kinematics_errors(df: pd.DataFrame, geo: Geometry | None = None) -> dict[str, float]:
-    """Errors of the naive kinematics estimate on a derived data frame (needs compression_mm)."""
+    """Errors of the naive kinematics estimate on a derived data frame (needs compression_mm) of the actuator
+    `geo` (the paper's when None)."""
+    geo = geo or geometry()
     pred = shaft_force(df["compression_mm"].to_numpy(), geo=geo)
-    return relative_errors(pred, df["force_n"].to_numpy(), df["angle_set_deg"].to_numpy())
+    threshold = error_threshold_n(geo.actuator)
+    return relative_errors(pred, df["force_n"].to_numpy(), df["angle_set_deg"].to_numpy(), threshold)

@@ -41,13 +41,14 @@ def kinematics_predict(task: str, df: pd.DataFrame, geo: Geometry | None = None)
     return kinematics.compression_for(df["force_n"].to_numpy(dtype=float), geo)
 
 
-def task_errors(task: str, pred: np.ndarray, df: pd.DataFrame) -> dict[str, float]:
-    """Paper-style errors (rows with reference force > 5 N); control errors are in mm, with _mm aliases."""
+def task_errors(task: str, pred: np.ndarray, df: pd.DataFrame, threshold_n: float) -> dict[str, float]:
+    """Paper-style errors (rows with reference force > threshold_n: kinematics.error_threshold_n of the
+    data's actuator); control errors are in mm, with _mm aliases."""
     angle = df["angle_set_deg"].to_numpy()
     force = df["force_n"].to_numpy(dtype=float)
     if task == "calibration":
-        return kinematics.relative_errors(np.asarray(pred, dtype=float), force, angle)
-    sel = force > kinematics.ERROR_THRESHOLD_N
+        return kinematics.relative_errors(np.asarray(pred, dtype=float), force, angle, threshold_n)
+    sel = force > threshold_n
     ref = df["compression_mm"].to_numpy(dtype=float)[sel]
     errs = kinematics.relative_errors(np.asarray(pred, dtype=float)[sel], ref, angle[sel], threshold_n=0.0)
     errs.update({k.replace("_n", "_mm"): v for k, v in errs.items() if k.endswith("_n")})

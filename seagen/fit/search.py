@@ -57,11 +57,12 @@ def suggest(trial: Any, task: str, losses: Sequence[str]) -> dict[str, Any]:
     return params
 
 
-def holdout_score(train_df: pd.DataFrame, task: str, cfg: MlpConfig) -> float:
-    """Train with `cfg`; the paper-style average error (%) on the held-out training trials."""
+def holdout_score(train_df: pd.DataFrame, task: str, cfg: MlpConfig, threshold_n: float) -> float:
+    """Train with `cfg`; the paper-style average error (%, rows above threshold_n) on the held-out training
+    trials."""
     module, spec, info = fit_mlp(train_df, task, cfg)
     held = train_df[info["holdout_mask"]]
-    return task_errors(task, predict_mlp(module, spec, held), held)["error_avg_pct"]
+    return task_errors(task, predict_mlp(module, spec, held), held, threshold_n)["error_avg_pct"]
 
 
 def search(
@@ -73,8 +74,12 @@ def search(
     storage: str | None = None,
     study_name: str | None = None,
     progress: bool = True,
+    *,
+    threshold_n: float,
 ) -> tuple[MlpConfig, Any]:
-    """Run `trials` more trials (seeded TPE); return the best config of the whole study, and the study."""
+    """Run `trials` more trials (seeded TPE); return the best config of the whole study, and the study.
+    Trials are scored on the held-out training trials' rows above `threshold_n` (kinematics.error_threshold_n
+    of the data's actuator)."""
     import optuna
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
@@ -91,7 +96,8 @@ def search(
         raise UserError(f"--storage {storage!r}: cannot open the study: {e}") from None
 
     def objective(trial: Any) -> float:
-        return holdout_score(train_df, task, config_from_params(suggest(trial, task, losses), task, base))
+        cfg = config_from_params(suggest(trial, task, losses), task, base)
+        return holdout_score(train_df, task, cfg, threshold_n)
 
     study.optimize(objective, n_trials=trials, show_progress_bar=progress)
     return config_from_params(study.best_params, task, base), study

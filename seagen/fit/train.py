@@ -15,6 +15,7 @@ from seagen.actuator import Actuator
 from seagen.data.features import derive
 from seagen.data.schema import SPLITS, data_actuator, load_split
 from seagen.errors import UserError
+from seagen.fit.kinematics import error_threshold_n
 from seagen.fit.mlp import MLP_OUTPUT, RAW_SIGNALS, MlpConfig, fit_mlp, unit_of
 from seagen.fit.predict import TASKS, predict, task_errors
 from seagen.fit.sf import SF_INPUTS, SF_OUTPUT, fit_sf
@@ -97,7 +98,14 @@ def _fit_mlp_model(
 
         losses = LOSSES if cfg.loss == "any" else (cfg.loss,)
         cfg, study = run_search(
-            train_df, task, search["trials"], cfg, losses, search.get("storage"), search.get("study_name")
+            train_df,
+            task,
+            search["trials"],
+            cfg,
+            losses,
+            search.get("storage"),
+            search.get("study_name"),
+            threshold_n=search["threshold_n"],
         )
         extra["search"] = {"study": study.study_name, "trials": len(study.trials), "best": study.best_params}
     module, spec, info = fit_mlp(train_df, task, cfg)
@@ -145,6 +153,7 @@ def train(
         fields = {k: options[k] for k in keys if options.get(k) is not None}
         cfg = replace(MlpConfig(seed=seed, loss=loss), hidden=hidden or DEFAULT_HIDDEN[task], **fields)
         search = {"trials": trials, **{k: options.get(k) for k in ("storage", "study_name")}}
+        search["threshold_n"] = error_threshold_n(act)
         body = _fit_mlp_model(tr, task, cfg, search)
     body["features"]["sample_rate_hz"] = act.loop_hz
     inputs = tuple(body["features"]["inputs"])
@@ -155,7 +164,8 @@ def train(
     obj["train_seconds"] = time.perf_counter() - t0
     obj["seagen_version"] = __version__
     scored = [s for s in frames if s != "train"]
-    obj["metrics"] = {s: task_errors(task, predict(obj, frames[s]), frames[s]) for s in scored}
+    threshold = error_threshold_n(act)
+    obj["metrics"] = {s: task_errors(task, predict(obj, frames[s]), frames[s], threshold) for s in scored}
     if out is not None:
         save_model(obj, out)
     return obj

@@ -27,7 +27,7 @@ UNITS = {"pot": "count", "enc": "count", "angle_deg": "deg", "compression_mm": "
 
 
 def unit_of(name: str) -> str:
-    """Physical unit of a feature name (differences are per 10 ms sample)."""
+    """Physical unit of a feature name (differences are per sample: one control-loop tick)."""
     base = name.removeprefix("dd_").removeprefix("d_")
     return UNITS.get(base, "")
 

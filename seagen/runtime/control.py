@@ -221,6 +221,7 @@ def pot_at(share: float, pot_max: int = PAPER.pot_max) -> int:
 
 
 WALK_POT_START = 0.3662109375  # sensor_walk's first pot reading, share of full scale (1,500 of 12 bits)
+WALK_STEPS = (40, 20)  # sensor_walk's largest step per tick: encoder, pot (counts)
 WALK_FORCE_SHARES = (0.1, 0.9)  # sensor_walk's desired forces, shares of force_max_n (2-18 N: paper)
 
 
@@ -229,7 +230,7 @@ def sensor_walk(
     n: int,
     batch: tuple[int, ...] = (),
     start: tuple[int, int] | None = None,
-    steps: tuple[int, int] = (40, 20),
+    steps: tuple[int, int] = WALK_STEPS,
     force_n: tuple[float, float] | None = None,
     hold: int = 100,
     pot_max: int = PAPER.pot_max,

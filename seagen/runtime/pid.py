@@ -48,8 +48,8 @@ class PidParams:
     kd: int
     d_alpha: int
     margin: int
-    out_min: int = -MOTOR_MAX_MV
-    out_max: int = MOTOR_MAX_MV
+    out_min: int
+    out_max: int
 
     @classmethod
     def from_si(
@@ -58,13 +58,15 @@ class PidParams:
         ki_v_mm_s: float,
         kd_v_s_mm: float,
         d_alpha: float,
-        margin_mm: float = default_actuator().control.margin_mm,
-        limit_v: float = MOTOR_MAX_MV / 1000,
-        max_mv: int = MOTOR_MAX_MV,
-        tick_s: float = TICK_S,
+        *,
+        margin_mm: float,
+        limit_v: float,
+        max_mv: int,
+        tick_s: float,
     ) -> PidParams:
         """Quantize gains given in V/mm, V/(mm s), V s/mm at the tick `tick_s` (rounded to nearest); the
-        output is limited to +-limit_v within the motor's +-max_mv (sea_act.motor_max_mv)."""
+        output is limited to +-limit_v within the motor's +-max_mv (sea_act.motor_max_mv). No default: each
+        is the actuator's (pid_si of its [control], ActQ.motor_max_mv, 1 / its loop_hz)."""
         q = float(1 << GAIN_FRAC)
         gains = {
             "kp_v_mm": round(kp_v_mm * 1000 * q),
@@ -110,7 +112,7 @@ def pid_si(c: Control) -> dict[str, Any]:
 # The paper's description's gains, tuned on its simulated plant (c_runtime/README.md "Tuned gains";
 # seagen tune).
 DEFAULT_PID_SI: dict[str, Any] = pid_si(default_actuator().control)
-DEFAULT_PID = PidParams.from_si(**DEFAULT_PID_SI)
+DEFAULT_PID = PidParams.from_si(**DEFAULT_PID_SI, max_mv=MOTOR_MAX_MV, tick_s=TICK_S)
 
 
 @dataclass(frozen=True)

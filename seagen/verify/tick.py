@@ -8,13 +8,16 @@ from seagen.verify.result import Verdict
 
 
 def sequence(qm, n: int = 800, seed: int = 3, act=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Raw enc/pot random walks (inside the pot range of the export's actuator `act`, the paper's when None)
-    and a desired force (Q16 N) stepping through the calibrated force range."""
+    """Raw enc/pot random walks (inside the pot range of the export's actuator `act`, the paper's when None;
+    encoder steps within half its encoder-jump bound, so the ticks run the controller, not only its fault
+    latch) and a desired force (Q16 N) stepping through the calibrated force range."""
     from seagen.runtime.actq import act_q_of
-    from seagen.runtime.control import sensor_walk
+    from seagen.runtime.control import WALK_STEPS, sensor_walk
 
+    a = act or act_q_of()
     force_n = next((i.signal.lo, i.signal.hi) for i in qm.inputs if i.signal.name == "force_n")
-    return sensor_walk(seed, n, force_n=force_n, pot_max=(act or act_q_of()).pot_max)
+    steps = (max(1, min(WALK_STEPS[0], a.enc_jump_max // 2)), WALK_STEPS[1])
+    return sensor_walk(seed, n, steps=steps, force_n=force_n, pot_max=a.pot_max)
 
 
 def disk_ticks(files: dict[str, str], p: str, enc, pot, force) -> np.ndarray:
