@@ -60,6 +60,7 @@ def test_verify_sequence_runs_the_controller_on_a_fast_loop():
     paper's 40-count steps would latch the encoder-jump fault at once and compare only zeros)."""
     d = default_actuator().to_dict()
     d["control"]["loop_hz"] = 1000.0
+    d["control"]["kd_v_s_per_mm"] = 0.4  # the paper's 0.85 V s/mm does not fit the C's Q12 kd at 1 kHz
     aq = act_q(actuator_from_dict(d, "1 kHz"))
     assert aq.enc_jump_max < 40
     qm = SimpleNamespace(inputs=[SimpleNamespace(signal=SimpleNamespace(name="force_n", lo=2.0, hi=18.0))])

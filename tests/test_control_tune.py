@@ -106,6 +106,11 @@ def test_tune_on_another_design_prints_control_lines_the_description_takes(tmp_p
     from tests.conftest import EXAMPLE_ACTUATOR
 
     assert main(["tune", "--trials", "0"]) == 2 and "--trials" in capsys.readouterr().err
+    bad = tmp_path / "bad.toml"
+    bad.write_text("kind = 3\n")
+    assert main(["tune", "--actuator", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and str(bad) in err
     assert main(["tune", "--actuator", str(EXAMPLE_ACTUATOR), "--trials", "1", "--seeds", "1", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["configuration"] == "kin_mcu" and set(out["settling_s"]["kin_mcu"]) == {"5", "10", "15"}
