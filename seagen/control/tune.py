@@ -192,16 +192,3 @@ def control_table(params: dict[str, float]) -> str:
     """The best trial's PID settings as the description's [control] lines to paste."""
     lines = [f"{CONTROL_FIELD[k]} = {params[k]:.4g}" for k in PAPER_SPACE if k in params]
     return "\n".join(["[control]  # seagen tune", *lines])
-
-
-def main(argv: list[str] | None = None) -> int:
-    """`python -m seagen.control.tune ARGS` is `seagen tune ARGS`."""
-    from seagen.cli import main as cli_main
-
-    return cli_main(["tune", *(argv or [])])
-
-
-if __name__ == "__main__":
-    import sys
-
-    raise SystemExit(main(sys.argv[1:]))
