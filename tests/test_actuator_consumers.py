@@ -138,3 +138,41 @@ def test_relative_errors_count_rows_above_a_share_of_the_force_range():
         warnings.simplefilter("error")  # no mean of an empty selection
         errs = kinematics_errors(df, geometry(small))
     assert errs["rows"] > 0 and np.isfinite(errs["error_avg_pct"]) and np.isfinite(errs["error_max_pct"])
+
+
+@pytest.mark.parametrize("loop_hz", [100.0, 200.0])
+def test_a_trial_ends_after_the_same_quiet_time_at_any_loop_rate(loop_hz):
+    """The calibration protocol ends a retract once the force has stayed below QUIET_N for QUIET_S: the
+    trial's last rows span that time at 100 Hz and at 200 Hz (it counted 8 rows: 80 ms at the paper's
+    100 Hz, 40 ms at 200 Hz)."""
+    import dataclasses
+
+    from seagen.data.protocol import QUIET_N, QUIET_S
+
+    act = dataclasses.replace(default_actuator(), loop_hz=loop_hz)
+    # a slow retract: the quiet time ends the trial before the encoder is back home (which ends it too)
+    (df,) = run_trials(PlantConfig(actuator=act), [Move(12.0, 3.0, 8.0, -2.0)], seed=1)
+    quiet = (df["force_n"] < QUIET_N).to_numpy()[::-1]
+    last = int(np.argmin(quiet))  # rows at the end below QUIET_N
+    assert last == round(QUIET_S * loop_hz) and df["force_n"].max() >= 8.0 and df["enc"].iloc[-1] > 0
+
+
+def test_motor_windows_are_the_constants_for_the_shipped_motors_and_grow_with_a_slow_one():
+    """The timing's switch-step window and the replay's settle time are at least one and two motor time
+    constants: the shipped designs (15 ms, 8 ms) keep the constants, a 60 ms motor gets 60 and 120 ms, and
+    identify reads the settle time of the described motor."""
+    import dataclasses
+
+    from seagen.discrepancy.replay import SETTLE_S, settle_time
+    from seagen.discrepancy.timing import STEP_S, _switch_windows, step_time
+
+    for act in (default_actuator(), load_actuator(EXAMPLE)):
+        assert (step_time(act), settle_time(act)) == (STEP_S, SETTLE_S)
+    paper = default_actuator()
+    slow = dataclasses.replace(paper, motor=dataclasses.replace(paper.motor, time_constant_s=0.06))
+    assert (step_time(slow), settle_time(slow)) == (0.06, 0.12)
+    t = np.arange(100) * 0.01
+    v = np.where(t >= 0.5, 2.0, 1.0)
+    runs = Runs(np.array([10.0]), v[None], {}, np.ones((1, 100), bool), ["x"], t[None])
+    (_, before, _, after), *_ = [w for w in _switch_windows(runs, 0.06) if w[3][0] > 40]
+    assert t[before[0]] == pytest.approx(0.49 - 0.12) and t[after[0]] == pytest.approx(0.49 + 0.06)

@@ -72,6 +72,7 @@ def scaled_move(angle_deg: float, move: tuple[float, ...], act: Actuator | None 
 
 
 STAIR_S = 0.3  # one stair: move and hold (s)
+QUIET_N, QUIET_S = 0.4, 0.08  # a retract ends once the force has stayed below QUIET_N for QUIET_S
 STAIR_KP_V_PER_MM = 11.4  # position loop gain: V per mm of nut error (0.05 V/count on the paper's encoder)
 CONTACT_N = 0.3  # the stairs start when the reference force first exceeds this
 
@@ -134,6 +135,7 @@ def run_trials(
     phase = np.zeros(len(moves), dtype=int)  # 0 push, 1 retract, 2 done
     pushing = _stairs(moves, cfg)
     every = sample_every(cfg)
+    quiet_rows = max(int(round(QUIET_S * cfg.actuator.loop_hz)), 1)
     quiet = np.zeros(len(moves), dtype=int)
     cols: dict[str, list[np.ndarray]] = {
         k: [] for k in ("t_s", "motor_v", "enc", "pot", "load_cell_n", "force_n")
@@ -154,8 +156,8 @@ def run_trials(
             ):
                 cols[name].append(np.array(v, copy=True))
             phase = np.where((phase == 0) & (s.force_n >= peak), 1, phase)
-            quiet = np.where((phase == 1) & (s.force_n < 0.4), quiet + 1, 0)
-            phase = np.where((phase == 1) & ((quiet >= 8) | (s.enc <= 0)), 2, phase)
+            quiet = np.where((phase == 1) & (s.force_n < QUIET_N), quiet + 1, 0)
+            phase = np.where((phase == 1) & ((quiet >= quiet_rows) | (s.enc <= 0)), 2, phase)
             if (phase == 2).all():
                 break
             push_now = pushing(k // every, s.enc, s.force_n)

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from seagen.actuator import Actuator
 from seagen.data.logimport import clock_resolution
 from seagen.plant import Plant, PlantConfig, kernel
 from seagen.plant.config import CATALOGUE
@@ -35,10 +36,16 @@ NEUTRAL: dict[str, dict[str, float]] = {
 }
 ParamSet = dict[str, dict[str, float]]
 SWITCH_V = 0.5  # a command change this large is a switch (its instant's uncertainty moves the encoder)
-SETTLE_S = 0.03  # the speed after a switch is read this long after it (motor time constant ~ 10 ms)
+SETTLE_S = 0.03  # the speed after a switch is read this long after it (at least: 2 motor time constants)
 # A command instant this close to a plant step's edge is on it: far below any log clock's resolution
 # (1 us at the finest), far above the rounding of times summed in floating point (a simulator's t += dt).
 SNAP_S = 1e-9
+
+
+def settle_time(act: Actuator) -> float:
+    """How long after a command switch the motor's speed is read as settled: SETTLE_S, or two of the
+    motor's time constants when that is longer (the paper's 15 ms motor and the example's are within it)."""
+    return max(SETTLE_S, 2.0 * act.motor.time_constant_s)
 
 
 @dataclass
@@ -61,6 +68,7 @@ class Runs:
     lag: np.ndarray = field(default_factory=lambda: np.zeros(0))
     res: np.ndarray = field(default_factory=lambda: np.zeros(0))
     declared: float | None = None
+    settle_s: float = SETTLE_S  # see timing_sigma; settle_time(actuator) for a motor slower than the paper's
 
     _tsig: dict[str, np.ndarray] | None = field(default=None, init=False, repr=False)
 
@@ -87,6 +95,7 @@ class Runs:
             self.lag[idx],
             self.res[idx],
             self.declared,
+            self.settle_s,
         )
 
     def timing_sigma(self) -> dict[str, np.ndarray]:
@@ -103,7 +112,7 @@ class Runs:
             switch[:, 1:] = np.abs(np.diff(cmd, axis=1)) > SWITCH_V
             later = np.empty_like(v)
             for i in range(len(v)):  # the speed a settle time after each sample
-                j = np.searchsorted(self.t[i], self.t[i] + SETTLE_S)
+                j = np.searchsorted(self.t[i], self.t[i] + self.settle_s)
                 later[i] = v[i, np.minimum(j, v.shape[1] - 1)]
             before = np.concatenate([v[:, :1], v[:, :-1]], axis=1)
             jump = np.where(switch & self.mask, (later - before) ** 2, 0.0) * u**2

@@ -7,9 +7,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from seagen.actuator import Actuator
 from seagen.discrepancy.replay import SNAP_S, Runs, simulate
 
 STEP_S = 0.015  # the lag is read from the encoder residual's step from just before a switch to this after
+# (at least one motor time constant: step_time)
 COARSE = np.linspace(0.0, 1.0, 11)  # lag grid, then a fine one around the best
 FINE_HALF, FINE_N = 0.1, 11
 POLISH_S, POLISH_N = 0.1e-3, 11  # the last step: +-0.1 ms around the best, whole-trial chi-square ...
@@ -45,9 +47,17 @@ class Timing:
         )
 
 
-def _switch_windows(runs: Runs) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
-    """Per command switch (the first command from rest too): (trial, rows of the 2 STEP_S before it, their
-    weights of a least-squares line extrapolated to the mean time of the rows STEP_S..2 STEP_S after it,
+def step_time(act: Actuator) -> float:
+    """The switch-step window: STEP_S, or the motor's time constant when that is longer (both shipped
+    designs' motors are within STEP_S)."""
+    return max(STEP_S, act.motor.time_constant_s)
+
+
+def _switch_windows(
+    runs: Runs, step_s: float = STEP_S
+) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
+    """Per command switch (the first command from rest too): (trial, rows of the 2 step_s before it, their
+    weights of a least-squares line extrapolated to the mean time of the rows step_s..2 step_s after it,
     those after rows)."""
     from seagen.discrepancy.replay import SWITCH_V
 
@@ -57,9 +67,9 @@ def _switch_windows(runs: Runs) -> list[tuple[int, np.ndarray, np.ndarray, np.nd
         v, t = runs.volts[i, :m], runs.t[i, :m]
         for j in np.flatnonzero(np.abs(np.diff(np.r_[0.0, v])) > SWITCH_V):
             b = int(j) - 1 if j > 0 else 0  # the last row before the switch (it may act from that instant)
-            before = np.arange(np.searchsorted(t, t[b] - 2 * STEP_S), b + 1)
+            before = np.arange(np.searchsorted(t, t[b] - 2 * step_s), b + 1)
             after = np.arange(
-                np.searchsorted(t, t[b] + STEP_S), np.searchsorted(t, t[b] + 2 * STEP_S, side="right")
+                np.searchsorted(t, t[b] + step_s), np.searchsorted(t, t[b] + 2 * step_s, side="right")
             )
             if not len(after):
                 continue
@@ -73,8 +83,8 @@ def _switch_windows(runs: Runs) -> list[tuple[int, np.ndarray, np.ndarray, np.nd
 
 def _profile(base, runs: Runs, sig_enc: np.ndarray, lags: np.ndarray) -> np.ndarray:
     """For each lag, the sum of squares of the base plant's encoder residual steps across the command
-    switches (noise units): the mean residual STEP_S..2 STEP_S after a switch less the line through the
-    2 STEP_S before it, extrapolated. A mis-timed switch puts a step there; slow physics (compliance,
+    switches (noise units): the mean residual step..2 step after a switch (step_time) less the line through
+    the 2 step before it, extrapolated. A mis-timed switch puts a step there; slow physics (compliance,
     friction levels) barely bends the residual in that window, so a missing effect hardly pulls the lag;
     averaging over the windows keeps the encoder's rounding from deciding it at high rates. All lags
     replayed in one batch."""
@@ -85,7 +95,7 @@ def _profile(base, runs: Runs, sig_enc: np.ndarray, lags: np.ndarray) -> np.ndar
     z = (big.meas["enc"] - sim) / np.tile(sig_enc, len(lags))[:, None]
     rows = np.arange(len(lags)) * n
     out = np.zeros(len(lags))
-    for i, before, w, after in _switch_windows(runs):
+    for i, before, w, after in _switch_windows(runs, step_time(base.actuator)):
         step = z[(rows + i)[:, None], after].mean(axis=1) - z[(rows + i)[:, None], before] @ w
         out += step**2
     return out

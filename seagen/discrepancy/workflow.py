@@ -28,7 +28,7 @@ from seagen.discrepancy.claims import Evidence, evidence, footprints
 from seagen.discrepancy.erratic import ERRATIC_SHARE, TINY, erratic
 from seagen.discrepancy.learned import Learned, fit_learned, with_learned
 from seagen.discrepancy.recalibrate import BaseCheck, base_check, plausible, plausible_range, uncertainty
-from seagen.discrepancy.replay import ParamSet, Runs, simulate
+from seagen.discrepancy.replay import ParamSet, Runs, settle_time, simulate
 from seagen.discrepancy.residuals import (
     channel_rms,
     n_scored,
@@ -460,6 +460,7 @@ def identify(
     default the lag the log declares, Runs.declared)."""
     t0 = time.perf_counter()
     pinned = runs.declared if pinned is None else pinned
+    runs = dataclasses.replace(runs, settle_s=settle_time(base.actuator))  # the described motor's
     rng = np.random.default_rng(seed)
     fit_i, held_i = split_trials(runs)
     sig = noise_sigma(runs)
