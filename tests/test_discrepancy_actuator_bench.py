@@ -150,11 +150,11 @@ def test_cases_picks_a_subset_and_refuses_unknown_names(capsys) -> None:
             "stribeck_friction",
             marks=pytest.mark.xfail(
                 strict=True,
-                reason="known: the case names stribeck_friction first but also recalibrates "
-                "linkage_friction and ends at 1.10 x the noise floor, unexplained (with the search "
-                "before every single's polish: explained with an extra spring_preload); the simulated "
-                "Stribeck law is chaotic from step to step, which this encoder sees (docs/discrepancy.md, "
-                "'On another actuator design')",
+                reason="known: the case names only stribeck_friction and ends explained, but only with "
+                "one erratic held-out trial left out of the verdict: over all six held-out trials it is at "
+                "2.0 x the noise floor; the simulated Stribeck law is chaotic from step to step where the "
+                "shaft slides slowly, which this encoder sees (docs/discrepancy.md, 'Erratic held-out "
+                "trials')",
             ),
         ),
         "series_compliance",

@@ -46,14 +46,17 @@ def test_stick_slip_trial_is_erratic_and_smooth_ones_are_not():
 def test_verdict_is_read_without_the_erratic_trial_and_says_so():
     """The same case through identify: the fit leaves the erratic trial above the floor and the other five at
     it, so the verdict is explained and the note names the trial left out and why; the claims are judged as
-    before the erratic trial was left out (the compensation rule still holds the recalibration back)."""
+    before the erratic trial was left out: the Stribeck fit is the closest change, not claimed, and any
+    recalibration is compensation only (since a retract ends after 80 ms at any loop rate, the case
+    recalibrates nothing; before, linkage_friction as compensation only)."""
     case = make_case(("stribeck_friction",), 3, act=load_actuator(EXAMPLE_ACTUATOR))
     res = W.identify(case.runs, case.base)
     assert res.verdict == "explained" and res.rms_after > W.AT_FLOOR * res.noise_floor
     note = [n for n in res.notes if "left out of the verdict" in n]
     assert len(note) == 1 and " deg left out" in note[0] and "stick-slip" in note[0]
     assert res.effects and res.effects[0].name == "stribeck_friction"
-    assert res.recalibrated and all(n.why.startswith("compensation only") for n in res.recalibrated)
+    assert not res.effects[0].claimed and res.effects[0].why.startswith("closest, not claimed")
+    assert all(n.why.startswith("compensation only") for n in res.recalibrated)
     assert not np.isnan(res.rms_after)
 
 
