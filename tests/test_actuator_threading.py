@@ -488,7 +488,12 @@ def test_a_geometry_the_c_cannot_hold_is_refused_before_any_work(tmp_path, capsy
         "\n".join("offset_deg = -200.0" if x.startswith("offset_deg") else x for x in text.splitlines())
     )
     out = tmp_path / "data"
-    assert main(["data", "generate", "--out", str(out), "--actuator", str(bad)]) == 2
-    err = capsys.readouterr().err.strip()
-    assert "\n" not in err and str(bad) in err and "pot.offset_deg -200" in err and "|deg| < 128" in err
-    assert not out.exists()
+    for argv in (
+        ["data", "generate", "--out", str(out)],
+        ["demo", "--out", str(out)],  # it ran data, training and export first, writing into --out
+        ["export", "default:sf_calibration", "--out", str(out)],  # it said: trained for another actuator
+    ):
+        assert main([*argv, "--actuator", str(bad)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and str(bad) in err and "pot.offset_deg -200" in err and "|deg| < 128" in err
+        assert not out.exists()

@@ -24,23 +24,15 @@ def add_actuator(p: argparse.ArgumentParser, help: str = ACTUATOR_HELP) -> None:
 
 
 def given_actuator(args: argparse.Namespace) -> Actuator | None:
-    """The description --actuator names, validated (errors name the file and field) and its fixed-point
-    formats proven (a geometry the generated C cannot hold is refused now, not at export after the data
-    and the training), or None."""
-    from seagen.actuator import ActuatorError, load_actuator
-    from seagen.runtime.actq import act_q
-    from seagen.runtime.control import ControlConfig
-    from seagen.runtime.pid import GainRangeError
+    """The description --actuator names (checked_actuator), or None."""
+    return checked_actuator(getattr(args, "actuator", None))
 
-    if not getattr(args, "actuator", None):
-        return None
-    act = load_actuator(args.actuator)
-    try:
-        ControlConfig.for_act(act_q(act))  # act_q's refusals name the file
-    except (ActuatorError, GainRangeError) as e:
-        named = str(e) if isinstance(e, ActuatorError) else f"{act.source}: {e}"
-        raise ActuatorError(f"{named}; the generated C could not run this design") from None
-    return act
+
+def checked_actuator(path: str | None) -> Actuator | None:
+    """runtime.control.proven_actuator of --actuator's path, or None without it."""
+    from seagen.runtime.control import proven_actuator
+
+    return proven_actuator(path) if path else None
 
 
 def register(sub: argparse._SubParsersAction) -> None:

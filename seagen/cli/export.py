@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from seagen.actuator import Actuator, load_actuator
 from seagen.defaults import model_arg
 
 
@@ -71,13 +70,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_export)
 
 
-def given_actuator(path: str | None) -> Actuator | None:
-    """The description named by --actuator, validated (None without the option)."""
-    return None if path is None else load_actuator(path)
-
-
 def cmd_export(args: argparse.Namespace) -> int:
     """Export (checked against the original), optionally check on data, then write; 1 if a check fails."""
+    from seagen.cli.data import checked_actuator
     from seagen.errors import CheckFailed
     from seagen.export import check_out_dir, prepare, write
 
@@ -92,7 +87,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         args.allow_pickle,
         controller=args.controller,
         target=args.target,
-        actuator=given_actuator(args.actuator),
+        actuator=checked_actuator(args.actuator),
     )
     if args.check:
         from seagen.datacheck import check_data_dir

@@ -50,7 +50,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def cmd_pil(args: argparse.Namespace) -> int:
     """Run the experiment on the board; print the report and instruction counts; 0 agrees, 1 disagrees."""
-    from seagen.cli.export import given_actuator
+    from seagen.cli.data import checked_actuator
     from seagen.errors import UserError
     from seagen.verify.pil import run_pil
 
@@ -65,7 +65,7 @@ def cmd_pil(args: argparse.Namespace) -> int:
         args.cal_model,
         args.prefix,
         args.allow_pickle,
-        given_actuator(args.actuator),
+        checked_actuator(args.actuator),
     )
     v, s = res.verdict, res.summary()
     if args.json:

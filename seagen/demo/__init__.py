@@ -78,8 +78,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if args.rebuild:
         build_defaults(Path(args.rebuild), args.seed)
         return 0
-    from seagen.actuator import load_actuator
     from seagen.demo.steps import run_demo
+    from seagen.runtime.control import proven_actuator
 
-    run_demo(Path(args.out), args.seed, load_actuator(args.actuator) if args.actuator else None)
+    run_demo(Path(args.out), args.seed, proven_actuator(args.actuator) if args.actuator else None)
     return 0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
 from typing import Any
@@ -10,7 +11,7 @@ import numpy as np
 
 from seagen.actuator import Actuator, default_actuator
 from seagen.c_runtime import defines
-from seagen.runtime.actq import ActQ, act_q_of
+from seagen.runtime.actq import ActQ, act_q, act_q_of
 from seagen.runtime.fixed import FORCE_FRAC_BITS, compression_q16, div_rne, rshift_rne, sat32
 from seagen.runtime.pid import (
     DEFAULT_PID,
@@ -249,3 +250,22 @@ def sensor_walk(
     )
     force = np.repeat(rng.uniform(force_n[0], force_n[1], (n // hold + 1, *batch)), hold, axis=0)[:n]
     return enc, pot, np.vectorize(q16, otypes=[np.int64])(force)
+
+
+def proven_actuator(path: str | os.PathLike[str]) -> Actuator:
+    """The description at `path`, validated (errors name the file and field) with its fixed-point formats
+    and PID gains proven for the C (a design the generated C cannot hold is refused when it is given, not
+    at export after the data and the training; ActuatorError, exit 2)."""
+    from seagen.actuator import ActuatorError, load_actuator
+
+    act = load_actuator(path)
+    try:
+        ControlConfig.for_act(act_q(act))  # act_q's refusals name the file
+    except GainRangeError as e:  # worded as act_q's refusals: the file, the name, the field
+        why = str(e).removeprefix(f"actuator '{act.name}': ")
+        raise ActuatorError(
+            f"{act.source} ('{act.name}'): {why}; the generated C could not run this design"
+        ) from None
+    except ActuatorError as e:
+        raise ActuatorError(f"{e}; the generated C could not run this design") from None
+    return act
