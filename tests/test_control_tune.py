@@ -114,6 +114,8 @@ def test_tune_on_another_design_prints_control_lines_the_description_takes(tmp_p
     assert main(["tune", "--actuator", str(EXAMPLE_ACTUATOR), "--trials", "1", "--seeds", "1", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["configuration"] == "kin_mcu" and set(out["settling_s"]["kin_mcu"]) == {"5", "10", "15"}
+    assert out["first_trial_settling_s"] == out["settling_s"]  # one trial: the description's own settings
+    assert out["control"].startswith("# seagen tune: set these in your description's [control] table")
     text = EXAMPLE_ACTUATOR.read_text()
     lines = out["control"].splitlines()[1:]
     keys = {x.split(" = ")[0] for x in lines}

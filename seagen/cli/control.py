@@ -316,18 +316,26 @@ def cmd_tune(args: argparse.Namespace) -> int:
     study = tune(args.trials, seeds, setup=setup, act=act, progress=not args.json, name=name, metric=metric)
     best = study.best_trial
     settling = {k: {f"{t:g}": round(v, 3) for t, v in d.items()} for k, d in best.user_attrs.items()}
+    first = {k: {f"{t:g}": round(v, 3) for t, v in d.items()} for k, d in study.trials[0].user_attrs.items()}
     table = control_table(best.params)
     if args.json:
         print(
             json.dumps(
-                {"configuration": name, "params": best.params, "settling_s": settling, "control": table}
+                {
+                    "configuration": name,
+                    "params": best.params,
+                    "settling_s": settling,
+                    "first_trial_settling_s": first,
+                    "control": table,
+                }
             )
         )
     else:
         print(f"tuned {name} on {act.name} over {args.trials} trials x {args.seeds} seeds")
-        for k, d in settling.items():
-            to = " to the final level" if metric == "settling_final_s" else ""
-            print(f"mean settling s{to} ({k}):", ", ".join(f"{t} N {v}" for t, v in d.items()))
+        to = " to the final level" if metric == "settling_final_s" else ""
+        for label, trial in (("best", settling), ("first trial: the description's own", first)):
+            for k, d in trial.items():
+                print(f"mean settling s{to} ({k}), {label}:", ", ".join(f"{t} N {v}" for t, v in d.items()))
         print(table)
     if best.value >= worst_plus_mean(dict.fromkeys(targets_n(act), NEVER_S)):
         print(

@@ -189,6 +189,9 @@ def _limit_step(lo: float, hi: float) -> float:
 
 
 def control_table(params: dict[str, float]) -> str:
-    """The best trial's PID settings as the description's [control] lines to paste."""
+    """The best trial's PID settings as lines for the description's [control] table (a comment first)."""
     lines = [f"{CONTROL_FIELD[k]} = {params[k]:.4g}" for k in PAPER_SPACE if k in params]
-    return "\n".join(["[control]  # seagen tune", *lines])
+    head = (
+        "# seagen tune: set these in your description's [control] table, then regenerate the data and retrain"
+    )
+    return "\n".join([head, *lines])
