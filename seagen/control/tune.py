@@ -22,7 +22,7 @@ from seagen.control.experiment import (
 from seagen.data.protocol import force_scale, volts_scale
 from seagen.plant import PlantConfig
 from seagen.plant.config import Motor
-from seagen.runtime.pid import DEFAULT_PID_SI, PidParams, gain_max_si, pid_si
+from seagen.runtime.pid import DEFAULT_PID_SI, SI_FIELDS, PidParams, gain_max_si, pid_si
 
 # The shipped choice (DEFAULT_PID, MLP_PRED_AVG) in the search's parameters: the first trial, as a baseline.
 SHIPPED = {**DEFAULT_PID_SI, "pred_avg": MLP_PRED_AVG}
@@ -40,15 +40,6 @@ PAPER_SPACE = {
 }
 GAIN_HEADROOM = 0.99  # the search's gains stay this share of the largest the C holds
 LIMIT_STEP_V = 0.5  # the limit's grid on the paper's actuator (scaled with the range)
-# PidParams.from_si's argument -> the description's [control] field
-CONTROL_FIELD = {
-    "kp_v_mm": "kp_v_per_mm",
-    "ki_v_mm_s": "ki_v_per_mm_s",
-    "kd_v_s_mm": "kd_v_s_per_mm",
-    "d_alpha": "d_alpha",
-    "margin_mm": "margin_mm",
-    "limit_v": "limit_v",
-}
 
 
 def search_space(act: Actuator) -> dict[str, tuple[float, float]]:
@@ -190,7 +181,7 @@ def _limit_step(lo: float, hi: float) -> float:
 
 def control_table(params: dict[str, float]) -> str:
     """The best trial's PID settings as lines for the description's [control] table (a comment first)."""
-    lines = [f"{CONTROL_FIELD[k]} = {params[k]:.4g}" for k in PAPER_SPACE if k in params]
+    lines = [f"{SI_FIELDS[k]} = {params[k]:.4g}" for k in PAPER_SPACE if k in params]
     head = (
         "# seagen tune: set these in your description's [control] table, then regenerate the data and retrain"
     )

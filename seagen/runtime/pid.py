@@ -21,13 +21,19 @@ TICK_S = 1.0 / act_q_of().loop_hz  # its controller tick (100 Hz)
 
 
 I32_MAX = 2**31 - 1
-# PidParams.from_si's gain -> (the description's [control] field, its unit, its power of the tick in the Q12
-# integer: kp per mm, ki per mm per tick, kd per mm per tick^-1)
-GAINS = {
-    "kp_v_mm": ("kp_v_per_mm", "V/mm", 0),
-    "ki_v_mm_s": ("ki_v_per_mm_s", "V/(mm s)", 1),
-    "kd_v_s_mm": ("kd_v_s_per_mm", "V s/mm", -1),
+# PidParams.from_si's SI argument -> the description's [control] field (pid_si reads them; seagen tune
+# writes them)
+SI_FIELDS = {
+    "kp_v_mm": "kp_v_per_mm",
+    "ki_v_mm_s": "ki_v_per_mm_s",
+    "kd_v_s_mm": "kd_v_s_per_mm",
+    "d_alpha": "d_alpha",
+    "margin_mm": "margin_mm",
+    "limit_v": "limit_v",
 }
+# the gains: their unit and power of the tick in the Q12 integer (kp per mm, ki per mm per tick, kd per mm
+# per tick^-1)
+GAINS = {"kp_v_mm": ("V/mm", 0), "ki_v_mm_s": ("V/(mm s)", 1), "kd_v_s_mm": ("V s/mm", -1)}
 
 
 class GainRangeError(UserError):
@@ -36,7 +42,7 @@ class GainRangeError(UserError):
 
 def gain_max_si(tick_s: float) -> dict[str, float]:
     """The largest value of each gain (GAINS, SI) whose Q12 integer fits int32 at tick `tick_s`."""
-    return {k: I32_MAX / (1000.0 * (1 << GAIN_FRAC) * tick_s**p) for k, (_f, _u, p) in GAINS.items()}
+    return {k: I32_MAX / (1000.0 * (1 << GAIN_FRAC) * tick_s**p) for k, (_u, p) in GAINS.items()}
 
 
 @dataclass(frozen=True)
@@ -73,13 +79,13 @@ class PidParams:
             "ki_v_mm_s": round(ki_v_mm_s * 1000 * tick_s * q),
             "kd_v_s_mm": round(kd_v_s_mm * 1000 / tick_s * q),
         }
+        si = {"kp_v_mm": kp_v_mm, "ki_v_mm_s": ki_v_mm_s, "kd_v_s_mm": kd_v_s_mm}
         for k, v in gains.items():
             if abs(v) > I32_MAX:
-                field, unit, _p = GAINS[k]
-                si = {"kp_v_mm": kp_v_mm, "ki_v_mm_s": ki_v_mm_s, "kd_v_s_mm": kd_v_s_mm}[k]
+                unit = GAINS[k][0]
                 raise GainRangeError(
-                    f"control.{field} {si:g} {unit} at {1.0 / tick_s:g} Hz does not fit the C's Q12 gain in "
-                    f"int32 (at most {gain_max_si(tick_s)[k]:.4g} {unit} at this loop rate)"
+                    f"control.{SI_FIELDS[k]} {si[k]:g} {unit} at {1.0 / tick_s:g} Hz does not fit the C's "
+                    f"Q12 gain in int32 (at most {gain_max_si(tick_s)[k]:.4g} {unit} at this loop rate)"
                 )
         lim = min(round(limit_v * 1000), max_mv)
         return cls(
@@ -99,14 +105,7 @@ class PidParams:
 
 def pid_si(c: Control) -> dict[str, Any]:
     """The PID settings of a description's [control] table as PidParams.from_si arguments."""
-    return {
-        "kp_v_mm": c.kp_v_per_mm,
-        "ki_v_mm_s": c.ki_v_per_mm_s,
-        "kd_v_s_mm": c.kd_v_s_per_mm,
-        "d_alpha": c.d_alpha,
-        "margin_mm": c.margin_mm,
-        "limit_v": c.limit_v,
-    }
+    return {k: getattr(c, field) for k, field in SI_FIELDS.items()}
 
 
 # The paper's description's gains, tuned on its simulated plant (c_runtime/README.md "Tuned gains";
