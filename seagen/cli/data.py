@@ -24,15 +24,10 @@ def add_actuator(p: argparse.ArgumentParser, help: str = ACTUATOR_HELP) -> None:
 
 
 def given_actuator(args: argparse.Namespace) -> Actuator | None:
-    """The description --actuator names (checked_actuator), or None."""
-    return checked_actuator(getattr(args, "actuator", None))
-
-
-def checked_actuator(path: str | None) -> Actuator | None:
-    """runtime.control.proven_actuator of --actuator's path, or None without it."""
+    """The description --actuator names, proven (runtime.control.proven_actuator), or None."""
     from seagen.runtime.control import proven_actuator
 
-    return proven_actuator(path) if path else None
+    return proven_actuator(getattr(args, "actuator", None))
 
 
 def register(sub: argparse._SubParsersAction) -> None:

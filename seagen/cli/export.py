@@ -72,9 +72,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def cmd_export(args: argparse.Namespace) -> int:
     """Export (checked against the original), optionally check on data, then write; 1 if a check fails."""
-    from seagen.cli.data import checked_actuator
     from seagen.errors import CheckFailed
     from seagen.export import check_out_dir, prepare, write
+    from seagen.runtime.control import proven_actuator
 
     check_out_dir(args.out)
     ex = prepare(
@@ -87,7 +87,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         args.allow_pickle,
         controller=args.controller,
         target=args.target,
-        actuator=checked_actuator(args.actuator),
+        actuator=proven_actuator(args.actuator),
     )
     if args.check:
         from seagen.datacheck import check_data_dir

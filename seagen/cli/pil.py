@@ -50,8 +50,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def cmd_pil(args: argparse.Namespace) -> int:
     """Run the experiment on the board; print the report and instruction counts; 0 agrees, 1 disagrees."""
-    from seagen.cli.data import checked_actuator
     from seagen.errors import UserError
+    from seagen.runtime.control import proven_actuator
     from seagen.verify.pil import run_pil
 
     if args.junit and (why := "a folder" if Path(args.junit).is_dir() else writable_place(args.junit)):
@@ -65,7 +65,7 @@ def cmd_pil(args: argparse.Namespace) -> int:
         args.cal_model,
         args.prefix,
         args.allow_pickle,
-        checked_actuator(args.actuator),
+        proven_actuator(args.actuator),
     )
     v, s = res.verdict, res.summary()
     if args.json:

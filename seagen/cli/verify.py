@@ -72,8 +72,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def cmd_verify(args: argparse.Namespace) -> int:
     """Run every check, print the report, write the JUnit file; 0 agrees, 1 disagrees. Bad input (exit 2)
     still prints the JSON object and writes the JUnit file, each carrying the error."""
-    from seagen.cli.data import checked_actuator
     from seagen.errors import UserError
+    from seagen.runtime.control import proven_actuator
     from seagen.verify.result import Verdict
     from seagen.verify.run import verify
 
@@ -90,7 +90,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
             args.features,
             args.allow_pickle,
             misra=args.misra,
-            actuator=checked_actuator(args.actuator),
+            actuator=proven_actuator(args.actuator),
         )
     except UserError as e:
         failed = Verdict(args.prefix or "?", args.dir, error=str(e))

@@ -81,5 +81,5 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from seagen.demo.steps import run_demo
     from seagen.runtime.control import proven_actuator
 
-    run_demo(Path(args.out), args.seed, proven_actuator(args.actuator) if args.actuator else None)
+    run_demo(Path(args.out), args.seed, proven_actuator(args.actuator))
     return 0

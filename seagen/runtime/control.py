@@ -101,7 +101,7 @@ class ControlConfig:
                     **pid_si(a.control), max_mv=a.motor_max_mv, tick_s=1.0 / a.loop_hz
                 )
             except GainRangeError as e:
-                raise GainRangeError(f"actuator '{a.name}': {e}") from None
+                raise GainRangeError(e.why, f"actuator '{a.name}': ") from None
         kw.setdefault("force_max", q16(a.control.force_max_n))
         return cls(act=a, enc_jump_max=a.enc_jump_max, pot_stuck_ticks=a.pot_stuck_ticks, **kw)
 
@@ -252,19 +252,20 @@ def sensor_walk(
     return enc, pot, np.vectorize(q16, otypes=[np.int64])(force)
 
 
-def proven_actuator(path: str | os.PathLike[str]) -> Actuator:
-    """The description at `path`, validated (errors name the file and field) with its fixed-point formats
-    and PID gains proven for the C (a design the generated C cannot hold is refused when it is given, not
-    at export after the data and the training; ActuatorError, exit 2)."""
+def proven_actuator(path: str | os.PathLike[str] | None) -> Actuator | None:
+    """The description at `path` (an --actuator option; None without one), validated (errors name the file
+    and field) with its fixed-point formats and PID gains proven for the C (a design the generated C cannot
+    hold is refused when it is given, not at export after the data and the training; exit 2)."""
     from seagen.actuator import ActuatorError, load_actuator
 
+    if not path:
+        return None
     act = load_actuator(path)
     try:
         ControlConfig.for_act(act_q(act))  # act_q's refusals name the file
     except GainRangeError as e:  # worded as act_q's refusals: the file, the name, the field
-        why = str(e).removeprefix(f"actuator '{act.name}': ")
         raise ActuatorError(
-            f"{act.source} ('{act.name}'): {why}; the generated C could not run this design"
+            f"{act.source} ('{act.name}'): {e.why}; the generated C could not run this design"
         ) from None
     except ActuatorError as e:
         raise ActuatorError(f"{e}; the generated C could not run this design") from None

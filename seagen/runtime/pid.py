@@ -37,7 +37,12 @@ GAINS = {"kp_v_mm": ("V/mm", 0), "ki_v_mm_s": ("V/(mm s)", 1), "kd_v_s_mm": ("V 
 
 
 class GainRangeError(UserError):
-    """A PID gain whose Q12 integer does not fit the C's int32 field at this loop rate (exit 2)."""
+    """A PID gain whose Q12 integer does not fit the C's int32 field at this loop rate (exit 2); `why` is
+    the reason alone, the message `where` (the actuator) before it."""
+
+    def __init__(self, why: str, where: str = "") -> None:
+        super().__init__(f"{where}{why}")
+        self.why = why
 
 
 def gain_max_si(tick_s: float) -> dict[str, float]:
