@@ -157,8 +157,8 @@ def test_runs_stuck_at_the_command_limit_are_named():
     out = np.array([[0, 0, 0], [lim, 0, -lim], [lim, lim, -lim], [lim - 1, lim, -lim]])
     rec = {"out_mv": out, "true_force_n": np.array([[0, 0, 0], [1, 0, 1], [1, 1, 1], [1, 1, 1]])}
     # column 0: 2 of 3 ticks after contact at the limit; 1: settled (ignored); 2: 3 of 3
-    assert limit_share(rec, np.array([np.nan, 0.5, np.nan]), act48) == 5 / 6
-    assert limit_share(rec, np.array([0.1, 0.5, 0.2]), act48) == 0.0
+    assert limit_share(rec, np.array([np.nan, 0.5, np.nan]), lim) == 5 / 6
+    assert limit_share(rec, np.array([0.1, 0.5, 0.2]), lim) == 0.0
     row = {"error_avg_n": 9.0, "settling_s": None, "settled": 0, "angles": 10, "settling_final_s": None}
     table = {"kin_mcu": {"30": {**row, "at_limit": 0.85}, "15": {**row, "at_limit": 0.2}}}
     (note,) = limit_notes(table, act48)

@@ -107,13 +107,12 @@ def _mean_or_none(x: np.ndarray) -> float | None:
     return None if np.isnan(x).all() else round(float(np.nanmean(x)), 3)
 
 
-def limit_share(rec: dict[str, np.ndarray], settling_s: np.ndarray, act: Actuator) -> float:
+def limit_share(rec: dict[str, np.ndarray], settling_s: np.ndarray, lim_mv: int) -> float:
     """Share of the ticks after contact, over the runs that never settle, at which the command sits at
-    the controller's limit (control.limit_v within the supply); 0 when every run settles."""
+    the controller's limit `lim_mv` (its PID's out_max); 0 when every run settles."""
     never = np.isnan(settling_s)
     if not never.any():
         return 0.0
-    lim_mv = min(round(act.control.limit_v * 1000), round(act.motor.supply_v * 1000))
     after = rec["true_force_n"] > 0
     at = (np.abs(rec["out_mv"]) >= lim_mv) & after
     return float(at[:, never].sum() / max(int(after[:, never].sum()), 1))
@@ -167,7 +166,8 @@ def run_config(
     {target: {metric: value, ...}}; settling_s is the mean over the angles that settle (`settled` of them),
     None if none does. `estimator` (a calibration model) adds its force estimate and its error."""
     out: dict[str, dict] = {}
-    for target, rec in runs(*(setups or CONFIGS)[name](latency_s), impl=impl, seed=seed, plant_cfg=plant_cfg):
+    pred, ctl = (setups or CONFIGS)[name](latency_s)
+    for target, rec in runs(pred, ctl, impl=impl, seed=seed, plant_cfg=plant_cfg):
         m = metrics(rec)
         s = m["settling_s"]
         out[f"{target:g}"] = {
@@ -176,7 +176,7 @@ def run_config(
             "settled": int(np.isfinite(s).sum()),
             "angles": len(s),
             "settling_final_s": _mean_or_none(m["settling_final_s"]),
-            "at_limit": round(limit_share(rec, s, (plant_cfg or PlantConfig()).actuator), 3),
+            "at_limit": round(limit_share(rec, s, ctl.pid.out_max), 3),
             "trace": rec,
         }
         if estimator is not None:
