@@ -315,8 +315,11 @@ def cmd_tune(args: argparse.Namespace) -> int:
     seeds = tuple(10 * k for k in range(args.seeds))
     study = tune(args.trials, seeds, setup=setup, act=act, progress=not args.json, name=name, metric=metric)
     best = study.best_trial
-    settling = {k: {f"{t:g}": round(v, 3) for t, v in d.items()} for k, d in best.user_attrs.items()}
-    first = {k: {f"{t:g}": round(v, 3) for t, v in d.items()} for k, d in study.trials[0].user_attrs.items()}
+
+    def shown(trial) -> dict[str, dict[str, float]]:  # a trial's settling per configuration and target
+        return {k: {f"{t:g}": round(v, 3) for t, v in d.items()} for k, d in trial.user_attrs.items()}
+
+    settling, first = shown(best), shown(study.trials[0])
     table = control_table(best.params)
     if args.json:
         print(

@@ -22,6 +22,7 @@ from seagen.control.experiment import (
 from seagen.data.protocol import force_scale, volts_scale
 from seagen.plant import PlantConfig
 from seagen.plant.config import Motor
+from seagen.runtime.actq import ActQ, act_q_of
 from seagen.runtime.pid import DEFAULT_PID_SI, SI_FIELDS, PidParams, gain_max_si, pid_si
 
 # The shipped choice (DEFAULT_PID, MLP_PRED_AVG) in the search's parameters: the first trial, as a baseline.
@@ -104,16 +105,14 @@ def worst_plus_mean(settling: dict[float, float]) -> float:
     return max(settling.values()) + 0.3 * float(np.mean(list(settling.values())))
 
 
-def _pid(trial: Any, act: Actuator) -> PidParams:
-    """A trial's PID in `act`'s search space (the gains and margin log-uniform where it was widened),
-    quantized at its tick within its supply."""
-    space = search_space(act)
+def _pid(trial: Any, space: dict[str, tuple[float, float]], aq: ActQ) -> PidParams:
+    """A trial's PID in the search space `space` (the gains and margin log-uniform where it was widened
+    from the paper's), quantized at the tick and within the motor range of actuator `aq`."""
     widened = {k for k in PAPER_SPACE if k != "limit_v" and space[k] != PAPER_SPACE[k] and space[k][0] > 0}
     si = {k: trial.suggest_float(k, *space[k], log=k in widened) for k in PAPER_SPACE if k != "limit_v"}
     lo, hi = space["limit_v"]
     si["limit_v"] = trial.suggest_float("limit_v", lo, hi, step=_limit_step(lo, hi)) if hi > lo else hi
-    tick = 1.0 / act.loop_hz
-    return PidParams.from_si(**si, max_mv=round(act.motor.supply_v * 1000), tick_s=tick)
+    return PidParams.from_si(**si, max_mv=aq.motor_max_mv, tick_s=1.0 / aq.loop_hz)
 
 
 def tune(
@@ -139,19 +138,20 @@ def tune(
     paper_search = setup is None and is_default(act)
     if setup is None and not paper_search:
         raise ValueError("tune: another actuator needs its configuration (setup)")
+    space, aq = search_space(act), act_q_of(act)
+    mlp_setup, sf_setup = (CONFIGS["mlp_mcu"](0.1), CONFIGS["sf_mcu"](0.1)) if paper_search else (None, None)
+    mine_setup = None if setup is None else setup(0.1)
 
     def trial_fn(trial: optuna.Trial) -> float:
-        pid = _pid(trial, act)
-        if paper_search:
-            mlp = mean_settling(
-                CONFIGS["mlp_mcu"](0.1), pid, trial.suggest_int("pred_avg", 4, 10), seeds, plant_cfg
-            )
-            sf = mean_settling(CONFIGS["sf_mcu"](0.1), pid, 1, seeds[:2], plant_cfg)
+        pid = _pid(trial, space, aq)
+        if mlp_setup is not None and sf_setup is not None:
+            mlp = mean_settling(mlp_setup, pid, trial.suggest_int("pred_avg", 4, 10), seeds, plant_cfg)
+            sf = mean_settling(sf_setup, pid, 1, seeds[:2], plant_cfg)
             trial.set_user_attr("mlp_mcu", mlp)
             trial.set_user_attr("sf_mcu", sf)
             return objective(mlp, sf)
-        assert setup is not None
-        mine = mean_settling(setup(0.1), pid, None, seeds, plant_cfg, metric)
+        assert mine_setup is not None
+        mine = mean_settling(mine_setup, pid, None, seeds, plant_cfg, metric)
         trial.set_user_attr(name, mine)
         return worst_plus_mean(mine)
 
