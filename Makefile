@@ -6,7 +6,7 @@ STAMP  := $(VENV)/.seagen-installed
 DEMO   ?= demo_out
 JOBS   ?= 2
 
-.PHONY: venv toolchain demo test test-slow check format bench clean
+.PHONY: venv toolchain demo test test-slow check format bench docs clean
 
 $(PY):
 	python3 -m venv $(VENV)
@@ -70,6 +70,10 @@ format: venv
 # docs/benchmarks.md (~2.5 min).
 bench: venv
 	$(PY) -m seagen.bench.compare --readme docs/benchmarks.md --flash-wait 1
+
+# The manual (mkdocs.yml, pages in docs/, the command reference rendered from the parsers) as a site in site/.
+docs: venv
+	$(VENV)/bin/mkdocs build --strict --site-dir site
 
 clean:
 	rm -rf $(DEMO) build dist *.egg-info .pytest_cache

@@ -112,10 +112,12 @@ def test_wheel_in_a_fresh_virtual_environment(wheel, tmp_path):
 
 
 def readme_default_commands() -> list[str]:
-    """The `seagen ...` lines of README.md's sh blocks that name a shipped model (default:NAME)."""
+    """The `seagen ...` lines of the sh blocks of README.md and every docs/*.md page (in that order, each
+    page's blocks in its own order) that name a shipped model (default:NAME)."""
     import re
 
-    blocks = re.findall(r"```sh\n(.*?)```", (ROOT / "README.md").read_text(), re.S)
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    blocks = [b for page in pages for b in re.findall(r"```sh\n(.*?)```", page.read_text(), re.S)]
     lines = [ln.split("  #")[0].strip() for b in blocks for ln in b.splitlines()]
     return [ln for ln in lines if ln.startswith("seagen ") and "default:" in ln]
 
