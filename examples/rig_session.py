@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from seagen import fmath
 from seagen.data.protocol import PUSH_MOVES, scaled_move, train_angles
 from seagen.discrepancy import riglog
 from seagen.geometry import geometry
@@ -29,7 +30,7 @@ class LuGrePlant(Plant):
         """The plant's friction plus the velocity-shaped band (symmetric)."""
         fwd, rev = super().friction_limits(angle_deg)
         v = np.abs(getattr(self, "v_shaft", np.zeros_like(fwd)))
-        band = 2.2 + 0.9 * np.exp(-v / 0.8) + 0.02 * v
+        band = 2.2 + 0.9 * fmath.exp(-v / 0.8) + 0.02 * v
         return fwd + band, rev + band
 
 

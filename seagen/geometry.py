@@ -6,6 +6,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from seagen import fmath
 from seagen.actuator import Actuator, default_actuator
 
 _P = np.polynomial.polynomial
@@ -28,7 +29,7 @@ class Geometry:
         self.cb_mm, self.home_deg = lk.cb_mm, lk.home_deg  # Eq. 2
         # DE - CE at home: zero compression at home_deg; it shrinks as the nut advances (enc grows). Eq. 2's
         # constant CE cancels out of every compression, so the description does not carry it.
-        self.de_home_mm = float(np.cos(np.radians(lk.home_deg)) * lk.cb_mm)
+        self.de_home_mm = float(fmath.cos(np.radians(lk.home_deg)) * lk.cb_mm)
         # R_l (Eq. 6): H_fit in (angle - angle_min) up to the split; V_fit in (angle - split) above it,
         # continuous in value and slope at the split. Tip force = R_l * force at the SEA shaft.
         self.h_fit = lk.h_fit
@@ -60,17 +61,17 @@ class Geometry:
 
     def linkage_mm(self, angle_deg: np.ndarray | float) -> np.ndarray:
         """The linkage term of Eq. 2, cos(ABC)*CB - (DE - CE)_home: the compression at encoder count 0."""
-        return np.cos(np.radians(np.asarray(angle_deg, dtype=float))) * self.cb_mm - self.de_home_mm
+        return fmath.cos(np.radians(np.asarray(angle_deg, dtype=float))) * self.cb_mm - self.de_home_mm
 
     def shaft_advance_mm(self, angle_deg: np.ndarray | float) -> np.ndarray:
         """Output-shaft advance from home implied by the linkage angle (inverse of the free linkage)."""
         a = np.radians(np.asarray(angle_deg, dtype=float))
-        return self.cb_mm * (np.cos(np.radians(self.home_deg)) - np.cos(a))
+        return self.cb_mm * (fmath.cos(np.radians(self.home_deg)) - fmath.cos(a))
 
     def angle_from_shaft(self, y_mm: np.ndarray | float) -> np.ndarray:
         """Linkage angle (deg) for an output-shaft advance y (inverse of shaft_advance_mm)."""
-        c = np.cos(np.radians(self.home_deg)) - np.asarray(y_mm, dtype=float) / self.cb_mm
-        return np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
+        c = fmath.cos(np.radians(self.home_deg)) - np.asarray(y_mm, dtype=float) / self.cb_mm
+        return np.degrees(fmath.arccos(np.clip(c, -1.0, 1.0)))
 
 
 @lru_cache(maxsize=32)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import numpy as np
@@ -23,17 +25,50 @@ ACTS = {
 }
 
 
-@pytest.fixture(scope="session")
-def data_dir(tmp_path_factory):
-    """The default simulated data set (seed 0): train.csv, test.csv, validation.csv."""
+def run_cli(*args: str) -> tuple[int, str, str]:
+    """`seagen ARGS` in this process (no interpreter start-up): exit code, stdout, stderr. An exception
+    that `main` lets through fails the test, as a traceback would in a subprocess."""
+    from seagen.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        try:
+            code = main(list(args))
+        except SystemExit as e:  # argparse's usage errors
+            code = e.code if isinstance(e.code, int) else 2
+    return code, out.getvalue(), err.getvalue()
+
+
+def shared_dir(tmp_path_factory, worker_id: str, name: str, make) -> Path:
+    """A folder made once for the whole test run, shared by the xdist workers: the first to come makes it
+    under a file lock (make(folder)), the others wait and reuse it."""
+    from filelock import FileLock
+
+    base = tmp_path_factory.getbasetemp()
+    root = base if worker_id == "master" else base.parent
+    d, done = root / name, root / f"{name}.done"
+    with FileLock(str(d) + ".lock"):
+        if not done.is_file():
+            d.mkdir(exist_ok=True)
+            make(d)
+            done.touch()
+    return d
+
+
+def _write_default_data(d: Path) -> None:
+    """The default simulated data set (seed 0) as CSVs in d."""
     from seagen.data.protocol import generate
     from seagen.data.schema import save_csv
     from seagen.plant import PlantConfig
 
-    d = tmp_path_factory.mktemp("data")
     for split, df in generate(PlantConfig(), seed=0).items():
         save_csv(df, d / f"{split}.csv")
-    return d
+
+
+@pytest.fixture(scope="session")
+def data_dir(tmp_path_factory, worker_id):
+    """The default simulated data set (seed 0): train.csv, test.csv, validation.csv (made once per run)."""
+    return shared_dir(tmp_path_factory, worker_id, "data-seed0", _write_default_data)
 
 
 @pytest.fixture(scope="session")

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +16,7 @@ from seagen.defaults import DEFAULT_PREFIX, GENERATED
 from seagen.demo import regenerate
 from seagen.export import prepare
 from seagen.modelfile import load_model
+from tests.conftest import run_cli
 
 
 def test_generated_is_regenerated_byte_for_byte(tmp_path):
@@ -192,11 +191,7 @@ def test_bad_input_exit_2_no_files(case, tmp_path, model_files):
     make, expect = BAD[case]
     args = make(tmp_path, model_files)
     out = tmp_path / "out"
-    res = subprocess.run(
-        [sys.executable, "-m", "seagen.cli", "export", *args, "--out", str(out)],
-        capture_output=True,
-        text=True,
-    )
-    assert res.returncode == 2, res.stderr
-    assert expect in res.stderr and "Traceback" not in res.stderr, res.stderr
+    code, _, err = run_cli("export", *args, "--out", str(out))
+    assert code == 2, err
+    assert expect in err and "Traceback" not in err, err
     assert not out.exists() or not any(out.iterdir())

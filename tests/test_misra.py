@@ -21,7 +21,14 @@ GLOVE = (
 
 
 @needs_cppcheck
-@pytest.mark.parametrize("target", ["portable", "cortex-m4", "cortex-m0plus"])
+@pytest.mark.parametrize(
+    "target",
+    [
+        "portable",
+        pytest.param("cortex-m4", marks=pytest.mark.slow),
+        pytest.param("cortex-m0plus", marks=pytest.mark.slow),
+    ],
+)
 def test_firmware_example_exports_clean(target):
     """examples/firmware's two exports (cal_mlp, ctl_mlp --controller) with the glove as caller."""
     found = run_cppcheck(glove_files(target), target, calls=GLOVE)

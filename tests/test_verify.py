@@ -5,8 +5,6 @@ from __future__ import annotations
 import json
 import re
 import shutil
-import subprocess
-import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -15,7 +13,7 @@ import pytest
 from seagen.cli import main
 from seagen.defaults import GENERATED, default_model
 from seagen.testing import assert_equivalent
-from tests.conftest import EXAMPLE_ACTUATOR
+from tests.conftest import EXAMPLE_ACTUATOR, run_cli
 
 CAL = default_model("mlp_calibration")
 
@@ -31,9 +29,8 @@ def one_export(tmp_path: Path) -> Path:
 
 
 def run(*args: str) -> tuple[int, str, str]:
-    """`seagen ARGS` in a subprocess: exit code, stdout, stderr."""
-    res = subprocess.run([sys.executable, "-m", "seagen.cli", *args], capture_output=True, text=True)
-    return res.returncode, res.stdout, res.stderr
+    """`seagen ARGS` (in this process): exit code, stdout, stderr."""
+    return run_cli(*args)
 
 
 @pytest.mark.parametrize("name", ["mlp_calibration", "mlp_control", "sf_calibration", "sf_control"])

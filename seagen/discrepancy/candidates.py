@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import math
 import threading
 from dataclasses import dataclass, field
 
@@ -78,7 +79,7 @@ class Candidate:
         out: ParamSet = {e: {} for e in self.names}
         for (e, p), x in zip(self.keys, np.clip(u, 0, 1), strict=True):
             lo, hi, log = box(e, p, self.full_scale)
-            out[e][p] = float(lo * (hi / lo) ** x if log else lo + (hi - lo) * x)
+            out[e][p] = float(lo * (hi / lo) ** float(x) if log else lo + (hi - lo) * x)
         return out
 
     @property
@@ -100,7 +101,7 @@ def present_effects(cfg: PlantConfig) -> list[str]:
 def to_unit(effect: str, param: str, value: float, scale: float) -> float:
     """Inverse of the unit-box mapping of SPACE for a pot of `scale` counts (clipped to the box)."""
     lo, hi, log = box(effect, param, scale)
-    x = np.log(max(value, 1e-12) / lo) / np.log(hi / lo) if log else (value - lo) / (hi - lo)
+    x = math.log(max(value, 1e-12) / lo) / math.log(hi / lo) if log else (value - lo) / (hi - lo)
     return float(np.clip(x, 0, 1))
 
 

@@ -8,11 +8,13 @@ run. The mis-set family hides nothing: its base has one or two parameters off by
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from seagen import fmath
 from seagen.actuator import Actuator, default_actuator
 from seagen.plant import Plant, PlantConfig, pick
 from seagen.plant.config import pot_full_scale
@@ -29,7 +31,7 @@ class MemoryFriction(Plant):
         """The plant's other friction plus the memory band."""
         fwd, rev = super().friction_limits(angle_deg)
         s = getattr(self, "_travel", np.zeros_like(fwd))
-        band = self.fc * (1 - np.exp(-s / self.x0))
+        band = self.fc * (1 - fmath.exp(-s / self.x0))
         return fwd + band, rev + 0.6 * band
 
     def step(self, motor_v: Any) -> None:
@@ -51,7 +53,7 @@ class ExpStribeck(Plant):
     def friction_limits(self, angle_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The plant's friction plus the exponential low-speed boost."""
         fwd, rev = super().friction_limits(angle_deg)
-        boost = self.extra * np.exp(-np.abs(getattr(self, "v_shaft", np.zeros_like(fwd))) / self.vs)
+        boost = self.extra * fmath.exp(-np.abs(getattr(self, "v_shaft", np.zeros_like(fwd))) / self.vs)
         return fwd + boost, rev + boost
 
 
@@ -65,9 +67,9 @@ class CubicStructure(Plant):
         yc = pick(self.y_contact, idx)
         d = np.maximum(y - yc, 0.0)
         k, c = self.k, self.c
-        f = np.minimum(d * k, np.cbrt(d / c))
+        f = np.minimum(d * k, fmath.cbrt(d / c))
         for _ in range(30):
-            f = np.maximum(f - (f / k + c * f**3 - d) / (1 / k + 3 * c * f**2), 0.0)
+            f = np.maximum(f - (f / k + c * (f * f * f) - d) / (1 / k + 3 * c * f**2), 0.0)
         return f, np.where(y > yc, 1.0 / (1 / k + 3 * c * f**2), 0.0)
 
 
@@ -80,7 +82,7 @@ class LaggedCell(Plant):
         """The reading, low-passed at the sample rate (the actuator's loop rate)."""
         s = super().read()
         prev = getattr(self, "_lc", s.load_cell_n)
-        a = 1 - np.exp(-1.0 / self.cfg.actuator.loop_hz / self.tau)
+        a = 1 - math.exp(-1.0 / self.cfg.actuator.loop_hz / self.tau)
         self._lc = prev + a * (s.load_cell_n - prev)
         s.load_cell_n, s.force_n = self._lc.copy(), self._lc / self.ratio
         return s
@@ -109,7 +111,7 @@ class LaggedPotBias(Plant):
     def read(self):
         """The reading plus the doubly lagged bias (updated per sample)."""
         s = super().read()
-        a = 1 - np.exp(-1.0 / self.cfg.actuator.loop_hz / self.tau)
+        a = 1 - math.exp(-1.0 / self.cfg.actuator.loop_hz / self.tau)
         b1 = getattr(self, "_b1", np.zeros_like(self.current))
         b2 = getattr(self, "_b2", np.zeros_like(self.current))
         self._b1 = b1 + a * (self.gain * np.abs(self.current) - b1)

@@ -2,9 +2,9 @@
 
 A twin of `Plant.step` for the plant as `sim.py` writes it (its force laws not overridden): the same
 operations in the same order, element by element. The transcendental functions (arccos of the linkage
-angle, exp of Stribeck friction, the cube of the spring nonlinearity) come from the C library here and
-from numpy's vector code in `Plant`, which differ in the last bit on a few percent of arguments, so the
-two agree to rounding, not bit for bit (`tests/test_plant_kernel.py`). Each element depends only on its
+angle, exp of Stribeck friction) come from the C library both here and in `Plant` (`seagen.fmath`), but
+the compiled loop may order a few operations differently, so the two are compared to rounding
+(`tests/test_plant_kernel.py`). Each element depends only on its
 own inputs, so a batch gives every element's numbers alone, whatever shares it.
 """
 
@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from seagen import fmath
 from seagen.plant.sim import Plant
 
 # effect parameters the kernel reads, in its order: (effect, parameter)
@@ -86,7 +87,7 @@ def run(plant: Plant, volts: np.ndarray, signals: int = 5) -> Trajectory:
             plant.k_spring,
             plant.k_stop,
             plant.k_rigid,
-            float(np.cos(np.radians(geo.home_deg))),
+            float(fmath.cos(np.radians(geo.home_deg))),
             geo.cb_mm,
             geo.split_deg,
             geo.angle_max_deg,
@@ -105,7 +106,7 @@ def _spring(d, k_spring, k_stop, nl, k3, pre, f0):
     f = k_spring * d if d >= 0 else k_stop * d
     if nl:
         x = d if d > 0.0 else 0.0
-        f = f + k3 * x**3.0
+        f = f + k3 * (x * x * x)
     if pre:
         f = f + f0
     return f

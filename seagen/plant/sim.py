@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from seagen import fmath
 from seagen.geometry import geometry
 from seagen.plant.config import PlantConfig
 
@@ -48,7 +49,7 @@ def learned_basis(inputs: list[str], scales: list[float], values: dict[str, np.n
     cols = [np.ones(shape)]
     for k, sc in zip(inputs, scales, strict=True):
         u = np.broadcast_to(np.asarray(values[k], float), shape) / sc
-        cols += [u, u * u, u**3, np.tanh(4 * u), np.exp(-4 * u * u)]
+        cols += [u, u * u, u * u * u, fmath.tanh(4 * u), fmath.exp(-4 * u * u)]
     return np.stack(cols, axis=-1)
 
 
@@ -93,7 +94,8 @@ class Plant:
         e = self.cfg.effects
         f = np.where(d >= 0, self.k_spring * d, self.k_stop * d)
         if e.spring_nonlinearity.enabled:
-            f = f + pick(e.spring_nonlinearity.k3_n_per_mm3, idx) * np.maximum(d, 0.0) ** 3
+            dp = np.maximum(d, 0.0)
+            f = f + pick(e.spring_nonlinearity.k3_n_per_mm3, idx) * (dp * dp * dp)
         if e.spring_preload.enabled:
             f = f + pick(e.spring_preload.force_n, idx)
         return f
@@ -103,7 +105,8 @@ class Plant:
         e = self.cfg.effects
         s = np.where(d >= 0, self.k_spring, self.k_stop)
         if e.spring_nonlinearity.enabled:
-            s = s + 3 * pick(e.spring_nonlinearity.k3_n_per_mm3, idx) * np.maximum(d, 0.0) ** 2
+            dp = np.maximum(d, 0.0)
+            s = s + 3 * pick(e.spring_nonlinearity.k3_n_per_mm3, idx) * (dp * dp)
         return s
 
     def structure_force(self, y: np.ndarray, idx: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -209,7 +212,8 @@ class Plant:
         fwd, rev = self.friction_limits(angle)
         if e.stribeck_friction.enabled:
             sf = e.stribeck_friction
-            boost = sf.extra_static_n * np.exp(-((self.v_shaft / sf.v_s_mm_s) ** 2))
+            q = self.v_shaft / sf.v_s_mm_s
+            boost = sf.extra_static_n * fmath.exp(-(q * q))
             fwd, rev = fwd + boost, rev + boost * (rev > 0)
         n0, s0 = self._net_force(y0)
         b = self.viscous_n_s_per_mm() / dt

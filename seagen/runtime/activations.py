@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from seagen import fmath
 from seagen.ir import QTable
 
 TABLE_OUT_FRAC = 14  # table outputs are Q14 (1.0 = 16384)
@@ -12,7 +13,7 @@ TABLE_RANGE = {"tanh": 4.0, "sigmoid": 8.0}  # beyond +-R the function is taken 
 
 
 def _f(name: str, x: np.ndarray) -> np.ndarray:
-    return np.tanh(x) if name == "tanh" else 1.0 / (1.0 + np.exp(-x))
+    return fmath.tanh(x) if name == "tanh" else 1.0 / (1.0 + fmath.exp(-x))
 
 
 def make_table(name: str, in_frac: int, label: str) -> QTable:
@@ -29,5 +30,6 @@ def table_error(t: QTable, name: str) -> float:
     """Worst |table(x) - f(x)| (output units) for any x: half a step x Lipschitz + rounding, or tail."""
     step = 2.0 ** (t.in_shift - t.in_frac)
     lip = 1.0 if name == "tanh" else 0.25
-    tail = 1.0 - np.tanh(TABLE_RANGE[name]) if name == "tanh" else 1.0 / (1.0 + np.exp(TABLE_RANGE[name]))
+    r = TABLE_RANGE[name]
+    tail = 1.0 - fmath.tanh(r) if name == "tanh" else 1.0 / (1.0 + fmath.exp(r))
     return max(lip * step / 2, tail) + 2.0 ** -(TABLE_OUT_FRAC + 1)
