@@ -138,8 +138,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             )
             raise ActuatorError(f"--calibration {e}; the simulated actuator is {origin}") from None
     if args.model:
+        from seagen.control.targets import check_targets
         from seagen.control.user import control_setups
 
+        check_targets(args.model, act, args.features, args.allow_pickle)  # no silent clamp at a target
         mine, row = control_setups(args.model, args.features, args.allow_pickle, act)
         setups |= mine
         rows = dict.fromkeys(mine, row)
@@ -188,11 +190,16 @@ def limit_notes(table: dict[str, dict[str, dict]], act: Actuator) -> list[str]:
         if hit:
             where = ", ".join(f"{t} N ({share:.0%})" for t, share in hit)
             why = ", the paper's value, taken when left out" if left_out else ""
+            advice = (
+                "a higher control.limit_v may let them settle (`seagen tune` searches it with the gains)"
+                if lim < act.motor.supply_v
+                else "the limit is already the whole supply: the motor cannot push harder (a stronger or "
+                "faster drive, or a lower control.force_max_n)"
+            )
             out.append(
                 f"seagen simulate: note: {name}'s runs that never settle sit at the command limit "
                 f"+-{lim:g} V ({act.source}: control.limit_v{why}; supply {act.motor.supply_v:g} V) for "
-                f"this share of the time after contact: {where}; a higher control.limit_v may let them "
-                "settle (`seagen tune` searches it with the gains)"
+                f"this share of the time after contact: {where}; {advice}"
             )
     return out
 

@@ -98,6 +98,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
         splits = generate(cfg, seed=args.seed, progress=step)
         bar.set_description_str("simulated")
         bar.update(1)
+    _check_generated(splits, act, out)
     info = {
         ACTUATOR_FILE: to_toml(act, "the actuator these data were simulated on"),
         TIMING_FILE: timing_text(own_timing()),  # the replay pins seagen's own convention
@@ -107,6 +108,23 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
 
 ACTUATOR_FILE = "actuator.toml"  # seagen.data.schema.ACTUATOR_FILE (cli imports data lazily)
+
+
+def _check_generated(splits: dict, act: Actuator, out: Path) -> None:
+    """Simulated splits that do not cover the actuator's force range: refused (exit 2), nothing written."""
+    from seagen.actuator import default_actuator
+    from seagen.data.coverage import check_coverage
+    from seagen.plant.config import Motor
+
+    mine, paper = Motor.of(act).v_max_mm_s, Motor.of(default_actuator()).v_max_mm_s
+    check_coverage(
+        splits,
+        act,
+        str(out),
+        f"the calibration protocol does not load the spring that far on this design (its nut moves "
+        f"{mine:.3g} mm/s at no load, the paper's {paper:.3g} mm/s): a faster drive or a lower "
+        "control.force_max_n",
+    )
 
 
 def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None, what: str = "") -> None:
@@ -140,6 +158,7 @@ def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None, 
 def cmd_import(args: argparse.Namespace) -> int:
     """Convert a rig's log with a column map; nothing is written unless every row converts."""
     from seagen.actuator import default_actuator, to_toml
+    from seagen.data.coverage import check_coverage
     from seagen.data.logimport import (
         LOGGED,
         TIMING_FILE,
@@ -157,6 +176,13 @@ def cmd_import(args: argparse.Namespace) -> int:
     logged = split_trials(df)
     grid = {k: resample(v, act.loop_hz) for k, v in logged.items()}
     out = Path(args.out)
+    check_coverage(
+        grid,
+        act,
+        args.log,
+        "the log's trials do not load the spring that far: log trials that do, or lower control.force_max_n "
+        "in the description (--actuator)",
+    )
     info = {
         TIMING_FILE: timing_text(timing(df, mapping)),
         ACTUATOR_FILE: to_toml(act, "the actuator this log was recorded on"),
@@ -168,8 +194,8 @@ def cmd_import(args: argparse.Namespace) -> int:
 
 def cmd_summary(args: argparse.Namespace) -> int:
     """Print the summary of a data directory."""
-    from seagen.fit.data_summary import format_summary, summarize
+    from seagen.fit.data_summary import format_summary, paper_data, summarize
 
     s = summarize(args.dir)
-    print(json.dumps(s, indent=2) if args.json else format_summary(s))
+    print(json.dumps(s, indent=2) if args.json else format_summary(s, paper_data(args.dir)))
     return 0

@@ -128,15 +128,20 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
     """Print Table IV / V (or JSON) and optionally write the plots."""
+    from seagen.data.schema import data_actuator
+    from seagen.fit.data_summary import paper_data
     from seagen.fit.evaluate import evaluate, format_tables, frames_and_models, model_names
+    from seagen.fit.kinematics import error_threshold_n
 
     result = evaluate(args.models, args.data, args.allow_pickle)
+    threshold = error_threshold_n(data_actuator(args.data))
     print(
-        json.dumps(result, indent=2) if args.json else format_tables(result),
+        json.dumps(result, indent=2)
+        if args.json
+        else format_tables(result, paper_data(args.data), threshold),
         end="" if not args.json else "\n",
     )
     if args.plots:
-        from seagen.data.schema import data_actuator
         from seagen.fit.plots import write_plots
         from seagen.geometry import geometry
 

@@ -31,7 +31,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--cal-model", metavar="FILE", help="a calibration model exported into DIR: its NAME_step runs too"
     )
     p.add_argument(
-        "--ticks", type=int, default=600, metavar="N", help="ticks per run (default 600: 6 s at 100 Hz)"
+        "--ticks",
+        type=int,
+        metavar="N",
+        help="ticks per run (default: the experiment's 6 s at the actuator's control.loop_hz, 600 at 100 Hz)",
     )
     p.add_argument("--actuators", type=int, default=10, metavar="K", help="contact angles (default 10)")
     p.add_argument(

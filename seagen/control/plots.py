@@ -51,6 +51,9 @@ def comparison_plot(results: dict[str, dict[str, dict]], path: Path, angle_index
     ax = fig.add_subplot()
     angle_index, angle = _angle(next(iter(results.values()), {}), angle_index)
     styles = dict(zip(results, ("-", "--", ":", "-."), strict=False))
+    end = max(
+        (float(r["trace"]["t_s"][-1].max()) for res in results.values() for r in res.values()), default=0
+    )
     for (name, res), color in zip(results.items(), ("C0", "C1", "C2", "C3"), strict=False):
         for k, r in enumerate(res.values()):
             rec = r["trace"]
@@ -58,7 +61,7 @@ def comparison_plot(results: dict[str, dict[str, dict]], path: Path, angle_index
             ax.plot(rec["t_s"][:, angle_index], f, styles[name], color=color, label=name if k == 0 else None)
     for target in next(iter(results.values()), {}):
         target_line(ax, float(target), BAND_N, "N")
-    ax.set(xlabel="time (s)", ylabel="force at the SEA shaft (N)", xlim=(0, 4))
+    ax.set(xlabel="time (s)", ylabel="force at the SEA shaft (N)", xlim=(0, end or 1.0))  # the runs' length
     targets = " / ".join(next(iter(results.values()), {}))
     ax.set_title(f"{targets} N, contact at {angle:.0f} deg")
     band_legend(ax, BAND_N, "N")

@@ -23,7 +23,7 @@ def step_data(out: Path, seed: int, act: Actuator | None = None) -> Path:
     from seagen.data.logimport import declare_own_timing
     from seagen.data.protocol import generate
     from seagen.data.schema import ACTUATOR_FILE, save_csv
-    from seagen.fit.data_summary import format_summary, summarize
+    from seagen.fit.data_summary import format_summary, paper_data, summarize
     from seagen.plant import PlantConfig
 
     cfg = PlantConfig(actuator=act or default_actuator())
@@ -33,10 +33,12 @@ def step_data(out: Path, seed: int, act: Actuator | None = None) -> Path:
         save_csv(df, data / f"{split}.csv")
     write_text(data / ACTUATOR_FILE, to_toml(cfg.actuator, "the actuator these data were simulated on"))
     declare_own_timing(data)  # as `data generate` does
-    print(format_summary(summarize(data)))
+    paper = paper_data(data)
+    print(format_summary(summarize(data), paper))
     fr = measure_friction(cfg)
     print(
-        "friction at three angles, slow push (paper Fig. 8: 2.1 / 2.4 / 4.45 N): "
+        "friction at three angles, slow push"
+        + (" (paper Fig. 8: 2.1 / 2.4 / 4.45 N): " if paper else ": ")
         + ", ".join(f"{a:g}°: {v:.2f} N" for a, v in fr.items())
     )
     return data
@@ -44,7 +46,10 @@ def step_data(out: Path, seed: int, act: Actuator | None = None) -> Path:
 
 def step_models(out: Path, data: Path, seed: int) -> dict[str, Path]:
     """Train the four default models and print Tables IV and V."""
+    from seagen.data.schema import data_actuator
+    from seagen.fit.data_summary import paper_data
     from seagen.fit.evaluate import evaluate, format_tables, frames_and_models, model_names
+    from seagen.fit.kinematics import error_threshold_n
     from seagen.fit.plots import write_plots
     from seagen.fit.train import train_defaults
 
@@ -53,7 +58,8 @@ def step_models(out: Path, data: Path, seed: int) -> dict[str, Path]:
     models = train_defaults(data, out / "models", seed=seed)
     print(f"trained {', '.join(models)} in {time.time() - t:.1f} s")
     paths = [str(p) for p in models.values()]
-    print(format_tables(evaluate(paths, data)), end="")
+    threshold = error_threshold_n(data_actuator(data))
+    print(format_tables(evaluate(paths, data), paper_data(data), threshold), end="")
     frames, loaded = frames_and_models(paths, data)
     write_plots(dict(zip(model_names(paths), loaded, strict=True)), frames, out / "plots")
     return models

@@ -57,7 +57,7 @@ def fit_learned(cfg: PlantConfig, fit: Runs, held: Runs, sig_f: dict, sig_h: dic
     rec_h: dict[str, np.ndarray] = {}
     z_f = {c: v[0] for c, v in zscores(fit, simulate(cfg, [{}], fit, rec_f), sig_f).items()}
     z_h = {c: v[0] for c, v in zscores(held, simulate(cfg, [{}], held, rec_h), sig_h).items()}
-    prof = profile(z_f, fit, features(fit, cfg.motor))
+    prof = profile(z_f, fit, features(fit, cfg.motor, cfg.actuator.control.force_max_n))
     best, best_dbic = None, -DBIC
     for ch in LEARNED_CHANNELS:
         inputs = _inputs_for(prof[ch])

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -74,6 +75,21 @@ def plausible(effect: str, param: str, value: float, scale: float = PAPER_POT_FU
     return lo <= value <= hi
 
 
+DEAD_COLUMN = 1e-7  # a Jacobian column below this share of the largest one's norm: the data do not move it
+
+
+def unit_sigmas(jac: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    """1-sigma of each (box-normalised) parameter from the Jacobian, the covariance times `scale`: infinite
+    for a parameter whose column is zero, exactly or numerically (the data do not move it; the
+    pseudo-inverse alone would give it 0, "pinned")."""
+    norms = np.linalg.norm(jac, axis=0)
+    live = norms > DEAD_COLUMN * (norms.max() if norms.size else 0.0)
+    out = np.full(jac.shape[1], np.inf)
+    j = jac[:, live]
+    out[live] = np.sqrt(np.clip(np.diag(np.linalg.pinv(j.T @ j)) * scale, 0, None))
+    return out
+
+
 def uncertainty(base: PlantConfig, params: ParamSet, fit: Runs, sigma: dict) -> dict[str, dict[str, float]]:
     """1-sigma of every fitted parameter from the Gauss-Newton covariance of the fitting trials."""
     cand = from_params(params, base)
@@ -83,7 +99,7 @@ def uncertainty(base: PlantConfig, params: ParamSet, fit: Runs, sigma: dict) -> 
     jac = np.stack([(r[i + 1] - r[0]) / h[i] for i in range(len(u))], axis=1)
     dof = max(len(r[0]) - len(u), 1)
     scale = max(float(np.sum(r[0] ** 2)) / dof, 1.0)  # inflate when the fit leaves more than noise
-    sig_u = np.sqrt(np.clip(np.diag(np.linalg.pinv(jac.T @ jac)) * scale, 0, None))
+    sig_u = unit_sigmas(jac, scale)
     out: dict[str, dict[str, float]] = {e: {} for e in params}
     for (e, p), s in zip(cand.keys, sig_u, strict=True):
         lo, hi, log = box(e, p, cand.full_scale)
@@ -104,6 +120,7 @@ def change_lines(
     for p, v in after.items():
         u = unit_of(p)
         line = f"{effect}.{p} {before[p]:.4g} -> {v:.4g}{' ' + u if u else ''}, ±{sig.get(p, np.nan):.2g}"
+        line += " (not pinned: the data do not exercise it)" if math.isinf(sig.get(p, 0.0)) else ""
         if not plausible(effect, p, v, scale):
             lo, hi = plausible_range(effect, p, scale)
             line += f" (OUTSIDE the plausible range {lo:g}..{hi:g})"
@@ -130,9 +147,19 @@ class BaseCheck:
     p_value: float = 1.0
 
     @property
+    def unexercised(self) -> list[str]:
+        """The parameters the data do not move at all (1-sigma infinite): not pinned, whatever their value."""
+        return [k for k, v in self.sigma.items() if math.isinf(v)]
+
+    @property
     def off(self) -> bool:
         """Whether the data reject the base's parameter values (a mis-set base)."""
         return self.p_value < OFF_ALPHA
+
+
+def json_safe(d: dict[str, float]) -> dict[str, float | None]:
+    """The values, an infinite one (a parameter the data do not exercise) as None (JSON has no infinity)."""
+    return {k: None if math.isinf(v) else v for k, v in d.items()}
 
 
 def base_check(base: PlantConfig, fit: Runs, sigma: dict) -> BaseCheck:
@@ -148,15 +175,17 @@ def base_check(base: PlantConfig, fit: Runs, sigma: dict) -> BaseCheck:
     us, h = jacobian_points(cand.u)
     r = residual_vectors(base, [(cand, us)], fit, sigma)[0]
     jac = np.stack([(r[i + 1] - r[0]) / h[i] for i in range(len(us) - 1)], axis=1)
-    step, *_ = np.linalg.lstsq(jac, -r[0], rcond=None)
-    score = float(np.sum(r[0] ** 2) - np.sum((r[0] + jac @ step) ** 2))
-    sig_u = np.sqrt(np.clip(np.diag(np.linalg.pinv(jac.T @ jac)), 0, None))
-    out = BaseCheck(score=score, p_value=float(stats.chi2.sf(score, len(cand.keys))))
+    sig_u = unit_sigmas(jac)
+    live = np.isfinite(sig_u)  # the parameters the data move: the score test's degrees of freedom
+    step, *_ = np.linalg.lstsq(jac[:, live], -r[0], rcond=None)
+    score = float(np.sum(r[0] ** 2) - np.sum((r[0] + jac[:, live] @ step) ** 2))
+    p_value = float(stats.chi2.sf(score, int(live.sum()))) if live.any() else 1.0
+    out = BaseCheck(score=score, p_value=p_value)
     params = cand.params()
     for (e, p), s in zip(cand.keys, sig_u, strict=True):
         lo, hi, log = box(e, p, cand.full_scale)
         v = params[e][p]
-        sig = float(s * (v * np.log(hi / lo) if log else hi - lo))
+        sig = float(s * (v * np.log(hi / lo) if log else hi - lo)) if np.isfinite(s) else math.inf
         out.sigma[f"{e}.{p}"] = sig
         scale = abs(v) if v != 0 else hi - lo
         if PIN_SIGMAS * sig > PIN_SHARE * scale:

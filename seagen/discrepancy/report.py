@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from seagen.discrepancy.recalibrate import PIN_SHARE, PIN_SIGMAS, change_lines, plausible
+from seagen.discrepancy.recalibrate import PIN_SHARE, PIN_SIGMAS, change_lines, json_safe, plausible
 from seagen.discrepancy.residuals import SCORE_CHANNELS, channel_rms, region_labels, region_table, rms
 from seagen.discrepancy.workflow import DRIVE, Result, worse_channels
 from seagen.plant import save_config
@@ -254,11 +254,17 @@ def unpinned_words(res: Result) -> str:
     """The base parameters this data cannot pin, in words ('' when it pins them all)."""
     if res.check is None or not res.check.unpinned:
         return ""
-    what = ", ".join(f"{k} (1-sigma {v:.1%})" for k, v in res.check.unpinned.items())
-    return (
-        f"this data cannot pin {what}: a change of {PIN_SHARE:.0%} of the value is below {PIN_SIGMAS:g} "
-        "noise-only sigmas (all present parameters together); a wrong value there may go unnoticed"
-    )
+    idle = res.check.unexercised
+    what = ", ".join(f"{k} (1-sigma {v:.1%})" for k, v in res.check.unpinned.items() if k not in idle)
+    out = []
+    if what:
+        out.append(
+            f"this data cannot pin {what}: a change of {PIN_SHARE:.0%} of the value is below {PIN_SIGMAS:g} "
+            "noise-only sigmas (all present parameters together); a wrong value there may go unnoticed"
+        )
+    if idle:
+        out.append(f"{', '.join(idle)} not pinned: the data do not exercise it (1-sigma infinite)")
+    return "; ".join(out)
 
 
 def _pinning(res: Result) -> str:
@@ -322,10 +328,11 @@ def summary(res: Result) -> dict:
             "warning": res.timing.warning,
             "problem": res.timing.problem,
         },
-        "unpinned": {} if res.check is None else res.check.unpinned,
+        "unpinned": {} if res.check is None else json_safe(res.check.unpinned),
+        "unexercised": [] if res.check is None else res.check.unexercised,
         "base_check": None
         if res.check is None
-        else {"score": res.check.score, "p_value": res.check.p_value, "sigma": res.check.sigma},
+        else {"score": res.check.score, "p_value": res.check.p_value, "sigma": json_safe(res.check.sigma)},
         "signature": res.signature,
         "signature_ranking": [[e, c] for e, c in res.ranking],
         "remainder": res.remainder,

@@ -6,6 +6,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from seagen.actuator import default_actuator
 from seagen.discrepancy.replay import CHANNELS, Runs
 from seagen.plant.config import Motor
 
@@ -16,6 +17,16 @@ QUANT_SIGMA = 1.0 / np.sqrt(12.0)  # rounding noise of an integer reading (enc h
 ALPHA = 0.01  # family-wise error rate of the region tests (Holm)
 MIN_EFFECT = 0.25  # a region counts only if its mean residual is at least this many noise sigmas
 FORCE_SHARES = (0.05, 0.25, 0.5)  # force-region edges, shares of control.force_max_n (1, 5, 10 N: paper)
+# Nut-speed classes: still below the paper's 0.2 mm/s, fast above its 2 mm/s, as the same shares of another
+# design's no-load nut speed (Motor.v_max_mm_s: 0.71 % and 7.1 % of the paper's 28.3 mm/s)
+STILL_MM_S, FAST_MM_S = 0.2, 2.0
+PAPER_V_MAX_MM_S = Motor.of(default_actuator()).v_max_mm_s
+
+
+def nut_speed(motor: Motor, paper_mm_s: float) -> float:
+    """The nut speed that is to `motor`'s no-load speed what `paper_mm_s` is to the paper's (exactly
+    `paper_mm_s` on the paper's motor)."""
+    return paper_mm_s * (motor.v_max_mm_s / PAPER_V_MAX_MM_S)
 
 
 def noise_sigma(runs: Runs) -> dict[str, np.ndarray]:
@@ -85,13 +96,14 @@ def _bins(x: np.ndarray, edges: list[float], names: list[str]) -> np.ndarray:
 
 def region_labels(runs: Runs, motor: Motor, force_max_n: float) -> dict[str, np.ndarray]:
     """Region of every sample by contact angle, force level (FORCE_SHARES of the actuator's force range
-    `force_max_n`), direction, speed and estimated current."""
+    `force_max_n`), direction and speed (STILL_MM_S scaled to `motor`: nut_speed), estimated current."""
     enc = runs.meas["enc"]
     v = runs.speed("enc") * motor.mm_per_count  # nut speed, mm/s
     m = runs.mask
     cur = np.abs(motor.current(np.nan_to_num(runs.applied), v))  # the plant's own estimate (base config)
     speed = np.abs(v)
-    moving = m & (speed > 0.2)
+    still = nut_speed(motor, STILL_MM_S)
+    moving = m & (speed > still)
     q = [float(np.percentile(speed[moving], 50)) if moving.any() else 1.0]
     cq = [float(np.nanpercentile(cur[m], p)) for p in (33, 67)]
     angle = np.broadcast_to(runs.angle[:, None], enc.shape)
@@ -104,8 +116,8 @@ def region_labels(runs: Runs, motor: Motor, force_max_n: float) -> dict[str, np.
     return {
         "angle": np.vectorize(lambda a: f"{a:.1f} deg", otypes=[object])(angle),
         "force": _bins(runs.meas["force_n"], edges, names),
-        "direction": _bins(v, [-0.2, 0.2], ["retract", "still", "push"]),
-        "speed": _bins(speed, [0.2, q[0]], ["still", "slow", "fast"]),
+        "direction": _bins(v, [-still, still], ["retract", "still", "push"]),
+        "speed": _bins(speed, [still, q[0]], ["still", "slow", "fast"]),
         "current": _bins(cur, cq, ["low |i|", "mid |i|", "high |i|"]),
     }
 

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from seagen.discrepancy.replay import Runs, simulate
-from seagen.discrepancy.residuals import SCORE_CHANNELS
+from seagen.discrepancy.residuals import FAST_MM_S, SCORE_CHANNELS, STILL_MM_S, nut_speed
 from seagen.plant import PlantConfig
 from seagen.plant.config import CATALOGUE, Motor
 
-MOVING_MM_S = 0.2  # below this nut speed the actuator counts as still
+FORCE_ON_SHARE = 0.025  # 'under load' above this share of control.force_max_n (the paper's 0.5 N of 20 N)
 REVERSAL_S = 0.15  # 'at a reversal': within this time after the command changes sign
 WORDS = {
     "direction": "the direction of motion (push vs retract)",
@@ -34,10 +34,13 @@ def _since(event: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.where(last >= 0, t - then, 1e4)
 
 
-def features(runs: Runs, motor: Motor) -> dict[str, np.ndarray]:
-    """Per sample basis columns of each dependence group, shape (n, T, k); padding masked by runs.mask."""
+def features(runs: Runs, motor: Motor, force_max_n: float) -> dict[str, np.ndarray]:
+    """Per sample basis columns of each dependence group, shape (n, T, k); padding masked by runs.mask.
+    Speed classes scale with `motor`'s no-load nut speed (residuals.nut_speed), the force band with
+    `force_max_n`."""
     v = runs.speed("enc") * motor.mm_per_count
-    moving = np.abs(v) > MOVING_MM_S
+    still, fast = nut_speed(motor, STILL_MM_S), nut_speed(motor, FAST_MM_S)
+    moving = np.abs(v) > still
     cmd = np.sign(runs.applied)
     flip = np.zeros_like(moving)
     flip[:, 1:] = (cmd[:, 1:] != cmd[:, :-1]) & (cmd[:, 1:] != 0)
@@ -52,10 +55,10 @@ def features(runs: Runs, motor: Motor) -> dict[str, np.ndarray]:
     session = t + np.r_[0.0, np.cumsum(t[:, -1])[:-1]][:, None]  # trials in recorded order, back to back
     angles = np.unique(runs.angle)
     return {
-        "direction": np.stack([v > MOVING_MM_S, v < -MOVING_MM_S], -1).astype(float),
-        "speed": np.stack([~moving, moving & (np.abs(v) < 2.0), np.abs(v) >= 2.0], -1).astype(float),
+        "direction": np.stack([v > still, v < -still], -1).astype(float),
+        "speed": np.stack([~moving, moving & (np.abs(v) < fast), np.abs(v) >= fast], -1).astype(float),
         "reversal": (_since(flip, t) < REVERSAL_S)[..., None].astype(float),
-        "force": np.stack([force, force**2, force > 0.5], -1).astype(float),
+        "force": np.stack([force, force**2, force > FORCE_ON_SHARE * force_max_n], -1).astype(float),
         "angle": np.stack([runs.angle[:, None] == a for a in angles], -1).astype(float)
         * np.ones_like(t)[..., None],
         "current": np.stack([cur, lag], -1),

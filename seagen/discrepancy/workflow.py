@@ -474,7 +474,7 @@ def identify(
     refits: list[str] = []  # the command timing fitted again once physics was named (said in words)
     z0 = z1 = _residual(base, held, sig_h)
     floor = noise_floor(held, sig_h)
-    feats = features(held, base.motor)
+    feats = features(held, base.motor, base.actuator.control.force_max_n)
     words = describe(profile(z0, held, feats))
     ranking = rank(base, held, sig_h, z0, feats) if _structured(held, z0, labels) else []
     check = base_check(base, fit, sig_f)  # a mis-set parameter may move every sample a little

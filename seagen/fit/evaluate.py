@@ -12,7 +12,7 @@ from seagen.data.schema import data_actuator
 from seagen.errors import UserError
 from seagen.fit.kinematics import error_threshold_n
 from seagen.fit.predict import TASKS, UNIT, kinematics_predict, predict, task_errors
-from seagen.fit.train import load_derived
+from seagen.fit.train import check_scorable, load_derived
 from seagen.geometry import geometry
 from seagen.modelfile import load_model, model_actuator
 
@@ -79,6 +79,7 @@ def evaluate(
     act = data_actuator(data_dir)
     for p, m in zip(paths, models, strict=True):
         model_actuator(m, str(p), act)  # a model of another actuator is refused
+    check_scorable(data_dir, frames, act)  # no row to score: refused, not "nan %"
     geo, threshold = geometry(act), error_threshold_n(act)
     result: dict[str, dict[str, Any]] = {}
     for task in TASKS:
@@ -108,8 +109,10 @@ def _row(label: str, vals: tuple[float, ...], unit: str) -> str:
     return f"  {label:<38}{a:>9.3f} {unit:<3}{m:>9.3f} {unit:<3}{ap:>9.2f} %{mp:>9.2f} %"
 
 
-def format_tables(result: dict[str, dict[str, Any]]) -> str:
-    """The Table IV / V layout: one block per task and split, methods side by side, the paper's rows below."""
+def format_tables(result: dict[str, dict[str, Any]], paper: bool, threshold_n: float) -> str:
+    """The Table IV / V layout: one block per task and split (rows with force above `threshold_n`: the data's
+    kinematics.error_threshold_n), methods side by side, the paper's rows below when `paper` (data of the
+    paper's actuator: fit.data_summary.paper_data)."""
     lines: list[str] = []
     keys = ("error_avg_n", "error_max_n", "error_avg_pct", "error_max_pct")
     for task in TASKS:
@@ -122,7 +125,7 @@ def format_tables(result: dict[str, dict[str, Any]]) -> str:
             if not any(v and "error_avg_n" in v for v in scored.values()):
                 continue
             n_rows = next(v["rows"] for v in scored.values() if v and "rows" in v)
-            lines.append(f"{TITLES[task]} — {split} set, {n_rows} rows with force > 5 N")
+            lines.append(f"{TITLES[task]} — {split} set, {n_rows} rows with force > {threshold_n:g} N")
             lines.append(
                 f"  {'method':<38}{'error avg':>13}{'error max':>13}{'error avg':>11}{'error max':>11}"
             )
@@ -130,9 +133,10 @@ def format_tables(result: dict[str, dict[str, Any]]) -> str:
                 if v and "error_avg_n" in v:
                     lines.append(_row(_label(name, rows[name]), tuple(v[k] for k in keys), unit))
             lines.append("")
-        lines.append(f"  paper ({'Table IV, test' if task == 'calibration' else 'Table V, validation'}):")
-        lines += [_row(f"paper {p[0]}", p[1:], unit) for p in PAPER[task]]
-        lines.append("")
+        if paper:
+            lines.append(f"  paper ({'Table IV, test' if task == 'calibration' else 'Table V, validation'}):")
+            lines += [_row(f"paper {p[0]}", p[1:], unit) for p in PAPER[task]]
+            lines.append("")
     return "\n".join(lines).rstrip() + "\n"
 
 

@@ -8,6 +8,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from seagen import __version__
@@ -15,8 +16,8 @@ from seagen.actuator import Actuator
 from seagen.data.features import derive
 from seagen.data.schema import SPLITS, data_actuator, load_split
 from seagen.errors import UserError
-from seagen.fit.kinematics import error_threshold_n
-from seagen.fit.mlp import MLP_OUTPUT, RAW_SIGNALS, MlpConfig, fit_mlp, unit_of
+from seagen.fit.kinematics import ERROR_SHARE, error_threshold_n
+from seagen.fit.mlp import MLP_OUTPUT, RAW_SIGNALS, MlpConfig, fit_mlp, holdout_mask, unit_of
 from seagen.fit.predict import TASKS, predict, task_errors
 from seagen.fit.sf import SF_INPUTS, SF_OUTPUT, fit_sf
 from seagen.geometry import geometry
@@ -47,6 +48,27 @@ def load_derived(
             raise UserError(f"{d / (s + '.csv')}: no such file (run `seagen data generate --out {d}`)")
     geo = geometry(data_actuator(d, actuator))
     return {s: derive(load_split(d, s), geo) for s in SPLITS if (d / f"{s}.csv").is_file()}
+
+
+def check_scorable(
+    data_dir: str | os.PathLike[str], frames: dict[str, pd.DataFrame], act: Actuator, held: Any = None
+) -> None:
+    """Refuse (exit 2) data whose paper-style errors would be empty: no row above the error threshold in a
+    scored split (test, validation) or, for a search (`held`: its hold-out mask), in the held-out trials."""
+    threshold = error_threshold_n(act)
+    parts = {f"{s}.csv": df for s, df in frames.items() if s != "train"}
+    if held is not None:
+        parts["train.csv (the search's held-out trials)"] = frames["train"][held]
+    for name, df in parts.items():
+        force = df["force_n"].to_numpy(dtype=float)
+        if not (force > threshold).any():
+            peak = f"{force.max():.3g} N" if len(force) else "no rows"
+            raise UserError(
+                f"{Path(data_dir) / name}: no row with force_n above {threshold:g} N ({ERROR_SHARE:.0%} of "
+                f"control.force_max_n {act.control.force_max_n:g} N; the rows peak at {peak}), so its "
+                "paper-style errors would be empty: the data do not cover the force range (see `seagen data "
+                "summary`); nothing trained"
+            )
 
 
 def _check_args(model: str, loss: str, task: str, hidden: tuple[int, ...] | None, trials: int) -> None:
@@ -144,6 +166,8 @@ def train(
     frames = load_derived(data_dir, actuator=actuator)
     act = data_actuator(data_dir, actuator)
     tr = frames["train"]
+    held = holdout_mask(tr, MlpConfig.holdout, seed) if model == "mlp" and trials else None
+    check_scorable(data_dir, frames, act, held)
     t0 = time.perf_counter()
     if model == "sf":
         body = _fit_sf_model(tr, task, loss)
@@ -166,6 +190,11 @@ def train(
     scored = [s for s in frames if s != "train"]
     threshold = error_threshold_n(act)
     obj["metrics"] = {s: task_errors(task, predict(obj, frames[s]), frames[s], threshold) for s in scored}
+    for s, m in obj["metrics"].items():
+        if not all(np.isfinite(v) for v in m.values()):
+            raise UserError(
+                f"{Path(data_dir) / s}.csv: the model's errors there are not finite ({m}); nothing written"
+            )
     if out is not None:
         save_model(obj, out)
     return obj

@@ -132,11 +132,18 @@ def _export(
     return disk_files(folder, man), rebuild(man, Path(model), None, allow_pickle, actuator=actuator), man
 
 
+def default_ticks(act) -> int:
+    """Ticks of one run of the experiment on actuator `act`: its DURATION_S at the control-loop rate."""
+    from seagen.control.experiment import DURATION_S
+
+    return round(DURATION_S * act.loop_hz)
+
+
 def run_pil(
     folder: str,
     model: str,
     core: str,
-    ticks: int = 600,
+    ticks: int | None = None,
     actuators: int = 10,
     cal_model: str | None = None,
     prefix: str | None = None,
@@ -144,7 +151,7 @@ def run_pil(
     actuator=None,
 ) -> PilResult:
     """The experiment (the actuator's targets, `actuators` contact angles over its linkage range, `ticks`
-    per run) on the board."""
+    per run, default_ticks by default) on the board."""
     from seagen.codegen.actfile import export_actuator
     from seagen.codegen.controller import shipped_config
     from seagen.control.experiment import contact_deg, targets_n
@@ -152,7 +159,7 @@ def run_pil(
     from seagen.defaults import model_label
     from seagen.plant import PlantConfig
 
-    if ticks < 1 or not 1 <= actuators <= MAX_ACTUATORS:
+    if (ticks is not None and ticks < 1) or not 1 <= actuators <= MAX_ACTUATORS:
         raise UserError(f"--ticks must be >= 1 and --actuators 1..{MAX_ACTUATORS} (got {ticks}, {actuators})")
     root = Path(folder)
     v = Verdict("", str(root), command="pil")
@@ -163,6 +170,7 @@ def run_pil(
         )
     v.prefix = ex.prefix
     plant_cfg = PlantConfig(actuator=export_actuator(ex.loaded, actuator, model))  # the export's
+    ticks = ticks or default_ticks(plant_cfg.actuator)
     cal_qm, cal, shared = None, None, False
     if cal_model is not None:
         cal_files, cal_ex, _ = _export(root, cal_model, None, v, allow_pickle, actuator)

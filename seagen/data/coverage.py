@@ -1,0 +1,80 @@
+"""Whether a data set can serve its actuator: the force each split reaches and its rows in contact, as shares
+of the description's force range (control.force_max_n), checked before `data generate` / `data import` write.
+
+On the paper's actuator (20 N) the thresholds are 15 N (train), 10 N (test, validation) and 0.3 N (contact);
+its own protocol's data reach 17-19 N in train and test, 59-81 % of the range in validation (one 1.4 s trial
+at one angle, lowest at the top angle), with 49-91 % of the rows in contact."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from seagen.actuator import Actuator
+from seagen.data.schema import DataError
+
+# A split's peak reference force must reach this share of force_max_n: train the experiment's top target
+# (3/4 of the range: a control model must have seen it), the held-out splits half the range (they score the
+# model on rows above kinematics.ERROR_SHARE, a quarter of it).
+REACH = {"train": 0.75, "test": 0.5, "validation": 0.5}
+CONTACT_SHARE = 0.015  # a row is in contact above this share of force_max_n (0.3 N: the protocol's CONTACT_N)
+MIN_CONTACT = 0.2  # and at least this share of each split's rows must be in contact
+
+
+@dataclass(frozen=True)
+class SplitCoverage:
+    """What one split holds: rows, share of them in contact, peak reference force (N)."""
+
+    rows: int
+    contact: float
+    peak_n: float
+
+
+def split_coverage(df: pd.DataFrame, act: Actuator) -> SplitCoverage:
+    """The coverage of one split (raw or derived rows with force_n) on actuator `act`."""
+    f = df["force_n"].to_numpy(dtype=float)
+    if len(f) == 0:
+        return SplitCoverage(0, 0.0, float("nan"))
+    contact = float(np.mean(f > CONTACT_SHARE * act.control.force_max_n))
+    return SplitCoverage(len(f), contact, float(np.max(f)))
+
+
+def coverage(splits: dict[str, pd.DataFrame], act: Actuator) -> dict[str, SplitCoverage]:
+    """split_coverage of every split."""
+    return {s: split_coverage(df, act) for s, df in splits.items()}
+
+
+def shortfalls(cov: dict[str, SplitCoverage], act: Actuator) -> list[str]:
+    """What the splits miss, in words ([] when they serve): the peak force and the rows in contact."""
+    top = act.control.force_max_n
+    out = []
+    low = {s: c for s, c in cov.items() if not c.peak_n >= REACH.get(s, 0.5) * top}
+    if low:
+        need = {s: REACH.get(s, 0.5) for s in low}
+        out.append(
+            "peak force "
+            + ", ".join(
+                f"{s} {c.peak_n:.3g} N (need {need[s] * top:g} N, {need[s]:.0%})" for s, c in low.items()
+            )
+            + f" of control.force_max_n {top:g} N"
+        )
+    few = {s: c for s, c in cov.items() if c.contact < MIN_CONTACT}
+    if few:
+        out.append(
+            f"rows in contact (force > {CONTACT_SHARE * top:.3g} N) "
+            + ", ".join(f"{s} {c.contact:.1%}" for s, c in few.items())
+            + f" (need {MIN_CONTACT:.0%})"
+        )
+    return out
+
+
+def check_coverage(splits: dict[str, pd.DataFrame], act: Actuator, where: str, remedy: str) -> None:
+    """Refuse (DataError, exit 2, one line naming `where` and what is missing) splits that cannot serve."""
+    missing = shortfalls(coverage(splits, act), act)
+    if missing:
+        raise DataError(
+            f"{where}: nothing written: the data do not cover the force range of actuator '{act.name}' "
+            f"({act.source or 'its description'}): {'; '.join(missing)}; {remedy}"
+        )

@@ -1,0 +1,230 @@
+"""Issue 35: any design the description accepts gets data it can use, or seagen says why not. On a slow design
+(tests/slow_6v.toml: 0.42 mm/s at the nut) data that never reach the force range are refused with the reason
+(exit 2, one line, nothing written); the paper's figures appear only on the paper's actuator; thresholds and
+defaults follow the design; a parameter the data do not move is not called pinned."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from seagen.actuator import default_actuator, load_actuator, to_toml
+from seagen.cli import main
+from seagen.data import protocol
+from seagen.data.schema import save_csv
+
+SLOW = Path(__file__).with_name("slow_6v.toml")
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "actuators" / "stiff_24v.toml"
+QUICK = {"train": 4.0, "test": 2.0, "validation": 1.4}  # short splits: the slow design reaches < 1 N
+PAPER_FIGURES = ("34.31", "44.7", "10400", "2416", "2.1 / 2.4 / 4.45")
+
+
+@pytest.fixture(scope="module")
+def slow_splits() -> dict[str, pd.DataFrame]:
+    """The paper's protocol, shortened, simulated on the slow design (~3 s)."""
+    from seagen.plant import PlantConfig
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(protocol, "SECONDS", QUICK)
+        return protocol.generate(PlantConfig(actuator=load_actuator(SLOW)), seed=0)
+
+
+def _folder(path: Path, splits: dict[str, pd.DataFrame], act, boost: dict[str, float] | None = None) -> Path:
+    """A data folder of `splits` recorded on `act`, force_n raised by boost[split] N (a made-up load)."""
+    path.mkdir(parents=True)
+    for s, df in splits.items():
+        save_csv(df.assign(force_n=df["force_n"] + (boost or {}).get(s, 0.0)), path / f"{s}.csv")
+    (path / "actuator.toml").write_text(to_toml(act))
+    return path
+
+
+def _exit_2(capsys, *argv: str) -> str:
+    """Run the CLI; it must exit 2 with a one-line message (after any progress bar) and no traceback;
+    returns that line."""
+    capsys.readouterr()
+    assert main(list(argv)) == 2
+    cap = capsys.readouterr()
+    *bar, err = cap.err.strip().split("\n")
+    assert all("split/s" in b for b in bar) and err.startswith("seagen: error: "), cap.err
+    assert "Traceback" not in cap.err and "nan" not in (cap.out + err).lower(), cap.out + cap.err
+    return err.removeprefix("seagen: error: ")
+
+
+def test_generate_refuses_data_short_of_the_force_range(slow_splits, tmp_path, monkeypatch, capsys):
+    """`data generate` on the slow design: exit 2 naming each split's peak force against its share of
+    control.force_max_n, the rows in contact and the design's nut speed; the folder is not created."""
+    monkeypatch.setattr(protocol, "generate", lambda cfg, seed=0, progress=None: dict(slow_splits))
+    out = tmp_path / "data"
+    err = _exit_2(capsys, "data", "generate", "--actuator", str(SLOW), "--out", str(out))
+    assert str(out) in err and "nothing written" in err
+    assert "peak force train" in err and "(need 15 N, 75%)" in err and "(need 10 N, 50%)" in err
+    assert "control.force_max_n 20 N" in err and "rows in contact (force > 0.3 N)" in err
+    assert "0.42 mm/s" in err
+    assert not out.exists()
+
+
+def test_import_refuses_a_log_short_of_the_force_range(tmp_path, capsys):
+    """`data import` of a log whose trials peak at a fifth of the range: exit 2 naming the log and the
+    splits' peaks; neither the loop-rate copy nor logged/ is written."""
+    from seagen.discrepancy.bench import case_frames
+    from seagen.plant import PlantConfig
+    from tests.test_logimport import MAP, _rig_log, import_argv
+
+    frames = [
+        f.assign(force_n=f["force_n"] / 5, load_cell_n=f["load_cell_n"] / 5)
+        for f in case_frames(PlantConfig(), seed=7, fast=True)[:4]
+    ]
+    _rig_log(frames).to_csv(tmp_path / "rig.csv", index=False)
+    (tmp_path / "map.toml").write_text(MAP)
+    out = tmp_path / "data"
+    err = _exit_2(capsys, *import_argv(tmp_path, out))
+    assert err.startswith(f"{tmp_path / 'rig.csv'}: nothing written") and "peak force train" in err
+    assert "the log's trials do not load the spring that far" in err
+    assert not out.exists()
+
+
+def test_train_refuses_data_short_of_the_force_range_before_any_search(
+    slow_splits, tmp_path, monkeypatch, capsys
+):
+    """`train --trials 2` on data that never exceed 5 N: exit 2 naming test.csv and the threshold, before
+    the search (which would fail with "No trials are completed yet"); no model file."""
+    from seagen.fit import search
+
+    monkeypatch.setattr(search, "search", lambda *a, **k: pytest.fail("the search ran"))
+    data = _folder(tmp_path / "slow", slow_splits, load_actuator(SLOW))
+    model = tmp_path / "m.pt"
+    err = _exit_2(
+        capsys, "train", "--data", str(data), "--model", "mlp", "--trials", "2", "--out", str(model)
+    )
+    assert f"{data / 'test.csv'}: no row with force_n above 5 N" in err and "25%" in err
+    assert not model.exists()
+
+
+def test_train_refuses_a_search_whose_held_out_trials_stay_below_the_threshold(slow_splits, tmp_path, capsys):
+    """Test and validation loaded past 5 N but not the training trials the search holds out: the search is
+    refused naming them; an SF (no search) trains on the same folder."""
+    from seagen.fit.mlp import MlpConfig, holdout_mask
+
+    train = slow_splits["train"]
+    held = holdout_mask(train, MlpConfig.holdout, 0)
+    splits = {**slow_splits, "train": train.assign(force_n=np.where(held, 0.0, train["force_n"] + 12.0))}
+    data = _folder(tmp_path / "d", splits, load_actuator(SLOW), {"test": 12.0, "validation": 12.0})
+    argv = ["train", "--data", str(data), "--out", str(tmp_path / "m.pt")]
+    err = _exit_2(capsys, *argv, "--model", "mlp", "--trials", "2")
+    assert "train.csv (the search's held-out trials): no row with force_n above 5 N" in err
+    assert main([*argv, "--model", "sf"]) == 0
+
+
+def test_paper_figures_only_on_the_papers_actuator(slow_splits, tmp_path, capsys):
+    """The same rows, loaded past 5 N, recorded on the paper's actuator and on the slow design: `data
+    summary` and `evaluate` print the paper's figures for the first only; the slow design's own (unloaded)
+    data say what is missing instead of "nan %", with no numpy warning."""
+    boost = {"train": 12.0, "test": 12.0, "validation": 12.0}
+    texts = {}
+    for name, act in (("paper", default_actuator()), ("slow", load_actuator(SLOW))):
+        data = _folder(tmp_path / name, slow_splits, act, boost)
+        model = tmp_path / f"{name}.pt"
+        assert main(["train", "--data", str(data), "--model", "sf", "--out", str(model)]) == 0
+        capsys.readouterr()
+        assert main(["data", "summary", str(data)]) == 0
+        assert main(["evaluate", str(model), "--data", str(data)]) == 0
+        texts[name] = capsys.readouterr().out
+    assert all(f in texts["paper"] for f in PAPER_FIGURES[:4]), texts["paper"]
+    assert not any(f in texts["slow"] for f in PAPER_FIGURES), texts["slow"]
+    bare = _folder(tmp_path / "bare", slow_splits, load_actuator(SLOW))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["data", "summary", str(bare)]) == 0
+    out = capsys.readouterr().out
+    assert "nan" not in out.lower() and not any(f in out for f in PAPER_FIGURES)
+    assert "these data do not cover the force range: peak force train" in out
+    assert "not measured: no row above 5 N" in out
+
+
+def test_simulate_refuses_targets_outside_the_control_models_range(slow_splits, tmp_path, capsys):
+    """A control model trained on desired forces up to ~11 N, simulated at 5/10/15 N: exit 2 naming 15 N (not
+    5 or 10) and the model's range (the C clamped its input there silently)."""
+    scaled = {s: df.assign(force_n=df["force_n"] * 40.0) for s, df in slow_splits.items()}  # up to ~11 N
+    data = _folder(tmp_path / "d", scaled, load_actuator(SLOW))
+    model = tmp_path / "ctl.pt"
+    argv = ["train", "--data", str(data), "--model", "sf", "--task", "control", "--out", str(model)]
+    assert main(argv) == 0
+    err = _exit_2(capsys, "simulate", "--model", str(model))
+    assert f"--model {model}: trained on desired forces" in err and "targets 15 N (" in err
+    assert "control.force_max_n 20 N" in err
+
+
+def test_limit_note_advises_a_higher_limit_only_below_the_supply():
+    """Runs stuck at the command limit: a higher control.limit_v is advised where the limit is below the
+    supply (the paper's 6.5 of 12 V), not where it is the supply already (the slow design's 6 of 6 V)."""
+    from seagen.cli.control import limit_notes
+
+    table = {"kin_mcu": {"15": {"settled": 0, "angles": 10, "at_limit": 0.9}}}
+    paper, slow = limit_notes(table, default_actuator()), limit_notes(table, load_actuator(SLOW))
+    assert len(paper) == len(slow) == 1
+    assert "a higher control.limit_v" in paper[0] and "a higher control.limit_v" not in slow[0]
+    assert "already the whole supply" in slow[0]
+
+
+def test_pil_ticks_and_plot_follow_the_experiment_and_the_loop_rate(monkeypatch):
+    """`pil --ticks` defaults to the experiment's 6 s at the actuator's loop rate (600 at the paper's 100 Hz,
+    1200 at the example's 200 Hz); the comparison plot's time axis spans the runs (6 s, not 4)."""
+    from seagen.cli import build_parser
+    from seagen.control import plots
+    from seagen.verify.pil import default_ticks
+    from tests.test_plots import fake_results
+
+    assert default_ticks(default_actuator()) == 600 and default_ticks(load_actuator(EXAMPLE)) == 1200
+    args = build_parser().parse_args(["pil", "d", "--model", "m.pt", "--core", "cortex-m4"])
+    assert args.ticks is None
+    seen = {}
+    monkeypatch.setattr(plots, "save_png", lambda fig, path, **kw: seen.setdefault("fig", fig))
+    plots.comparison_plot({"a": fake_results(n=600)}, Path("unused.png"))
+    assert seen["fig"].axes[0].get_xlim() == pytest.approx((0.0, 5.99))
+
+
+def _dead_jacobian(monkeypatch, cols: dict[int, float]):
+    """base_check on the default base with a constructed Jacobian: random columns, those in `cols` scaled by
+    their factor (0: the data do not move that parameter); returns (BaseCheck, Jacobian, keys)."""
+    from seagen.discrepancy import recalibrate
+    from seagen.plant import PlantConfig
+
+    rng = np.random.default_rng(0)
+    got = {}
+
+    def fake(cfg, jobs, runs, sigma):
+        ((cand, us),) = jobs
+        jac = rng.normal(size=(200, len(us) - 1))
+        for j, f in cols.items():
+            jac[:, j] *= f
+        got.update(jac=jac, keys=cand.keys)
+        r0 = rng.normal(size=200)
+        return [[r0 + jac @ (u - us[0]) for u in us]]
+
+    monkeypatch.setattr(recalibrate, "residual_vectors", fake)
+    check = recalibrate.base_check(PlantConfig(), None, {})
+    return check, got["jac"], [f"{e}.{p}" for e, p in got["keys"]]
+
+
+def test_a_parameter_the_data_do_not_move_is_not_pinned(monkeypatch):
+    """A zero (or numerically zero) Jacobian column gets 1-sigma infinite and the report says "not pinned:
+    the data do not exercise it" (the pseudo-inverse alone gave it 0, "pinned"); the others keep the
+    sigmas of the Jacobian without it."""
+    from seagen.discrepancy.recalibrate import unit_sigmas
+    from seagen.discrepancy.report import unpinned_words
+
+    check, jac, keys = _dead_jacobian(monkeypatch, {0: 0.0, 2: 1e-13})
+    assert math.isinf(check.sigma[keys[0]]) and math.isinf(check.sigma[keys[2]])
+    assert check.unexercised == [keys[0], keys[2]] and keys[0] in check.unpinned
+    words = unpinned_words(SimpleNamespace(check=check))
+    assert f"{keys[0]}, {keys[2]} not pinned: the data do not exercise it" in words
+    live = unit_sigmas(np.delete(jac, [0, 2], axis=1))
+    sig = unit_sigmas(jac)
+    assert np.isinf(sig[[0, 2]]).all() and np.allclose(np.delete(sig, [0, 2]), live, rtol=1e-6)
+    assert np.isfinite(live).all() and (live > 0).all()
