@@ -43,17 +43,23 @@ def test_stick_slip_trial_is_erratic_and_smooth_ones_are_not():
 
 
 @pytest.mark.slow
-def test_verdict_is_read_without_the_erratic_trial_and_says_so():
-    """The same case through identify: the fit leaves the erratic trial above the floor and the other five at
-    it, so the verdict is explained and the note names the trial left out and why; the claims are judged as
-    before the erratic trial was left out: the Stribeck fit is the closest change, not claimed, and any
-    recalibration is compensation only (since a retract ends after 80 ms at any loop rate, the case
-    recalibrates nothing; before, linkage_friction as compensation only)."""
+def test_verdict_on_the_stick_slip_draw_claims_nothing_and_leaves_out_only_what_it_says():
+    """The same case through identify. Its held-out trials slide slowly in contact, where the massless
+    shaft's stick-slip hangs on the last bits of the replay (and so of the fit, which goes through BLAS and
+    LAPACK, whose kernels differ by CPU): the fit left the 18 deg trial at 2.7 sigma and the other five at
+    the floor on one machine (explained, with that trial left out and said), 1.87 sigma over all six and no
+    trial erratic at the fit on another (unexplained). What is promised on every CPU: Stribeck named first
+    as the closest change, not claimed; any recalibration compensation only; an `explained` verdict only
+    with the erratic trial named in the note and the rest at the floor; the residual finite."""
     case = make_case(("stribeck_friction",), 3, act=load_actuator(EXAMPLE_ACTUATOR))
     res = W.identify(case.runs, case.base)
-    assert res.verdict == "explained" and res.rms_after > W.AT_FLOOR * res.noise_floor
+    assert res.verdict in ("explained", "unexplained")
+    assert res.rms_after > W.AT_FLOOR * res.noise_floor  # over all six trials it is never at the floor
     note = [n for n in res.notes if "left out of the verdict" in n]
-    assert len(note) == 1 and " deg left out" in note[0] and "stick-slip" in note[0]
+    if res.verdict == "explained":
+        assert len(note) == 1 and " deg left out" in note[0] and "stick-slip" in note[0]
+    else:
+        assert not note
     assert res.effects and res.effects[0].name == "stribeck_friction"
     assert not res.effects[0].claimed and res.effects[0].why.startswith("closest, not claimed")
     assert all(n.why.startswith("compensation only") for n in res.recalibrated)
