@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from seagen.fit.train import train_defaults
+from seagen.fit.train import DEFAULTS, train_defaults
 
 
 @pytest.fixture(scope="session")
@@ -25,6 +25,11 @@ def fit_frames(derived_frames: dict) -> dict:
 
 
 @pytest.fixture(scope="session")
-def default_models(fit_data: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """The four default model files (train_defaults)."""
-    return train_defaults(fit_data, tmp_path_factory.mktemp("fitmodels"))
+def default_models(
+    fit_data: Path, tmp_path_factory: pytest.TempPathFactory, worker_id: str
+) -> dict[str, Path]:
+    """The four default model files (train_defaults), trained once per run for every xdist worker."""
+    from conftest import shared_dir
+
+    d = shared_dir(tmp_path_factory, worker_id, "fitmodels", lambda d: train_defaults(fit_data, d))
+    return {name: d / f"{name}.pt" for name in DEFAULTS}

@@ -90,7 +90,23 @@ def test_other_sets_run_set_as_harness_and_leave_it_unchanged(forms):
     assert mod.rates is apart_forms.rates and mod.HARNESS.forms is mod.FORMS
 
 
-@pytest.mark.parametrize("name", list(FORMS))
+def _first_fast(cases: list) -> list:
+    """The cases, all but the first of each set marked slow: the fast suite runs one form per set, `make
+    test-slow` the sweep."""
+    seen: set = set()
+    out = []
+    for c in cases:
+        key = c[0] if isinstance(c, tuple) else None
+        out.append(
+            c
+            if key not in seen
+            else pytest.param(*(c if isinstance(c, tuple) else (c,)), marks=pytest.mark.slow)
+        )
+        seen.add(key)
+    return out
+
+
+@pytest.mark.parametrize("name", _first_fast(list(FORMS)))
 def test_form_law_differs_from_base_above_noise(name):
     """Each form's plant runs, and its law moves some measured channel by more than twice the noise (RMS)."""
     change = _change(name)
@@ -100,7 +116,7 @@ def test_form_law_differs_from_base_above_noise(name):
 OTHER_FORMS = [(m, n) for m in SETS[1:] for n in importlib.import_module(m).FORMS]
 
 
-@pytest.mark.parametrize(("forms", "name"), OTHER_FORMS)
+@pytest.mark.parametrize(("forms", "name"), _first_fast(OTHER_FORMS))
 def test_other_sets_forms_move_a_channel_above_noise(forms, name):
     """Sets B-E: each form's plant runs through the protocol, and its law moves some measured channel by more
     than 1.5 noise units (RMS over set A's two brisk trials; the workflow's data hold twelve longer ones)."""
