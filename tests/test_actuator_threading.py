@@ -346,8 +346,8 @@ def _closed_loop_c_equals_twin(ctl: str, act) -> None:
     """The control model's export in closed loop with the plant of `act`: the C controller and its Python
     twin give the same commands and states every tick (1 s at the actuator's loop rate, 3 angles)."""
     from seagen.control.loop import run_closed_loop
-    from seagen.control.user import control_setups
     from seagen.plant import PlantConfig
+    from seagen.setups.user import control_setups
 
     setups, _row = control_setups(ctl)
     name = next(k for k in setups if k.endswith("_mcu"))
@@ -369,10 +369,10 @@ def _cloud_features_of_the_model_actuator(ctl: Path, act, tmp: Path) -> None:
     """A control model's cloud configuration feeds its float model the features of the actuator the model
     file records (here one with another pot offset: other angles), not the paper's."""
     from seagen.control.gentwin import float_features
-    from seagen.control.user import control_setups
     from seagen.frontends.load import load_float_model
     from seagen.modelfile import save_model
     from seagen.reference import float_ref
+    from seagen.setups.user import control_setups
 
     d = act.to_dict()
     d["pot"]["offset_deg"] -= 2.0
@@ -419,8 +419,9 @@ def test_simulate_on_another_design_runs_the_model_free_configs(tmp_path, capsys
 def test_kin_mcu_on_another_design_uses_its_friction_spring_and_controller():
     """kin_mcu's setup on another design: the kinematic constants and controller configuration of that
     design (the paper's setup would be refused by its plant)."""
-    from seagen.control.experiment import CONFIGS, model_free_setups
+    from seagen.control.experiment import model_free_setups
     from seagen.runtime.control import KinParams, predict_kinematic
+    from seagen.setups.shipped import CONFIGS
 
     act = load_actuator(EXAMPLE)
     pred, ctl = model_free_setups(act)["kin_mcu"](0.1)

@@ -5,9 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from seagen.control.gentwin import StepTwin, export
+from seagen.control.gentwin import StepTwin
 from seagen.control.loop import run_closed_loop
-from seagen.control.predictors import generated_mcu
 from seagen.defaults import GENERATED
 from seagen.reference import numpy_ref
 from seagen.runtime import control as ct
@@ -15,6 +14,7 @@ from seagen.runtime import nn as K
 from seagen.runtime.actq import act_q_of
 from seagen.runtime.control import ControlConfig
 from seagen.runtime.features import step_features
+from seagen.setups.shipped import export, generated_mcu
 from seagen.toolchain.controller import build_control, generated_cdef, generated_ctx, generated_sources
 
 PREFIXES = ["ctl_sf", "ctl_mlp"]
@@ -38,7 +38,7 @@ def test_step_twin_equals_c_and_sequence_reference(prefix):
     enc, pot, force = _seq(3000, len(prefix))
     fn = getattr(mod.lib, f"{prefix}_predict_q16")
     c = np.array([fn(ctx, int(e), int(p), int(f)) for e, p, f in zip(enc, pot, force, strict=True)])
-    tw = StepTwin(prefix)
+    tw = StepTwin(prefix, export(prefix).qmodel)
     py = np.array([int(tw(enc[k : k + 1], pot[k : k + 1], force[k : k + 1])[0]) for k in range(len(enc))])
     qm = export(prefix).qmodel
     ext = K.to_s16(force, 16, qm.inputs[0].frac)[:, None]

@@ -24,9 +24,9 @@ def test_objective_penalizes_sf_outside_plus_minus_50_percent_of_the_paper():
 
 def test_shipped_parameters_are_the_defaults():
     """The tuner's baseline trial is exactly what ships (DEFAULT_PID and the MLP prediction average)."""
-    from seagen.control.experiment import CONFIGS
     from seagen.control.tune import SHIPPED
     from seagen.runtime.pid import DEFAULT_PID, MOTOR_MAX_MV, TICK_S, PidParams
+    from seagen.setups.shipped import CONFIGS
 
     p = dict(SHIPPED)
     pred_avg = p.pop("pred_avg")

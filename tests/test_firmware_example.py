@@ -9,13 +9,13 @@ import pytest
 from seagen.bench.glove import N_SEA, TICKS, glove_files, sensors
 from seagen.codegen.controller import shipped_config
 from seagen.control.gentwin import StepTwin
-from seagen.control.gentwin import export as default_ir
 from seagen.defaults import GENERATED
 from seagen.export import prepare
 from seagen.reference import numpy_ref
 from seagen.runtime import features as F
 from seagen.runtime.actq import act_q_of
 from seagen.runtime.control import ControlConfig, control_reset, control_step
+from seagen.setups.shipped import export as default_ir
 from seagen.toolchain.cortexm import CPUS, Machine, build_image, toolchain_missing
 
 pytest.importorskip("unicorn", reason="unicorn (the Cortex-M emulator) is not installed: pip install unicorn")
@@ -33,7 +33,7 @@ def _twins(cal_qm, enc, pot, force, ctl: str = "ctl_mlp") -> tuple[np.ndarray, n
     """Motor commands (controller twin + StepTwin of `ctl`, the shipped configuration) and force estimates
     (the feature pipeline's twin + numpy_ref) per tick, for the batch of actuators."""
     cfg = shipped_config(default_ir(ctl).qmodel)
-    c = ControlConfig(**{**cfg.__dict__, "predictor": StepTwin(ctl)})
+    c = ControlConfig(**{**cfg.__dict__, "predictor": StepTwin(ctl, default_ir(ctl).qmodel)})
     s, pipe = control_reset(c, enc[0], pot[0]), F.Pipeline(act_q_of())
     motor, est = [], []
     for k in range(TICKS):

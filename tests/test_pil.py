@@ -14,7 +14,6 @@ from seagen.cli import main
 from seagen.codegen.controller import controller_files, shipped_config
 from seagen.codegen.runtime import runtime_sources
 from seagen.control.gentwin import StepTwin
-from seagen.control.gentwin import export as default_ir
 from seagen.defaults import GENERATED
 from seagen.errors import UserError
 from seagen.export import prepare
@@ -22,6 +21,7 @@ from seagen.pil import link as link_mod
 from seagen.pil.controller import PilController
 from seagen.pil.link import qemu_missing
 from seagen.runtime.control import ControlConfig, sensor_walk
+from seagen.setups.shipped import export as default_ir
 from seagen.toolchain.controller import generated_sources
 from seagen.toolchain.cortexm import toolchain_missing
 from seagen.verify.pil import closed_loop

@@ -10,12 +10,12 @@ import pytest
 from seagen.codegen.controller import controller_files, shipped_config
 from seagen.codegen.runtime import runtime_sources
 from seagen.control.gentwin import StepTwin
-from seagen.control.gentwin import export as default_ir
 from seagen.defaults import GENERATED
 from seagen.reference import numpy_ref
 from seagen.runtime import features as F
 from seagen.runtime.actq import act_q_of
 from seagen.runtime.control import ControlConfig, control_reset, control_step, q16, sensor_walk
+from seagen.setups.shipped import export as default_ir
 from seagen.toolchain.controller import generated_sources
 from seagen.toolchain.host import build
 
@@ -131,7 +131,9 @@ def _run_twin(cal: str, ctl: str, enc, pot, force) -> dict[str, np.ndarray]:
         for k in range(TICKS):
             if k == 0 or rec["fault"][k - 1, i]:
                 pipe = F.Pipeline(a)
-                c = ControlConfig(**{**base.__dict__, "predictor": StepTwin(ctl).shared(pipe)})
+                c = ControlConfig(
+                    **{**base.__dict__, "predictor": StepTwin(ctl, default_ir(ctl).qmodel).shared(pipe)}
+                )
                 s = control_reset(c, enc[k, col], pot[k, col])
             b, d, dd = pipe.step(enc[k, col], pot[k, col])
             rec["est"][k, i] = numpy_ref.infer(cal_qm, F.inputs(a, cal_qm.inputs, b, d, dd, None))[0]

@@ -7,10 +7,11 @@ import numpy as np
 import pytest
 
 from seagen.codegen.controller import tick_config
-from seagen.control.gentwin import MODEL_FILES, StepTwin
+from seagen.control.gentwin import StepTwin
 from seagen.defaults import GENERATED
 from seagen.export import prepare
 from seagen.runtime.control import ControlConfig, control_run, q16, sensor_walk
+from seagen.setups.shipped import MODEL_FILES, export
 from seagen.toolchain.cortexm import toolchain_missing
 from seagen.toolchain.targets import NAMES, build_target
 
@@ -27,7 +28,8 @@ def _sequence(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def _twin(prefix: str, cfg: ControlConfig, enc, pot, force) -> np.ndarray:
     """control_reset on the first sample, then control_step per sample, with the StepTwin predictor."""
-    return control_run(ControlConfig(**{**cfg.__dict__, "predictor": StepTwin(prefix)}), enc, pot, force)
+    twin = StepTwin(prefix, export(prefix).qmodel)
+    return control_run(ControlConfig(**{**cfg.__dict__, "predictor": twin}), enc, pot, force)
 
 
 @pytest.mark.parametrize("target", NAMES)

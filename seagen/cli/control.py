@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from functools import partial
 from typing import TYPE_CHECKING
 
 from seagen.defaults import model_arg
@@ -16,7 +17,7 @@ if TYPE_CHECKING:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the `simulate` and `tune` commands."""
-    from seagen.control.experiment import CONFIGS
+    from seagen.setups.shipped import CONFIGS
 
     _register_tune(sub)
 
@@ -95,17 +96,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Run each configuration at its actuator's targets over the contact angles; print Table II or JSON."""
     from seagen.actuator import ActuatorError, is_default
-    from seagen.control.experiment import (
-        CONFIGS,
-        MODEL_FREE,
-        TABLE2_CONFIGS,
-        format_table2,
-        model_free_setups,
-        simulate,
-        sweep,
-    )
+    from seagen.control.experiment import TABLE2_CONFIGS, format_table2, model_free_setups, simulate, sweep
     from seagen.data.protocol import sample_every
     from seagen.plant import PlantConfig
+    from seagen.setups.pil import loop_controller
+    from seagen.setups.shipped import CONFIGS, MODEL_FREE
 
     if not 0.0 <= args.latency <= 3600.0:  # NaN fails too
         raise UserError(f"--latency must be a time from 0 to 3600 s, got {args.latency}")
@@ -124,7 +119,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if not paper:
         refuse_shipped(names, act, args.model)
     if args.calibration:  # first: one for another actuator is refused before the control model's export
-        from seagen.control.user import force_estimator
+        from seagen.setups.user import force_estimator
 
         try:
             estimator = force_estimator(args.calibration, args.allow_pickle, act)
@@ -138,8 +133,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             )
             raise ActuatorError(f"--calibration {e}; the simulated actuator is {origin}") from None
     if args.model:
-        from seagen.control.targets import check_targets
-        from seagen.control.user import control_setups
+        from seagen.setups.targets import check_targets
+        from seagen.setups.user import control_setups
 
         check_targets(args.model, act, args.features, args.allow_pickle)  # no silent clamp at a target
         mine, row = control_setups(args.model, args.features, args.allow_pickle, act)
@@ -148,14 +143,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         names = (*names, *mine)
     if free_only:  # said once everything is accepted
         print(model_free_note(act), file=sys.stderr)
-    impl = f"pil:{args.core}" if args.impl == "pil" else args.impl
+    impl = partial(loop_controller, args.core) if args.impl == "pil" else args.impl  # pil: a board's
     if args.seeds == 1:
-        table = simulate(names, args.latency, impl, args.seed, args.plots, setups, estimator, plant_cfg)
+        table = simulate(setups, names, args.latency, impl, args.seed, args.plots, estimator, plant_cfg)
     else:
         from tqdm import tqdm
 
         with tqdm(total=args.seeds, desc="seeds", unit="seed", disable=args.json) as bar:
             table = sweep(
+                setups,
                 names,
                 args.seeds,
                 args.latency,
@@ -163,7 +159,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                 args.seed,
                 lambda _k: bar.update(),
                 args.plots,
-                setups,
                 estimator,
                 plant_cfg,
             )
@@ -206,7 +201,7 @@ def limit_notes(table: dict[str, dict[str, dict]], act: Actuator) -> list[str]:
 
 def model_free_note(act: Actuator) -> str:
     """What the default configurations are on a design other than the paper's, and how to run the others."""
-    from seagen.control.experiment import MODEL_FREE, NEEDS_SHIPPED
+    from seagen.setups.shipped import MODEL_FREE, NEEDS_SHIPPED
 
     return (
         f"seagen simulate: {act.source}: running {', '.join(MODEL_FREE)} (needs no model); "
@@ -218,8 +213,8 @@ def model_free_note(act: Actuator) -> str:
 def refuse_shipped(names: tuple[str, ...], act: Actuator, model: str | None) -> None:
     """A configuration running a shipped (paper) model on another design: refused naming it (exit 2)."""
     from seagen.actuator import ActuatorError, default_actuator
-    from seagen.control.experiment import MODEL_FREE, NEEDS_SHIPPED
-    from seagen.control.user import prefix_of
+    from seagen.setups.shipped import MODEL_FREE, NEEDS_SHIPPED
+    from seagen.setups.user import prefix_of
 
     free, paper = " / ".join(MODEL_FREE), default_actuator()
     for n in names:
@@ -298,6 +293,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
     from seagen.actuator import is_default
     from seagen.control.experiment import BAND_N, model_free_setups, targets_n
     from seagen.control.tune import NEVER_S, control_table, tune, worst_plus_mean
+    from seagen.setups.shipped import CONFIGS
 
     if args.trials < 1:
         raise UserError(f"--trials must be >= 1, got {args.trials}")
@@ -306,7 +302,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
     act = plant_actuator(args)
     setup, name, metric = None, "shipped mlp_mcu and sf_mcu", "settling_s"
     if args.model:
-        from seagen.control.user import control_setups
+        from seagen.setups.user import control_setups
 
         mine, _row = control_setups(args.model, args.features, args.allow_pickle, act)
         name = next(n for n in mine if n.endswith("_mcu"))
@@ -320,7 +316,16 @@ def cmd_tune(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     seeds = tuple(10 * k for k in range(args.seeds))
-    study = tune(args.trials, seeds, setup=setup, act=act, progress=not args.json, name=name, metric=metric)
+    study = tune(
+        args.trials,
+        seeds,
+        setup=setup,
+        act=act,
+        progress=not args.json,
+        name=name,
+        metric=metric,
+        shipped=CONFIGS,
+    )
     best = study.best_trial
 
     def shown(trial) -> dict[str, dict[str, float]]:  # a trial's settling per configuration and target

@@ -7,10 +7,10 @@ from collections.abc import Callable, Iterator
 import numpy as np
 
 from seagen.actuator import Actuator
-from seagen.control.loop import CloudPredictor, McuPredictor, run_closed_loop
-from seagen.control.predictors import generated_cloud, generated_mcu, kinematic_mcu
+from seagen.control.loop import CloudPredictor, Impl, McuPredictor, run_closed_loop
+from seagen.control.predictors import kinematic_mcu
 from seagen.plant import PlantConfig
-from seagen.runtime.control import MLP_PRED_AVG, ControlConfig
+from seagen.runtime.control import ControlConfig
 
 # The grid, per actuator description: targets at these fractions of its desired-force range (control.
 # force_max_n: 5, 10, 15 N on the paper's 20 N), N_CONTACT contact angles evenly over its linkage range less
@@ -24,17 +24,10 @@ ERROR_WINDOW_S = 2.0  # the average error is taken over the last 2 s of the run
 DURATION_S = 6.0
 
 Setup = tuple[McuPredictor | CloudPredictor, ControlConfig]
-# Configuration name -> factory(latency_s) of its predictor and controller configuration (Table II rows).
-CONFIGS: dict[str, Callable[[float], Setup]] = {
-    "sf_mcu": lambda latency_s: (generated_mcu("ctl_sf"), ControlConfig()),
-    "mlp_cloud": lambda latency_s: (generated_cloud("ctl_mlp", latency_s, 10.0), ControlConfig()),
-    "mlp_mcu": lambda latency_s: (generated_mcu("ctl_mlp"), ControlConfig(pred_avg=MLP_PRED_AVG)),
-    "kin_mcu": lambda latency_s: (kinematic_mcu(predict_every=1), ControlConfig()),  # baseline
-}
+# Configuration name -> factory(latency_s) of its predictor and controller configuration: the shipped ones
+# (Table II rows and the kin_mcu baseline) are seagen.setups.shipped.CONFIGS.
+Setups = dict[str, Callable[[float], Setup]]
 TABLE2_CONFIGS = ("sf_mcu", "mlp_cloud", "mlp_mcu")
-# Configurations running a shipped model (trained for the paper's actuator): name -> that model's default:NAME
-NEEDS_SHIPPED = {"sf_mcu": "sf_control", "mlp_cloud": "mlp_control", "mlp_mcu": "mlp_control"}
-MODEL_FREE = tuple(n for n in CONFIGS if n not in NEEDS_SHIPPED)  # run on any described actuator
 PAPER_TABLE2 = {  # paper Table II: (average force error N, average settling time s) per method and target
     "SF": {"5": (0.29, 0.32), "10": (0.41, 0.50), "15": (0.18, 0.58)},
     "MLP": {"5": (0.24, 2.72), "10": (0.30, 3.22), "15": (0.10, 3.15)},
@@ -121,7 +114,7 @@ def limit_share(rec: dict[str, np.ndarray], settling_s: np.ndarray, lim_mv: int)
 def runs(
     pred: McuPredictor | CloudPredictor,
     ctl: ControlConfig,
-    impl: str = "c",
+    impl: Impl = "c",
     seed: int = 0,
     plant_cfg: PlantConfig | None = None,
 ) -> Iterator[tuple[float, dict[str, np.ndarray]]]:
@@ -154,19 +147,19 @@ def estimate_error(rec: dict[str, np.ndarray]) -> float:
 
 
 def run_config(
+    setups: Setups,
     name: str,
     latency_s: float = 0.1,
-    impl: str = "c",
+    impl: Impl = "c",
     seed: int = 0,
-    setups: dict[str, Callable[[float], Setup]] | None = None,
     estimator: Callable[[dict[str, np.ndarray]], np.ndarray] | None = None,
     plant_cfg: PlantConfig | None = None,
 ) -> dict[str, dict]:
-    """Every target at every contact angle for one configuration (of `setups`, default CONFIGS):
+    """Every target at every contact angle for one configuration (of `setups`, e.g. the shipped CONFIGS):
     {target: {metric: value, ...}}; settling_s is the mean over the angles that settle (`settled` of them),
     None if none does. `estimator` (a calibration model) adds its force estimate and its error."""
     out: dict[str, dict] = {}
-    pred, ctl = (setups or CONFIGS)[name](latency_s)
+    pred, ctl = setups[name](latency_s)
     for target, rec in runs(pred, ctl, impl=impl, seed=seed, plant_cfg=plant_cfg):
         m = metrics(rec)
         s = m["settling_s"]
@@ -186,18 +179,18 @@ def run_config(
 
 
 def simulate(
+    setups: Setups,
     names: tuple[str, ...] = TABLE2_CONFIGS,
     latency_s: float = 0.1,
-    impl: str = "c",
+    impl: Impl = "c",
     seed: int = 0,
     plots: str | None = None,
-    setups: dict[str, Callable[[float], Setup]] | None = None,
     estimator: Callable[[dict[str, np.ndarray]], np.ndarray] | None = None,
     plant_cfg: PlantConfig | None = None,
 ) -> dict[str, dict[str, dict]]:
-    """Run the configurations (of `setups`, default CONFIGS) on the plant `plant_cfg`, write a
+    """Run the configurations (of `setups`, e.g. the shipped CONFIGS) on the plant `plant_cfg`, write a
     step-response plot of each into `plots`, return Table II."""
-    results = {n: run_config(n, latency_s, impl, seed, setups, estimator, plant_cfg) for n in names}
+    results = {n: run_config(setups, n, latency_s, impl, seed, estimator, plant_cfg) for n in names}
     if plots:
         from pathlib import Path
 
@@ -212,14 +205,14 @@ def simulate(
 
 
 def sweep(
+    setups: Setups,
     names: tuple[str, ...] = TABLE2_CONFIGS,
     seeds: int = 5,
     latency_s: float = 0.1,
-    impl: str = "c",
+    impl: Impl = "c",
     seed: int = 0,
     progress: Callable[[int], None] | None = None,
     plots: str | None = None,
-    setups: dict[str, Callable[[float], Setup]] | None = None,
     estimator: Callable[[dict[str, np.ndarray]], np.ndarray] | None = None,
     plant_cfg: PlantConfig | None = None,
 ) -> dict[str, dict[str, dict]]:
@@ -230,7 +223,7 @@ def sweep(
     for k in range(seeds):
         runs.append(
             simulate(
-                names, latency_s, impl, seed + k, plots if k == 0 else None, setups, estimator, plant_cfg
+                setups, names, latency_s, impl, seed + k, plots if k == 0 else None, estimator, plant_cfg
             )
         )
         if progress:

@@ -1,44 +1,19 @@
-"""Generated control predictors (generated/ctl_sf, ctl_mlp): per-tick integer twin and the float model."""
+"""Generated control predictors (their quantized IR given): the per-tick integer twin, the float features."""
 
 from __future__ import annotations
-
-from dataclasses import dataclass
-from functools import cache
 
 import numpy as np
 import pandas as pd
 
-from seagen.actuator import default_actuator
 from seagen.data.features import derive
-from seagen.defaults import DEFAULT_PREFIX, GENERATED
-from seagen.geometry import Geometry, geometry
-from seagen.ir import FloatModel, QModel
-from seagen.reference import float_ref, numpy_ref
+from seagen.geometry import Geometry
+from seagen.ir import QModel
+from seagen.reference import numpy_ref
 from seagen.runtime import features as F
 from seagen.runtime import fixed as P
 from seagen.runtime import nn as K
 from seagen.runtime.actq import ActQ, act_q_of
 from seagen.runtime.control import FORCE_FRAC, Predictor
-
-MODEL_FILES = {prefix: f"{name}.pt" for name, prefix in DEFAULT_PREFIX.items()}  # prefix -> model file
-
-
-@dataclass(frozen=True)
-class DefaultModel:
-    """The float and quantized IR of one default control model."""
-
-    float_model: FloatModel
-    qmodel: QModel
-
-
-@cache
-def export(prefix: str) -> DefaultModel:
-    """The float model and quantized IR of the default control model `prefix` (what its export holds)."""
-    from seagen.frontends.load import load_float_model
-    from seagen.quant.model import quantize
-
-    fm = load_float_model(str(GENERATED / "models" / MODEL_FILES[prefix]))
-    return DefaultModel(fm, quantize(fm))
 
 
 class StepTwin:
@@ -48,8 +23,8 @@ class StepTwin:
     like NAME_reset.
     """
 
-    def __init__(self, prefix: str, qm=None, act: ActQ | None = None) -> None:
-        self.qm = qm if qm is not None else export(prefix).qmodel
+    def __init__(self, prefix: str, qm: QModel, act: ActQ | None = None) -> None:
+        self.qm = qm
         self.act = act or act_q_of()
         self.pipeline = F.Pipeline(self.act)
 
@@ -88,15 +63,3 @@ def float_features(
     rows = pd.DataFrame({"trial": np.tile(np.arange(n), 3), "enc": np.ravel(enc), "pot": np.ravel(pot)})
     last = derive(rows.sort_values("trial", kind="stable"), geo).groupby("trial").tail(1)
     return last.assign(force_n=np.asarray(force_n, float))[names].to_numpy(dtype=float)
-
-
-def float_predictor(prefix: str):
-    """The float model of `prefix` as a CloudPredictor function: (enc rows, pot rows, force N) -> mm."""
-    fm = export(prefix).float_model
-    names = [s.name for s in fm.inputs]
-    geo = geometry(default_actuator())  # the shipped models were trained on the paper's actuator
-
-    def fn(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
-        return float_ref.predict(fm, float_features(names, enc, pot, force_n, geo))
-
-    return fn

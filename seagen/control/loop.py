@@ -51,6 +51,11 @@ class CloudPredictor:
     refresh_hz: float = 10.0
 
 
+# The controller: "c" (built by cffi), "py" (the Python twin), or a maker (predictor, configuration) ->
+# controller that a driver built (the firmware on an emulated board: seagen.setups.pil.loop_controller).
+Impl = str | Callable[[McuPredictor | CloudPredictor, ControlConfig], Any]
+
+
 class PyController:
     """The Python twin with the CController interface."""
 
@@ -78,19 +83,19 @@ class PyController:
         return np.asarray(getattr(self.s, name), dtype=np.int64)
 
 
-def make_controller(impl: str, pred: McuPredictor | CloudPredictor, c: ControlConfig) -> Any:
-    """The C (`impl='c'`, built by cffi), Python (`'py'`) or emulated-board (`'pil'`, `'pil:CORE'`: the
-    firmware in QEMU, seagen.pil) controller for this predictor."""
+def make_controller(impl: Impl, pred: McuPredictor | CloudPredictor, c: ControlConfig) -> Any:
+    """The C (`impl='c'`, built by cffi) or Python (`'py'`) controller for this predictor, or the one the
+    maker `impl` builds (e.g. the firmware in QEMU on an emulated board: seagen.setups.pil)."""
     if isinstance(pred, McuPredictor):  # the C controller calls the C predictor; only the twin needs its twin
         c = replace(c, predictor=pred.make_twin() if impl == "py" else None, predict_every=pred.predict_every)
     else:
         c = replace(c, predictor=None)
     if impl == "py":
         return PyController(c)
-    if impl.startswith("pil"):
-        from seagen.control.pil import loop_controller
-
-        return loop_controller(impl, pred, c)
+    if callable(impl):
+        return impl(pred, c)
+    if impl != "c":
+        raise ValueError(f"impl must be 'c', 'py' or a controller maker, not {impl!r}")
     from seagen.toolchain.controller import CController, build_control
 
     if isinstance(pred, McuPredictor):
@@ -110,7 +115,7 @@ def run_closed_loop(
     target_n: float | Callable[[int], float],
     contact_deg: np.ndarray | float,
     *,
-    impl: str = "c",
+    impl: Impl = "c",
     duration_s: float = 10.0,
     seed: int = 0,
     plant_cfg: PlantConfig | None = None,

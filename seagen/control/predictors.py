@@ -1,4 +1,4 @@
-"""Predictors available to the closed loop: the kinematic inverse and the generated SF/MLP models."""
+"""Predictors available to the closed loop: the kinematic inverse (the generated models: seagen.setups)."""
 
 from __future__ import annotations
 
@@ -51,32 +51,3 @@ def kinematic_cloud(
     """The float kinematic inverse of the actuator `geo` (the paper's when None) off the MCU, refreshed at
     `refresh_hz` with `latency_s` delay."""
     return CloudPredictor(kinematic_float(geo), latency_s, refresh_hz)
-
-
-def generated_mcu(prefix: str, predict_every: int = 1) -> McuPredictor:
-    """The generated fixed-point predictor `prefix` (generated/PREFIX.c, via cffi) with its per-tick twin.
-
-    Its feature pipeline differences consecutive calls, so it is meant to be called at the training rate
-    (the description's loop rate); at predict_every > 1 its d_/dd_ inputs are predict_every times the
-    trained scale.
-    """
-    from seagen.control.gentwin import StepTwin
-    from seagen.defaults import GENERATED
-    from seagen.toolchain.controller import generated_cdef, generated_ctx, generated_sources
-
-    return McuPredictor(
-        f"{prefix}_predict_q16",
-        generated_ctx(prefix),
-        lambda: StepTwin(prefix),
-        predict_every,
-        generated_cdef(prefix, GENERATED),
-        generated_sources(prefix, GENERATED),
-        stateful=True,
-    )
-
-
-def generated_cloud(prefix: str, latency_s: float = 0.1, refresh_hz: float = 10.0) -> CloudPredictor:
-    """The float model behind `prefix` off the MCU (the paper's set-up), over the Bluetooth link."""
-    from seagen.control.gentwin import float_predictor
-
-    return CloudPredictor(float_predictor(prefix), latency_s, refresh_hz)

@@ -9,20 +9,12 @@ from typing import Any
 import numpy as np
 
 from seagen.actuator import Actuator, default_actuator, is_default
-from seagen.control.experiment import (
-    CONFIGS,
-    DURATION_S,
-    MLP_PRED_AVG,
-    PAPER_TABLE2,
-    Setup,
-    metrics,
-    runs,
-    targets_n,
-)
+from seagen.control.experiment import DURATION_S, PAPER_TABLE2, Setup, Setups, metrics, runs, targets_n
 from seagen.data.protocol import force_scale, volts_scale
 from seagen.plant import PlantConfig
 from seagen.plant.config import Motor
 from seagen.runtime.actq import ActQ, act_q_of
+from seagen.runtime.control import MLP_PRED_AVG
 from seagen.runtime.pid import DEFAULT_PID_SI, SI_FIELDS, PidParams, gain_max_si, pid_si
 
 # The shipped choice (DEFAULT_PID, MLP_PRED_AVG) in the search's parameters: the first trial, as a baseline.
@@ -124,10 +116,11 @@ def tune(
     progress: bool = True,
     name: str = "mine",
     metric: str = "settling_s",
+    shipped: Setups | None = None,
 ):
     """Search gains, margin and output limit; returns the Optuna study. On the paper's actuator with no
-    `setup`: the shipped search (the shipped MLP's settling, its prediction average searched too, the
-    shipped SF kept within +-50 % of the paper's Table II; the first trial is what ships). Otherwise
+    `setup`: the search of `shipped` (setups.shipped.CONFIGS: the MLP's settling, its prediction average
+    searched too, the SF within +-50 % of the paper's Table II; the first trial is what ships). Otherwise
     `setup` (a configuration factory, `name`: your control model, or kin_mcu) on `act`, its `metric`
     (experiment.metrics: settling to the target, or to the force's own final level for a biased estimate
     such as kin_mcu's) scored by worst_plus_mean; the first trial is the description's own [control]."""
@@ -135,11 +128,11 @@ def tune(
 
     act = act or default_actuator()
     plant_cfg = PlantConfig(actuator=act)
-    paper_search = setup is None and is_default(act)
-    if setup is None and not paper_search:
-        raise ValueError("tune: another actuator needs its configuration (setup)")
+    paper = shipped if setup is None and is_default(act) else None  # the shipped search's configurations
+    if setup is None and not paper:
+        raise ValueError("tune: another actuator needs its configuration (setup), the paper's `shipped`")
     space, aq = search_space(act), act_q_of(act)
-    mlp_setup, sf_setup = (CONFIGS["mlp_mcu"](0.1), CONFIGS["sf_mcu"](0.1)) if paper_search else (None, None)
+    mlp_setup, sf_setup = (paper["mlp_mcu"](0.1), paper["sf_mcu"](0.1)) if paper else (None, None)
     mine_setup = None if setup is None else setup(0.1)
 
     def trial_fn(trial: optuna.Trial) -> float:
@@ -157,7 +150,7 @@ def tune(
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(sampler=optuna.samplers.TPESampler(seed=sampler_seed))
-    study.enqueue_trial(SHIPPED if paper_search else own_trial(act))
+    study.enqueue_trial(SHIPPED if paper else own_trial(act))
     study.optimize(trial_fn, n_trials=trials, show_progress_bar=progress)
     return study
 

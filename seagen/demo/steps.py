@@ -87,13 +87,14 @@ def step_control(out: Path, seed: int, models: dict[str, Path], act: Actuator | 
     the shipped configurations on the paper's actuator, the control models just trained on another."""
     from seagen.actuator import is_default
     from seagen.control import experiment as exp
-    from seagen.control.user import control_setups
     from seagen.plant import PlantConfig
+    from seagen.setups.shipped import CONFIGS
+    from seagen.setups.user import control_setups
 
     _banner(f"4. closed-loop force control (paper Table II; {DEMO_SEEDS} noise seeds)")
     plots = str(out / "plots")
     if act is None or is_default(act):
-        print(exp.format_table2(exp.sweep(seeds=DEMO_SEEDS, seed=seed, plots=plots)))
+        print(exp.format_table2(exp.sweep(CONFIGS, seeds=DEMO_SEEDS, seed=seed, plots=plots)))
     else:  # the shipped models are the paper's actuator's: run the ones trained above, on the MCU
         setups: dict = {}
         rows: dict[str, str] = {}
@@ -102,7 +103,7 @@ def step_control(out: Path, seed: int, models: dict[str, Path], act: Actuator | 
             setups |= {k: v for k, v in mine.items() if k.endswith("_mcu")}
             rows |= dict.fromkeys(setups.keys() - rows.keys(), row)
         cfg = PlantConfig(actuator=act)
-        table = exp.sweep(tuple(setups), DEMO_SEEDS, seed=seed, plots=plots, setups=setups, plant_cfg=cfg)
+        table = exp.sweep(setups, tuple(setups), DEMO_SEEDS, seed=seed, plots=plots, plant_cfg=cfg)
         print(exp.format_table2(table, rows, paper_figures=False))
     print(f"step-response plots (first seed): {out / 'plots'}/step_*.png")
 

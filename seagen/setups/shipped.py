@@ -1,0 +1,92 @@
+"""The shipped control models (generated/models: ctl_sf, ctl_mlp) as the closed loop's predictors, and the
+experiment's configurations that run them (paper Table II) beside the model-free baseline."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cache
+
+import numpy as np
+
+from seagen.control.experiment import Setup
+from seagen.control.loop import CloudPredictor, McuPredictor
+from seagen.control.predictors import kinematic_mcu
+from seagen.defaults import DEFAULT_PREFIX, GENERATED
+from seagen.ir import FloatModel, QModel
+from seagen.runtime.control import MLP_PRED_AVG, ControlConfig
+
+MODEL_FILES = {prefix: f"{name}.pt" for name, prefix in DEFAULT_PREFIX.items()}  # prefix -> model file
+
+
+@dataclass(frozen=True)
+class DefaultModel:
+    """The float and quantized IR of one default control model."""
+
+    float_model: FloatModel
+    qmodel: QModel
+
+
+@cache
+def export(prefix: str) -> DefaultModel:
+    """The float model and quantized IR of the default control model `prefix` (what its export holds)."""
+    from seagen.frontends.load import load_float_model
+    from seagen.quant.model import quantize
+
+    fm = load_float_model(str(GENERATED / "models" / MODEL_FILES[prefix]))
+    return DefaultModel(fm, quantize(fm))
+
+
+def float_predictor(prefix: str):
+    """The float model of `prefix` as a CloudPredictor function: (enc rows, pot rows, force N) -> mm."""
+    from seagen.actuator import default_actuator
+    from seagen.control.gentwin import float_features
+    from seagen.geometry import geometry
+    from seagen.reference import float_ref
+
+    fm = export(prefix).float_model
+    names = [s.name for s in fm.inputs]
+    geo = geometry(default_actuator())  # the shipped models were trained on the paper's actuator
+
+    def fn(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
+        return float_ref.predict(fm, float_features(names, enc, pot, force_n, geo))
+
+    return fn
+
+
+def generated_mcu(prefix: str, predict_every: int = 1) -> McuPredictor:
+    """The generated fixed-point predictor `prefix` (generated/PREFIX.c, via cffi) with its per-tick twin.
+
+    Its feature pipeline differences consecutive calls, so it is meant to be called at the training rate
+    (the description's loop rate); at predict_every > 1 its d_/dd_ inputs are predict_every times the
+    trained scale.
+    """
+    from seagen.control.gentwin import StepTwin
+    from seagen.toolchain.controller import generated_cdef, generated_ctx, generated_sources
+
+    return McuPredictor(
+        f"{prefix}_predict_q16",
+        generated_ctx(prefix),
+        lambda: StepTwin(prefix, export(prefix).qmodel),
+        predict_every,
+        generated_cdef(prefix, GENERATED),
+        generated_sources(prefix, GENERATED),
+        stateful=True,
+    )
+
+
+def generated_cloud(prefix: str, latency_s: float = 0.1, refresh_hz: float = 10.0) -> CloudPredictor:
+    """The float model behind `prefix` off the MCU (the paper's set-up), over the Bluetooth link."""
+    return CloudPredictor(float_predictor(prefix), latency_s, refresh_hz)
+
+
+# Configuration name -> factory(latency_s) of its predictor and controller configuration (Table II rows).
+CONFIGS: dict[str, Callable[[float], Setup]] = {
+    "sf_mcu": lambda latency_s: (generated_mcu("ctl_sf"), ControlConfig()),
+    "mlp_cloud": lambda latency_s: (generated_cloud("ctl_mlp", latency_s, 10.0), ControlConfig()),
+    "mlp_mcu": lambda latency_s: (generated_mcu("ctl_mlp"), ControlConfig(pred_avg=MLP_PRED_AVG)),
+    "kin_mcu": lambda latency_s: (kinematic_mcu(predict_every=1), ControlConfig()),  # baseline
+}
+# Configurations running a shipped model (trained for the paper's actuator): name -> that model's default:NAME
+NEEDS_SHIPPED = {"sf_mcu": "sf_control", "mlp_cloud": "mlp_control", "mlp_mcu": "mlp_control"}
+MODEL_FREE = tuple(n for n in CONFIGS if n not in NEEDS_SHIPPED)  # run on any described actuator
