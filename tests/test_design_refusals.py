@@ -228,3 +228,26 @@ def test_a_parameter_the_data_do_not_move_is_not_pinned(monkeypatch):
     sig = unit_sigmas(jac)
     assert np.isinf(sig[[0, 2]]).all() and np.allclose(np.delete(sig, [0, 2]), live, rtol=1e-6)
     assert np.isfinite(live).all() and (live > 0).all()
+
+
+def test_discrepancy_classes_scale_with_the_design():
+    """The signature's still/fast speed classes and force band, and the region labels' still band, are
+    shares of the design's no-load nut speed and force range: exactly 0.2 / 2 mm/s and 0.5 N on the
+    paper's actuator, ten times higher speeds on a motor ten times faster, another band at another range."""
+    import dataclasses
+
+    from seagen.discrepancy.bench import make_case
+    from seagen.discrepancy.residuals import FAST_MM_S, STILL_MM_S, nut_speed, region_labels
+    from seagen.discrepancy.signature import features
+
+    case = make_case(("load_cell_offset",), 11, fast=True)
+    paper = case.base.motor
+    fast = dataclasses.replace(paper, no_load_rpm=paper.no_load_rpm * 10)
+    assert (nut_speed(paper, STILL_MM_S), nut_speed(paper, FAST_MM_S)) == (0.2, 2.0)
+    assert nut_speed(fast, STILL_MM_S) == pytest.approx(2.0)
+    runs, top = case.runs, case.base.actuator.control.force_max_n
+    mine, faster = features(runs, paper, top), features(runs, fast, top)
+    assert not np.array_equal(mine["speed"], faster["speed"])
+    assert not np.array_equal(mine["force"], features(runs, paper, 2 * top)["force"])
+    a, b = region_labels(runs, paper, top)["speed"], region_labels(runs, fast, top)["speed"]
+    assert (b == "still").sum() > (a == "still").sum()
