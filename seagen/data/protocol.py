@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 
 from seagen.actuator import Actuator, default_actuator
+from seagen.data.reach import reach_problem
 from seagen.errors import UserError
 from seagen.geometry import Geometry, geometry
 from seagen.plant import Plant, PlantConfig
@@ -212,6 +213,9 @@ def generate(
     cfg: PlantConfig, seed: int = 0, progress: Callable[[str], None] | None = None
 ) -> dict[str, pd.DataFrame]:
     """The three splits of the paper: train and test at 12 angles, validation at one random extra angle."""
+    problem = reach_problem(cfg.actuator)
+    if problem:
+        raise UserError(f"{cfg.actuator.name}: {problem}")
     rng = np.random.default_rng(seed)
     geo = geometry(cfg.actuator)
     lo, hi = geo.angle_min_deg + 2.0, geo.angle_max_deg - 1.5

@@ -1,0 +1,49 @@
+"""A design too slow to push to its force range in the protocol's time is refused before any data; the push
+time estimate that decides it is a lower bound of the simulated push, within a factor of two."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from seagen.actuator import default_actuator, load_actuator
+from seagen.data.protocol import Move, run_trials
+from seagen.data.reach import MAX_PUSH_S, push_time, reach_problem
+from seagen.plant import PlantConfig
+from tests.conftest import EXAMPLE_ACTUATOR, run_cli
+
+SLOW = Path(__file__).with_name("slow_6v.toml")
+
+
+@pytest.mark.parametrize("act", [None, EXAMPLE_ACTUATOR], ids=["paper", "stiff_24v"])
+def test_push_time_bounds_the_simulated_push(act):
+    """The estimate (free approach, then spring compression under the motor's speed-force line) is at most
+    the simulated time to the peak and at least half of it (series compliance and friction slow the plant)."""
+    a = load_actuator(act) if act else default_actuator()
+    volts, peak = 0.25 * a.motor.supply_v, 0.85 * a.control.force_max_n
+    df = run_trials(PlantConfig(actuator=a), [Move(a.linkage.angle_max_deg - 2.0, volts, peak, -volts)], 0)[0]
+    t_sim = float(df.loc[df.force_n >= peak, "t_s"].iloc[0])
+    assert push_time(a, volts, peak) <= t_sim <= 2.0 * push_time(a, volts, peak)
+
+
+def test_shipped_and_test_designs_are_accepted():
+    """The paper's actuator, the shipped example and the slow test design push to their range in time."""
+    for act in (default_actuator(), load_actuator(EXAMPLE_ACTUATOR), load_actuator(SLOW)):
+        assert reach_problem(act) is None
+
+
+def test_a_design_too_slow_is_refused_with_its_numbers(tmp_path):
+    """Four times slower than the slow test design: data generate exits 2 naming the push time, the speed and
+    the compression and what to change, and writes nothing."""
+    text = SLOW.read_text().replace("no_load_rpm = 12600.0", "no_load_rpm = 3150.0")
+    slower = tmp_path / "slower.toml"
+    slower.write_text(text)
+    act = load_actuator(slower)
+    assert push_time(act, act.motor.supply_v, act.control.force_max_n) > MAX_PUSH_S
+    out = tmp_path / "data"
+    code, _, err = run_cli("data", "generate", "--actuator", str(slower), "--out", str(out))
+    assert code == 2 and "Traceback" not in err, err
+    for word in ("s at the full supply", "mm/s at the nut", "mm of spring compression", "motor.gear_ratio"):
+        assert word in err, err
+    assert not out.exists() or not any(out.iterdir())
