@@ -24,8 +24,9 @@ def check_targets(model: str, act: Any, features: str | None = None, allow_pickl
         shares = ", ".join(f"{f:g}" for f in experiment.TARGET_FRACTIONS)
         raise UserError(
             f"--model {model}: trained on desired forces {force.lo:.3g} to {force.hi:.3g} N (its force_n "
-            f"input range), but the experiment's targets {', '.join(f'{t:g}' for t in out)} N ({shares} of "
-            f"control.force_max_n {act.control.force_max_n:g} N of '{act.name}') lie outside it, where its "
+            f"input range), but {', '.join(f'{t:g}' for t in out)} N of the experiment's targets "
+            f"{', '.join(f'{t:g}' for t in targets)} N ({shares} of control.force_max_n "
+            f"{act.control.force_max_n:g} N of '{act.name}') lie outside it, where its "
             f"C clamps the input: train it on data reaching {max(targets):g} N (`seagen data summary` shows "
             "the force the data reach) or lower control.force_max_n"
         )
