@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -67,7 +68,7 @@ def fit_learned(cfg: PlantConfig, fit: Runs, held: Runs, sig_f: dict, sig_h: dic
         coef = np.linalg.solve(a.T @ a + RIDGE * np.eye(a.shape[1]), a.T @ y)
         zh = np.nan_to_num(z_h[ch][held.mask])
         after = zh - _design(held, rec_h, inputs, scales, sig_h[ch]) @ coef
-        dbic = float(np.sum(after**2) - np.sum(zh**2)) + len(coef) * np.log(n_scored(held))
+        dbic = float(np.sum(after**2) - np.sum(zh**2)) + len(coef) * math.log(n_scored(held))
         if dbic < best_dbic:
             z = dict(z_h)
             z[ch] = z_h[ch].copy()

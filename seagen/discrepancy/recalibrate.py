@@ -103,7 +103,7 @@ def uncertainty(base: PlantConfig, params: ParamSet, fit: Runs, sigma: dict) -> 
     out: dict[str, dict[str, float]] = {e: {} for e in params}
     for (e, p), s in zip(cand.keys, sig_u, strict=True):
         lo, hi, log = box(e, p, cand.full_scale)
-        out[e][p] = float(s * (params[e][p] * np.log(hi / lo) if log else hi - lo))
+        out[e][p] = float(s * (params[e][p] * math.log(hi / lo) if log else hi - lo))
     return out
 
 
@@ -185,7 +185,7 @@ def base_check(base: PlantConfig, fit: Runs, sigma: dict) -> BaseCheck:
     for (e, p), s in zip(cand.keys, sig_u, strict=True):
         lo, hi, log = box(e, p, cand.full_scale)
         v = params[e][p]
-        sig = float(s * (v * np.log(hi / lo) if log else hi - lo)) if np.isfinite(s) else math.inf
+        sig = float(s * (v * math.log(hi / lo) if log else hi - lo)) if np.isfinite(s) else math.inf
         out.sigma[f"{e}.{p}"] = sig
         scale = abs(v) if v != 0 else hi - lo
         if PIN_SIGMAS * sig > PIN_SHARE * scale:

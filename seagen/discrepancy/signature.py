@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from seagen import fmath
 from seagen.discrepancy.replay import Runs, simulate
 from seagen.discrepancy.residuals import FAST_MM_S, SCORE_CHANNELS, STILL_MM_S, nut_speed
 from seagen.plant import PlantConfig
@@ -62,7 +63,7 @@ def features(runs: Runs, motor: Motor, force_max_n: float) -> dict[str, np.ndarr
         "angle": np.stack([runs.angle[:, None] == a for a in angles], -1).astype(float)
         * np.ones_like(t)[..., None],
         "current": np.stack([cur, lag], -1),
-        "since_motion": np.exp(-_since(moving, t) / 0.3)[..., None],
+        "since_motion": fmath.exp(-_since(moving, t) / 0.3)[..., None],
         "drift": session[..., None],
     }
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -162,7 +163,7 @@ def _apply(cfg: PlantConfig, params: ParamSet) -> PlantConfig:
 
 def _held_out(cfg: PlantConfig, sets: list[ParamSet], k: np.ndarray, held: Runs, sig_h):
     """Held-out chi-square per set and trial, and each set's BIC penalty k ln n (k fitted parameters)."""
-    return objective(cfg, sets, held, sig_h), k * np.log(n_scored(held))
+    return objective(cfg, sets, held, sig_h), k * math.log(n_scored(held))
 
 
 def _score(cfg, cands, held, sig_h, rng) -> tuple[pd.DataFrame, np.ndarray]:
@@ -425,7 +426,7 @@ def _at_edge(n: Named, cfg: PlantConfig | None = None) -> list[str]:
     out, fs = [], full_scale(cfg)
     for p, v in n.params.items():
         lo, hi, log = box(n.name, p, fs)
-        u = np.log(v / lo) / np.log(hi / lo) if log and v > 0 else (v - lo) / (hi - lo)
+        u = math.log(v / lo) / math.log(hi / lo) if log and v > 0 else (v - lo) / (hi - lo)
         if u <= EDGE or u >= 1 - EDGE:
             out.append(p)
     return out
