@@ -122,7 +122,7 @@ def readme_default_commands() -> list[str]:
     return [ln for ln in lines if ln.startswith("seagen ") and "default:" in ln]
 
 
-@pytest.mark.slow  # ~25 s: every README and docs default: command from the wheel; the fast test above runs three
+@pytest.mark.slow  # ~25 s: every README and docs default: command from the wheel (the fast test runs three)
 def test_wheel_lists_models_and_runs_the_readme_default_commands(installed, tmp_path):
     """From the installed wheel: `seagen models` names the shipped files, and every README command that
     uses default:NAME runs (DATA_DIR: a generated data set; --vectors 300, pil --ticks 50, for time)."""
