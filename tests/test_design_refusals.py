@@ -27,11 +27,13 @@ PAPER_FIGURES = ("34.31", "44.7", "10400", "2416", "2.1 / 2.4 / 4.45")
 
 @pytest.fixture(scope="module")
 def slow_splits() -> dict[str, pd.DataFrame]:
-    """The paper's protocol, shortened, simulated on the slow design (~3 s)."""
+    """The paper's protocol, shortened and at the paper's pace (the split durations and trial cap not
+    stretched for the slow design, as before seagen derived them), simulated on the slow design (~3 s)."""
     from seagen.plant import PlantConfig
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(protocol, "SECONDS", QUICK)
+        mp.setattr(protocol, "pace", lambda act=None: 1.0)
         return protocol.generate(PlantConfig(actuator=load_actuator(SLOW)), seed=0)
 
 

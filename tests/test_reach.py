@@ -47,3 +47,32 @@ def test_a_design_too_slow_is_refused_with_its_numbers(tmp_path):
     for word in ("s at the full supply", "mm/s at the nut", "mm of spring compression", "motor.gear_ratio"):
         assert word in err, err
     assert not out.exists() or not any(out.iterdir())
+
+
+def test_protocol_unchanged_where_the_design_is_as_brisk_as_the_papers():
+    """On the paper's actuator and the shipped example no push is raised and nothing is stretched: the same
+    volts as the stall-force-per-volt scaling gives and a pace of exactly 1 (their data are as before)."""
+    from seagen.data.protocol import PUSH_MOVES, force_scale, scaled_move, volts_scale
+    from seagen.data.reach import pace
+
+    for act in (default_actuator(), load_actuator(EXAMPLE_ACTUATOR)):
+        assert pace(act) == 1.0
+        f = volts_scale(act) * force_scale(act)
+        for move in PUSH_MOVES:
+            assert scaled_move(20.0, move, act).push_v == min(move[0] * f, act.motor.supply_v)
+
+
+@pytest.mark.slow  # ~5-12 s: 40 s of a slow push at the plant's 1 ms step
+def test_slow_design_pushes_at_its_supply_and_reaches_its_peak_within_the_paced_cap():
+    """On the slow design every push runs at the supply (slower than the paper's even there), the protocol is
+    stretched by the push-time ratio, and a push to 85 % of the range at the top angle ends within the trial
+    cap: its rows reach the peak."""
+    from seagen.data.protocol import PUSH_MOVES, TRIAL_CAP_S, scaled_move
+    from seagen.data.reach import pace
+
+    act = load_actuator(SLOW)
+    assert pace(act) > 10
+    moves = [scaled_move(act.linkage.angle_max_deg - 2.0, m, act) for m in PUSH_MOVES[:1]]
+    assert all(m.push_v == act.motor.supply_v for m in moves)
+    (df,) = run_trials(PlantConfig(actuator=act), moves, seed=1)
+    assert df["force_n"].max() >= moves[0].peak_n and df["t_s"].iloc[-1] < TRIAL_CAP_S * pace(act)

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from seagen.actuator import Actuator, default_actuator
-from seagen.data.reach import reach_problem
+from seagen.data.reach import pace, push_volts, reach_problem
 from seagen.errors import UserError
 from seagen.geometry import Geometry, geometry
 from seagen.plant import Plant, PlantConfig
@@ -65,14 +65,18 @@ def force_scale(act: Actuator | None = None) -> float:
 def scaled_move(angle_deg: float, move: tuple[float, ...], act: Actuator | None = None) -> Move:
     """The move (push volts, peak N, retract volts[, stair mm]) at `angle_deg` for `act`: its peak force
     scaled to its force range (force_scale) and its volts to its motor and that range (volts_scale x
-    force_scale: the same stall margin at the peak), within +-its supply. The paper's moves on its own."""
+    force_scale: the same stall margin at the peak), raised where that push would be slower than the
+    paper's (reach.push_volts), within +-its supply. The paper's moves on its own."""
+    act = act or default_actuator()
     g = force_scale(act)
-    f, top = volts_scale(act) * g, (act or default_actuator()).motor.supply_v
+    f, top = volts_scale(act) * g, act.motor.supply_v
     push, peak, back, *stair = move
-    return Move(angle_deg, min(push * f, top), peak * g, max(back * f, -top), *stair)
+    volts = push_volts(act, push * f, peak * g, push)  # no slower than the paper's push (seagen.data.reach)
+    return Move(angle_deg, volts, peak * g, max(back * f, -top), *stair)
 
 
 STAIR_S = 0.3  # one stair: move and hold (s)
+TRIAL_CAP_S = 8.0  # a trial's longest time on the paper's actuator (reach.pace times it on a slower design)
 QUIET_N, QUIET_S = 0.4, 0.08  # a retract ends once the force has stayed below QUIET_N for QUIET_S
 STAIR_KP_V_PER_MM = 11.4  # position loop gain: V per mm of nut error (0.05 V/count on the paper's encoder)
 CONTACT_N = 0.3  # the stairs start when the reference force first exceeds this
@@ -123,10 +127,14 @@ def _stairs(moves: list[Move], cfg: PlantConfig) -> Callable[[int, np.ndarray, n
 
 
 def run_trials(
-    cfg: PlantConfig, moves: list[Move], seed: int, max_s: float = 8.0, plant_cls: type[Plant] | None = None
+    cfg: PlantConfig,
+    moves: list[Move],
+    seed: int,
+    max_s: float | None = None,
+    plant_cls: type[Plant] | None = None,
 ) -> list[pd.DataFrame]:
     """Simulate a batch of trials at once; each returns its raw rows (at the description's loop rate) until
-    the force is off again.
+    the force is off again, or max_s (default: 8 s, longer by reach.pace on a design slower than the paper's).
 
     `plant_cls` replaces the simulator (a Plant subclass, e.g. a discrepancy benchmark family)."""
     plant = (plant_cls or Plant)(cfg, np.array([m.angle_deg for m in moves]), seed=seed)
@@ -143,7 +151,8 @@ def run_trials(
     }
     alive: list[np.ndarray] = []
     volts = push.copy()
-    for k in range(int(max_s / cfg.dt_s)):
+    cap = TRIAL_CAP_S * pace(cfg.actuator) if max_s is None else max_s
+    for k in range(int(cap / cfg.dt_s)):
         if k % every == 0:
             s = plant.read()
             alive.append(phase < 2)
@@ -212,11 +221,14 @@ def collect(
 def generate(
     cfg: PlantConfig, seed: int = 0, progress: Callable[[str], None] | None = None
 ) -> dict[str, pd.DataFrame]:
-    """The three splits of the paper: train and test at 12 angles, validation at one random extra angle."""
+    """The three splits of the paper: train and test at 12 angles, validation at one random extra angle; on a
+    design slower than the paper's, each split longer by reach.pace (the same trials, each longer); a design
+    that cannot push to its force range within reach.MAX_PUSH_S is refused."""
     problem = reach_problem(cfg.actuator)
     if problem:
         raise UserError(f"{cfg.actuator.name}: {problem}")
     rng = np.random.default_rng(seed)
+    slow = pace(cfg.actuator)  # 1 unless the design's pushes are slower than the paper's at full supply
     geo = geometry(cfg.actuator)
     lo, hi = geo.angle_min_deg + 2.0, geo.angle_max_deg - 1.5
     angles = train_angles(geo)
@@ -232,5 +244,6 @@ def generate(
     for split, at, moves, k in plan:
         if progress:
             progress(split)
-        out[split] = collect(cfg, at, moves, rows(split, cfg.actuator.loop_hz), seed=seed * 10 + k)
+        total = int(round(rows(split, cfg.actuator.loop_hz) * slow))
+        out[split] = collect(cfg, at, moves, total, seed=seed * 10 + k)
     return out

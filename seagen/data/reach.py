@@ -1,4 +1,4 @@
-"""How long a calibration push takes on a described actuator, and the designs too slow to calibrate.
+"""How long a calibration push takes on a described actuator: the volts and the time the protocol gives it.
 
 A push at V volts drives the nut at v_max (V/V_s - F/F_stall) (the plant's motor law, F the load: the force
 reached plus the actuator's friction), first across the free linkage to the load cell and then compressing
@@ -7,19 +7,26 @@ the spring until the force reaches its peak, so its time is
     t(V) = y_c / (v_max (a - f_f))  +  F_stall / (k v_max) ln((a - f_f) / (a - f_f - f_p)),   a = V / V_s
 
 with y_c the shaft's travel to contact at the top angle, k the spring, f the forces over F_stall (series
-compliance only lengthens it). A design that would need more than MAX_PUSH_S to push to its force range at
-full supply is refused with its numbers before any data are made.
+compliance only lengthens it). The paper's moves were timed for its motor: on a design whose push at the
+paper's stall force per volt (`volts_scale`) would take more than SLACK times the paper's same move, the
+volts rise until it does not, up to the supply (`push_volts`); where even the supply is slower, the
+protocol's split durations and trial cap grow by that factor (`pace`). A design that would need more than
+MAX_PUSH_S to push to its force range at full supply is refused with its numbers before any data are made.
 """
 
 from __future__ import annotations
 
 import math
 
-from seagen.actuator import Actuator
+from seagen.actuator import Actuator, default_actuator
 from seagen.geometry import geometry
 from seagen.plant.config import Motor
 
 MAX_PUSH_S = 60.0  # longest push to force_max_n (at full supply) a calibration protocol may ask for
+REFERENCE_MOVE = (2.5, 17.0)  # the paper's first push: volts, peak N (85 % of its 20 N range)
+# A push may take up to this many times the paper's same move before its volts rise (the paper's own five
+# moves span 0.6-2.2 s by this estimate): a design near the paper's keeps its protocol as it is.
+SLACK = 1.5
 
 
 def push_time(act: Actuator, volts: float, peak_n: float) -> float:
@@ -32,6 +39,38 @@ def push_time(act: Actuator, volts: float, peak_n: float) -> float:
     approach = float(geo.shaft_advance_mm(geo.angle_max_deg)) / (v_max * (a - f_f))
     load = m.stall_force_n / (act.stiffness_n_per_mm * v_max) * math.log((a - f_f) / (a - f_f - f_p))
     return approach + load
+
+
+def _paper_time(peak_share: float, volts: float) -> float:
+    """The paper's push time for a move to that share of its force range at its volts."""
+    paper = default_actuator()
+    return push_time(paper, volts, peak_share * paper.control.force_max_n)
+
+
+def push_volts(act: Actuator, volts: float, peak_n: float, paper_volts: float) -> float:
+    """The push's volts on `act`: `volts` (the paper's stall force per volt), or more where that push would
+    take more than SLACK times the paper's same move (at `paper_volts`), up to the supply."""
+    top = act.motor.supply_v
+    want = SLACK * _paper_time(peak_n / act.control.force_max_n, paper_volts)
+    if push_time(act, min(volts, top), peak_n) <= want * (1 + 1e-9):
+        return min(volts, top)
+    if push_time(act, top, peak_n) >= want:
+        return top
+    lo, hi = volts, top
+    for _ in range(60):  # bisection: the push time falls as the volts rise
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if push_time(act, mid, peak_n) > want else (lo, mid)
+    return hi
+
+
+def pace(act: Actuator | None = None) -> float:
+    """Factor (>= 1) on the protocol's split durations and trial cap for `act`: how much longer than SLACK
+    times the paper's its reference push takes at full supply (exactly 1 for a design near the paper's)."""
+    act = act or default_actuator()
+    volts, peak = REFERENCE_MOVE
+    share = peak / default_actuator().control.force_max_n
+    mine = push_time(act, act.motor.supply_v, share * act.control.force_max_n)
+    return max(1.0, mine / (SLACK * _paper_time(share, volts)))
 
 
 def reach_problem(act: Actuator) -> str | None:

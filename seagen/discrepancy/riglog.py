@@ -6,7 +6,8 @@ import numpy as np
 import pandas as pd
 
 from seagen.actuator import Actuator, default_actuator
-from seagen.data.protocol import Move, _stairs
+from seagen.data.protocol import TRIAL_CAP_S, Move, _stairs
+from seagen.data.reach import pace
 from seagen.plant import Plant, PlantConfig
 
 CONVENTIONS = ("from_row", "up_to_row")  # the command on a row: applied from it on / applied up to it
@@ -19,7 +20,7 @@ def rig_trials(
     seed: int,
     convention: str = "from_row",
     loop_ms: tuple[int, ...] = LOOP_MS,
-    max_s: float = 8.0,
+    max_s: float | None = None,
 ) -> list[pd.DataFrame]:
     """The moves as a rig loop runs them: each trial samples at its own jittered instants (multiples of the
     plant's 1 ms step), computes the command there and applies it from that instant on; the row logs the
@@ -38,7 +39,8 @@ def rig_trials(
     nxt = np.zeros(n, dtype=int)  # plant step of each trial's next sample
     volts = np.zeros(n)
     rows: list[list[tuple]] = [[] for _ in range(n)]
-    for k in range(int(max_s / cfg.dt_s)):
+    cap = TRIAL_CAP_S * pace(cfg.actuator) if max_s is None else max_s  # as protocol.run_trials
+    for k in range(int(cap / cfg.dt_s)):
         due = (nxt == k) & (phase < 2)
         if due.any():
             s = plant.read()
