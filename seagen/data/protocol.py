@@ -222,8 +222,9 @@ def generate(
     cfg: PlantConfig, seed: int = 0, progress: Callable[[str], None] | None = None
 ) -> dict[str, pd.DataFrame]:
     """The three splits of the paper: train and test at 12 angles, validation at one random extra angle; on a
-    design slower than the paper's, each split longer by reach.pace (the same trials, each longer); a design
-    that cannot push to its force range within reach.MAX_PUSH_S is refused."""
+    design slower than the paper's, each split longer by reach.pace (the same trials, each longer) and each
+    angle given at least half the paced trial cap (a whole push; the paper's 1.4 s validation trial is cut);
+    a design that cannot push to its force range within reach.MAX_PUSH_S is refused."""
     problem = reach_problem(cfg.actuator)
     if problem:
         raise UserError(f"{cfg.actuator.name}: {problem}")
@@ -245,5 +246,7 @@ def generate(
         if progress:
             progress(split)
         total = int(round(rows(split, cfg.actuator.loop_hz) * slow))
+        if slow > 1.0:  # on a slower design every angle of every split gets at least one whole push
+            total = max(total, int(round(len(at) * 0.5 * TRIAL_CAP_S * slow * cfg.actuator.loop_hz)))
         out[split] = collect(cfg, at, moves, total, seed=seed * 10 + k)
     return out
