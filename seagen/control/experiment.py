@@ -9,6 +9,7 @@ import numpy as np
 from seagen.actuator import Actuator
 from seagen.control.loop import CloudPredictor, Impl, McuPredictor, run_closed_loop
 from seagen.control.predictors import kinematic_mcu
+from seagen.data.reach import pace
 from seagen.plant import PlantConfig
 from seagen.runtime.control import ControlConfig
 
@@ -43,6 +44,12 @@ def model_free_setups(act: Actuator) -> dict[str, Callable[[float], Setup]]:
 
     ctl = ControlConfig.for_act(act_q(act))
     return {"kin_mcu": lambda latency_s: (kinematic_mcu(1, KinParams.of(act)), ctl)}
+
+
+def duration_s(act: Actuator) -> float:
+    """Seconds of one run on `act`: DURATION_S, longer by the calibration protocol's pace on a design whose
+    pushes are slower than the paper's (seagen.data.reach.pace; exactly DURATION_S on a design near it)."""
+    return DURATION_S * pace(act)
 
 
 def targets_n(act: Actuator) -> tuple[float, ...]:
@@ -130,7 +137,7 @@ def runs(
             target,
             angles,
             impl=impl,
-            duration_s=DURATION_S,
+            duration_s=duration_s(act),
             seed=seed + i,
             plant_cfg=plant_cfg,
             control_cfg=ctl,

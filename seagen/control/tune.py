@@ -9,7 +9,16 @@ from typing import Any
 import numpy as np
 
 from seagen.actuator import Actuator, default_actuator, is_default
-from seagen.control.experiment import DURATION_S, PAPER_TABLE2, Setup, Setups, metrics, runs, targets_n
+from seagen.control.experiment import (
+    DURATION_S,
+    PAPER_TABLE2,
+    Setup,
+    Setups,
+    duration_s,
+    metrics,
+    runs,
+    targets_n,
+)
 from seagen.data.protocol import force_scale, volts_scale
 from seagen.plant import PlantConfig
 from seagen.plant.config import Motor
@@ -81,7 +90,8 @@ def mean_settling(
     out: dict[float, list[float]] = {t: [] for t in targets_n(plant_cfg.actuator)}
     for seed in seeds:
         for target, rec in runs(pred, cfg, seed=seed, plant_cfg=plant_cfg):
-            out[target].append(float(np.nan_to_num(metrics(rec)[metric], nan=NEVER_S).mean()))
+            never = NEVER_S * duration_s(plant_cfg.actuator) / DURATION_S  # the whole run
+            out[target].append(float(np.nan_to_num(metrics(rec)[metric], nan=never).mean()))
     return {t: float(np.mean(v)) for t, v in out.items()}
 
 

@@ -133,10 +133,10 @@ def _export(
 
 
 def default_ticks(act) -> int:
-    """Ticks of one run of the experiment on actuator `act`: its DURATION_S at the control-loop rate."""
-    from seagen.control.experiment import DURATION_S
+    """Ticks of one run of the experiment on actuator `act`: its duration at the control-loop rate."""
+    from seagen.control.experiment import duration_s
 
-    return round(DURATION_S * act.loop_hz)
+    return round(duration_s(act) * act.loop_hz)
 
 
 def run_pil(
