@@ -34,18 +34,20 @@ def test_shipped_and_test_designs_are_accepted():
 
 
 def test_a_design_too_slow_is_refused_with_its_numbers(tmp_path):
-    """Four times slower than the slow test design: data generate exits 2 naming the push time, the speed and
-    the compression and what to change, and writes nothing."""
+    """Four times slower than the slow test design: refused when the description is given (data generate,
+    simulate, tune: exit 2 naming the file, the push time, the speed, the compression and what to change),
+    before any work; nothing written."""
     text = SLOW.read_text().replace("no_load_rpm = 12600.0", "no_load_rpm = 3150.0")
     slower = tmp_path / "slower.toml"
     slower.write_text(text)
     act = load_actuator(slower)
     assert push_time(act, act.motor.supply_v, act.control.force_max_n) > MAX_PUSH_S
     out = tmp_path / "data"
-    code, _, err = run_cli("data", "generate", "--actuator", str(slower), "--out", str(out))
-    assert code == 2 and "Traceback" not in err, err
-    for word in ("s at the full supply", "mm/s at the nut", "mm of spring compression", "motor.gear_ratio"):
-        assert word in err, err
+    for argv in (("data", "generate", "--out", str(out)), ("simulate", "--config", "kin_mcu"), ("tune",)):
+        code, _, err = run_cli(*argv, "--actuator", str(slower))
+        assert code == 2 and "Traceback" not in err and str(slower) in err, err
+        for word in ("s at the full supply", "mm/s at the nut", "mm of spring compression", "motor.gear_ratio"):
+            assert word in err, err
     assert not out.exists() or not any(out.iterdir())
 
 

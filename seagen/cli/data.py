@@ -24,10 +24,17 @@ def add_actuator(p: argparse.ArgumentParser, help: str = ACTUATOR_HELP) -> None:
 
 
 def given_actuator(args: argparse.Namespace) -> Actuator | None:
-    """The description --actuator names, proven (runtime.control.proven_actuator), or None."""
+    """The description --actuator names, proven (runtime.control.proven_actuator) and able to push to its
+    force range in the calibration protocol's time (data.reach), or None."""
+    from seagen.actuator import ActuatorError
+    from seagen.data.reach import reach_problem
     from seagen.runtime.control import proven_actuator
 
-    return proven_actuator(getattr(args, "actuator", None))
+    act = proven_actuator(getattr(args, "actuator", None))
+    problem = reach_problem(act) if act is not None else None
+    if act is not None and problem:
+        raise ActuatorError(f"{act.source} ('{act.name}'): {problem}")
+    return act
 
 
 def register(sub: argparse._SubParsersAction) -> None:
