@@ -1,0 +1,151 @@
+"""Designs drawn across the description's accepted ranges (hypothesis, derandomized): each is refused at the
+description with its reason, or its calibration protocol reaches its force range and the short pipeline
+(tune -> data generate -> train -> closed loop) gives usable data, finite metrics and a loop that settles."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+import tomli_w
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from seagen.actuator import actuator_from_dict, default_actuator
+from seagen.data.protocol import PUSH_MOVES, TRIAL_CAP_S, VALIDATION_MOVES, scaled_move
+from seagen.data.reach import pace, push_time, reach_problem
+from seagen.errors import UserError
+from seagen.runtime.control import ControlConfig, act_q
+
+
+def _log(lo: float, hi: float) -> st.SearchStrategy[float]:
+    """A float spread evenly in log between lo and hi (3 significant digits)."""
+    return st.floats(math.log(lo), math.log(hi)).map(lambda x: float(f"{math.exp(x):.3g}"))
+
+
+@st.composite
+def designs(draw) -> dict:
+    """A linear SEA description (the file's layout) with every field a compact SEA might have: the motor,
+    the transmission, the spring, the linkage's lever, the pot, the loop rate and the force range."""
+    d = default_actuator().to_dict()
+    d["name"] = "drawn design"
+    stall = draw(_log(30.0, 400.0))
+    d["motor"].update(
+        supply_v=draw(st.sampled_from([3.7, 6.0, 7.4, 12.0, 24.0, 48.0])),
+        no_load_rpm=draw(_log(3000.0, 40000.0)),
+        gear_ratio=draw(_log(4.0, 1000.0)),
+        counts_per_rev=draw(st.sampled_from([3, 6, 12, 16, 64, 256, 1024, 4096])),
+        stall_force_n=stall,
+        time_constant_s=draw(_log(0.003, 0.03)),
+    )
+    d["transmission"].update(lead_mm=draw(_log(0.5, 12.0)), friction_n=draw(_log(0.5, 5.0)))
+    d["spring"]["stiffness_n_per_mm"] = draw(_log(1.0, 20.0))
+    d["linkage"]["cb_mm"] = draw(_log(25.0, 50.0))
+    d["pot"].update(full_scale_deg=draw(_log(40.0, 300.0)), adc_bits=draw(st.sampled_from([10, 12, 14])))
+    d["control"].update(
+        loop_hz=draw(st.sampled_from([100.0, 200.0, 250.0, 500.0])),
+        force_max_n=draw(_log(5.0, max(6.0, min(0.6 * stall, 80.0)))),
+    )
+    return d
+
+
+def judged(d: dict) -> tuple[object, str | None]:
+    """(the description, None) when accepted; (None, the reason) when refused where a description is
+    given: the loader's checks, the C's fixed-point formats and gains, the protocol's reach."""
+    try:
+        act = actuator_from_dict(d, "drawn.toml")
+        ControlConfig.for_act(act_q(act))
+    except UserError as e:
+        return None, str(e)
+    problem = reach_problem(act)
+    return (None, problem) if problem else (act, None)
+
+
+def _check_accepted(act) -> None:
+    """The protocol on an accepted design: pushes within the supply, each push's estimated time to its peak
+    (a lower bound of the simulated push, within 2x: test_reach) fitting twice within the paced trial cap."""
+    cap = TRIAL_CAP_S * pace(act)
+    for move in PUSH_MOVES + VALIDATION_MOVES:
+        m = scaled_move(act.linkage.angle_max_deg - 2.0, move, act)
+        assert 0 < m.push_v <= act.motor.supply_v and -act.motor.supply_v <= m.retract_v < 0
+        assert 2.0 * push_time(act, m.push_v, m.peak_n) <= cap, (act.to_dict(), move)
+
+
+def test_drawn_designs_are_refused_with_a_reason_or_get_a_protocol_that_reaches_their_range():
+    """Of 120 drawn designs at least 70 % are accepted; every refusal names the field to change; on every
+    accepted one the protocol reaches its range in time (_check_accepted)."""
+    seen: list[tuple[bool, float]] = []
+
+    @settings(derandomize=True, max_examples=120, deadline=None, suppress_health_check=list(HealthCheck))
+    @given(designs())
+    def check(d: dict) -> None:
+        act, why = judged(d)
+        if act is None:
+            assert why and any(f"{t}." in why for t in ("motor", "control", "spring", "pot", "linkage")), why
+        else:
+            _check_accepted(act)
+        seen.append((act is not None, pace(act) if act is not None else math.nan))
+
+    check()
+    accepted = [p for ok, p in seen if ok]
+    assert len(seen) >= 100 and len(accepted) >= 0.7 * len(seen), (len(accepted), len(seen))
+    assert max(accepted) > 1.5  # the draw holds designs slower than the paper's, whose protocol is paced
+
+
+def _pipeline(d: dict, tmp: Path, run_cli) -> dict:
+    """tune (kin_mcu, its [control] lines pasted) -> data generate -> train SF -> simulate the model."""
+    import json
+    import tomllib
+
+    from seagen.actuator import load_actuator
+
+    f = tmp / "design.toml"
+    f.write_text(tomli_w.dumps(d))
+    code, out, err = run_cli("tune", "--actuator", str(f), "--trials", "3", "--seeds", "1", "--json")
+    assert code == 0, err
+    d["control"].update(tomllib.loads(json.loads(out)["control"]))
+    f.write_text(tomli_w.dumps(d))
+    code, _, err = run_cli("data", "generate", "--actuator", str(f), "--out", str(tmp / "data"))
+    assert code == 0, err  # the coverage check passed: train 75 %, test and validation 50 % of the range
+    for task in ("calibration", "control"):
+        args = [
+            "--data",
+            str(tmp / "data"),
+            "--model",
+            "sf",
+            "--task",
+            task,
+            "--out",
+            str(tmp / f"{task}.pt"),
+        ]
+        code, _, err = run_cli("train", *args)
+        assert code == 0, err
+    code, out, err = run_cli("simulate", "--model", str(tmp / "control.pt"), "--seeds", "1", "--json")
+    assert code == 0, err
+    act = load_actuator(f)
+    return {"act": act, "table": json.loads(out)}
+
+
+@pytest.mark.slow
+@settings(derandomize=True, max_examples=6, deadline=None, suppress_health_check=list(HealthCheck))
+@given(d=designs())
+def test_accepted_designs_get_data_a_model_and_a_loop_that_settles(d, tmp_path_factory):
+    """Each accepted drawn design: tuned gains, data that pass the coverage check, an SF control model with
+    finite metrics, and its closed loop on the simulated design settling (to its final level) at 25, 50 and
+    75 % of force_max_n."""
+    from seagen.modelfile import load_model
+    from tests.conftest import run_cli
+
+    act, why = judged(d)
+    if act is None:
+        assert why
+        return
+    tmp = tmp_path_factory.mktemp("design")
+    got = _pipeline(d, tmp, run_cli)
+    model = load_model(tmp / "control.pt")
+    assert all(math.isfinite(v) for m in model["metrics"].values() for v in m.values())
+    (rows,) = [v for k, v in got["table"].items() if k.endswith("_mcu")]
+    assert len(rows) == 3
+    for target, row in rows.items():
+        assert row["settling_final_s"] is not None, (target, row)
