@@ -75,7 +75,8 @@ def test_wheel_carries_templates_runtime_and_defaults(wheel):
 
 
 def test_wheel_runs_simulate_export_and_generate(installed, tmp_path):
-    """From the installed wheel, in another folder: simulate --json, export a shipped model, data generate."""
+    """From the installed wheel, in another folder: simulate --json and export a shipped model (data generate
+    from the wheel runs in the slow README-commands test below, ~8 s)."""
     probe = (
         "import seagen; from seagen.defaults import default_model;"
         "print(seagen.__file__, default_model('mlp_calibration'))"
@@ -89,8 +90,6 @@ def test_wheel_runs_simulate_export_and_generate(installed, tmp_path):
     assert table["sf_mcu"]["10"]["settled"] > 0
     seagen_cmd(installed, tmp_path, "export", where[1], "--prefix", "cal_mlp", "--out", "fw")
     assert (tmp_path / "fw" / "cal_mlp.c").read_text() == (ROOT / "generated" / "cal_mlp.c").read_text()
-    seagen_cmd(installed, tmp_path, "data", "generate", "--out", "data")
-    assert {p.name for p in (tmp_path / "data").iterdir()} >= {"train.csv", "test.csv", "validation.csv"}
 
 
 @pytest.mark.slow
