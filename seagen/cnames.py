@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import keyword
 import re
+import unicodedata
 from collections.abc import Callable
 
 from seagen.errors import UserError
@@ -18,6 +19,30 @@ COMMENT_BREAKERS = {
     "\\": "could continue the line",
     "??": "could start a trigraph (??/ is a backslash)",
 }
+# How the C comments spell non-ASCII characters people write in units (N·m, °, µm, Ω, m/s²); any other
+# character is spelled by its compatibility decomposition without accents (é -> e, ℃ -> degC) when that is
+# ASCII, else as <U+XXXX>. The text itself is kept as written (in the manifest, in messages).
+ASCII_SPELLING = {
+    "\u00b7": "*",  # middle dot
+    "\u22c5": "*",  # dot operator
+    "\u2219": "*",  # bullet operator
+    "\u00d7": "x",  # multiplication sign
+    "\u00b0": "deg",  # degree sign
+    "\u00b5": "u",  # micro sign
+    "\u03bc": "u",  # Greek small mu
+    "\u03a9": "Ohm",  # Greek capital omega (NFKD of the ohm sign U+2126)
+    "\u00b1": "+/-",
+    "\u2212": "-",  # minus sign
+    "\u2013": "-",  # en dash
+    "\u221a": "sqrt",
+    "\u2044": "/",  # fraction slash (NFKD of ½)
+}
+_SUPERSCRIPTS = "\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079\u207b\u207a"  # ⁰¹²³⁴⁵⁶⁷⁸⁹⁻⁺
+_SUPERSCRIPT = str.maketrans(_SUPERSCRIPTS, "0123456789-+")
+_SUPERSCRIPT_RUN = re.compile(f"[{_SUPERSCRIPTS}]+")
+# Unicode categories refused outright: control, format (bidi overrides, zero-width), surrogate, private,
+# unassigned, line and paragraph separators
+_UNPRINTABLE = ("Cc", "Cf", "Cs", "Co", "Cn", "Zl", "Zp")
 SIGNIFICANT = 63  # initial characters of a macro or internal identifier that C99 guarantees to distinguish
 _C_KEYWORDS = {
     "auto",
@@ -111,16 +136,34 @@ def name_clashes(names: list[str], key: Callable[[str], str] = str.upper) -> lis
     return out
 
 
+def comment_ascii(text: str) -> str:
+    """User text as the generated C's comments spell it: ASCII unchanged, superscripts as ^2 or ^-1, other
+    characters by ASCII_SPELLING, their accent-free compatibility decomposition, or <U+XXXX>."""
+    s = _SUPERSCRIPT_RUN.sub(lambda m: "^" + m.group().translate(_SUPERSCRIPT), text)
+    s = "".join(c for c in unicodedata.normalize("NFKD", s) if not unicodedata.combining(c))
+    return "".join(_ascii_char(c) for c in s)
+
+
+def _ascii_char(c: str) -> str:
+    """One character of NFKD text in ASCII (see comment_ascii)."""
+    if c.isascii():
+        return c
+    return ASCII_SPELLING.get(c, f"<U+{ord(c):04X}>")
+
+
 def comment_problem(text: str) -> str | None:
-    """Why a user text (a unit, an output name) cannot be printed into a C comment, None if it can: it
-    must be printable ASCII without '*/', '/*', a backslash or '??' (a trigraph such as ??/ is a backslash),
-    so it can neither end the comment, nor continue a line, nor add a token."""
-    odd = next((c for c in text if not " " <= c <= "~"), None)
+    """Why a user text (a unit, an output name) cannot be printed into a C comment, None if it can: no
+    control, format or line-separator character, and its ASCII spelling (comment_ascii) printable without
+    '*/', '/*', a backslash or '??' (a trigraph such as ??/ is a backslash), so it can neither end the
+    comment, nor continue a line, nor add a token."""
+    odd = next((c for c in text if unicodedata.category(c) in _UNPRINTABLE), None)
     if odd is not None:
-        return f"contains {odd!r} (only printable ASCII: no newline, tab or control character)"
+        return f"contains {odd!r} (only printable text: no newline, tab, control or format character)"
+    spelled = comment_ascii(text)
+    how = "" if spelled == text else f"written in the C as {spelled!r}, "
     for seq, why in COMMENT_BREAKERS.items():
-        if seq in text:
-            return f"contains {seq!r}, which {why} in the generated C"
+        if seq in spelled:
+            return f"{how}contains {seq!r}, which {why} in the generated C"
     return None
 
 

@@ -39,8 +39,16 @@ HOSTILE = [
     "\t",
     "N\x0c",
     "N\u2028",
-    "\u00b0C",
+    "N/\u00b7",  # written N/* in the C
+    "\u00b7/",  # written */
+    "\u202eN",  # a right-to-left override
 ]
+# Units as people write them, and how the C comments spell them (the manifest keeps them as written).
+NON_ASCII = {
+    "N\u00b7m": "N*m", "\u00b0": "deg", "\u00b5m": "um", "\u03a9": "Ohm", "\u2126": "Ohm",
+    "m/s\u00b2": "m/s^2", "s\u207b\u00b9": "s^-1", "\u00b0C": "degC", "\u2103": "degC",
+    "k\u03a9\u00b7cm": "kOhm*cm", "caf\u00e9": "cafe", "\u65e5": "<U+65E5>",
+}  # fmt: skip
 TRICKY = ["N*m", "m/s^2", "a / *b", '"q" #define X 1', "'c' // x", "? ?/", "*", "/", "N ?/", "x;y{}"]
 needs_gcc = pytest.mark.skipif(shutil.which("gcc") is None, reason="no host gcc")
 
@@ -106,6 +114,27 @@ def test_accepted_text_leaves_the_c_tokens_unchanged_and_compiles(tmp_path):
     subprocess.run(
         ["gcc", *flags, "-c", "-I", str(out), str(out / "m.c"), "-o", str(tmp_path / "m.o")], check=True
     )
+
+
+def test_ascii_spelling_of_units():
+    """The explicit table, superscripts, accents stripped, and the <U+XXXX> fallback."""
+    for text, spelled in NON_ASCII.items():
+        assert cnames.comment_ascii(text) == spelled, text
+        assert cnames.comment_problem(text) is None, text
+
+
+@needs_gcc
+def test_non_ascii_units_written_as_ascii_kept_in_the_manifest(tmp_path):
+    """Units such as N·m, °, µm, Ω: the C is ASCII with their spelling in the comments, its tokens are those
+    of a plain unit, and the manifest keeps the text as written."""
+    base = _tokens(_export_dir(tmp_path, "base", "N", "force_n"), "m")
+    for i, (text, spelled) in enumerate(NON_ASCII.items()):
+        out = _export_dir(tmp_path, f"u{i}", text, f"torque {text}")
+        h = (out / "m.h").read_text()
+        assert h.isascii() and f"[{spelled}]" in h and f"torque {spelled}" in h, text
+        assert _tokens(out, "m") == base, text
+        resolved = json.loads((out / "m.seagen.json").read_text())["resolved"]
+        assert resolved["output"] == [f"torque {text}", text] and resolved["inputs"][0][1] == text
 
 
 @needs_gcc

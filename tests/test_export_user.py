@@ -196,6 +196,27 @@ def test_bare_network_exports_infer_alone(files, tmp_path):
     assert np.array_equal(CModel(ex.files, "bare", ex.qmodel).infer(x), numpy_ref.infer(ex.qmodel, x))
 
 
+@pytest.mark.parametrize("form", ["toml with BOM", "json with BOM", "json in UTF-16"])
+def test_spec_files_as_editors_save_them(form, files, tmp_path, capsys):
+    """A --features file saved with a byte order mark (Notepad's UTF-8, or its 'Unicode': UTF-16) and
+    non-ASCII units: exported, the units spelled in ASCII in the C, as written in the manifest."""
+    spec = json.loads(files["spec"].read_text()) | {"input_units": ["N\u00b7m", "\u00b0", "\u00b5m"]}
+    spec["output_units"] = "\u03a9"
+    if form.startswith("toml"):
+        p = tmp_path / "spec.toml"
+        text = "".join(f"{k} = {json.dumps(v, ensure_ascii=False)}\n" for k, v in spec.items())
+    else:
+        p, text = tmp_path / "spec.json", json.dumps(spec, ensure_ascii=False)
+    p.write_bytes(text.encode("utf-16") if "UTF-16" in form else b"\xef\xbb\xbf" + text.encode())
+    out = tmp_path / "out"
+    rc = main(["export", str(files["seq"]), "--features", str(p), "--out", str(out), "--prefix", "m"])
+    assert rc == 0, capsys.readouterr().err
+    h = (out / "m.h").read_text()
+    assert h.isascii() and "[N*m]" in h and "[deg]" in h and "[um]" in h and "[Ohm]" in h
+    resolved = json.loads((out / "m.seagen.json").read_text())["resolved"]
+    assert [i[1] for i in resolved["inputs"]] == spec["input_units"] and resolved["output"][1] == "\u03a9"
+
+
 def test_onnx_external_data_outside_folder_refused(tmp_path, capsys):
     """An ONNX initializer whose external data points outside the model's folder: exit 2, nothing read."""
     from onnx import external_data_helper as ext

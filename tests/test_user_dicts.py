@@ -50,8 +50,11 @@ BAD_NAMES: list[Any] = [
     [3, "y"],
     ["a\n", "b"],
 ]
-PLAIN = ["N", "mm", "N*m", "m/s^2", "", "a / *b", '"q" #x', "deg?", "(1/s)"]  # safe in a C comment
-HOSTILE = ["*/", "/*", "x\\", "??/", "y\n", "\t", "\r", "\u2028", "\u00b0C", "z" * 80]
+# safe in a C comment (non-ASCII units written there as ASCII: N*m, degC, um, Ohm)
+PLAIN = ["N", "mm", "N*m", "m/s^2", "", "a / *b", '"q" #x', "deg?", "(1/s)"]
+PLAIN += ["N\u00b7m", "\u00b0C", "\u00b5m", "\u2126"]
+# the last two: '/·' is written '/*' in the C; a right-to-left override
+HOSTILE = ["*/", "/*", "x\\", "??/", "y\n", "\t", "\r", "\u2028", "z" * 80, "N/\u00b7", "\u202eN"]
 
 
 def finite(lo: float = -1e3, hi: float = 1e3) -> st.SearchStrategy[float]:
@@ -379,7 +382,7 @@ def spec_files(draw: st.DrawFn) -> tuple[str, bytes]:
         if draw(st.integers(0, 3)) or k == "inputs"
     }
     d = {k: v for k, v in d.items() if v is not None or draw(st.booleans())}
-    form = draw(st.sampled_from(["json"] * 6 + ["list", "binary", "latin1", "toml"]))
+    form = draw(st.sampled_from(["json"] * 6 + ["list", "binary", "latin1", "toml", "bom"]))
     if form == "list":
         return ".json", json.dumps([d]).encode()
     if form == "binary":
@@ -388,6 +391,8 @@ def spec_files(draw: st.DrawFn) -> tuple[str, bytes]:
         return ".json", b'{"inputs": ["\xb0C"]}'
     if form == "toml":
         return ".toml", b'inputs = ["a", "b"]\nstd = [1.0, 0.0]\n'
+    if form == "bom":  # as Notepad saves it
+        return ".json", b"\xef\xbb\xbf" + json.dumps(d).encode()
     return ".json", json.dumps(d).encode()
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from seagen.cnames import comment_problem, is_identifier
+from seagen.cnames import comment_ascii, comment_problem, is_identifier
 from seagen.errors import UserError
 
 
@@ -26,12 +26,13 @@ def c_array(values: object, bits: int = 16, per_line: int = 12, indent: str = " 
 
 
 def c_comment(text: object) -> str:
-    """Jinja filter for user text inside a C comment: returned unchanged when safe, else refused (the
-    loaders refuse such text first, naming the file and the field; this is the guard where it lands)."""
+    """Jinja filter for user text inside a C comment: its ASCII spelling (N·m -> N*m) when safe, else
+    refused (the loaders refuse such text first, naming the file and the field; this is the guard where it
+    lands)."""
     s = str(text)
     if (why := comment_problem(s)) is not None:
         raise UserError(f"text {s!r} cannot be written into a C comment: it {why}")
-    return s
+    return comment_ascii(s)
 
 
 def c_ident(name: object) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import codecs
 import dataclasses
 import json
 import tomllib
@@ -162,16 +163,9 @@ def read_features_file(path: str | None) -> dict[str, Any]:
     p = Path(path)
     if not p.is_file():
         raise UserError(not_a_file(p, "feature specification file"))
+    content = spec_text(p)
     try:
-        content = p.read_bytes().decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise UserError(
-            f"{p}: not a text file (JSON or TOML in UTF-8): byte {e.start} is not UTF-8"
-        ) from None
-    except OSError as e:
-        raise UserError(f"{p}: cannot read: {e.strerror or e}") from None
-    try:
-        raw = tomllib.loads(content) if p.suffix == ".toml" else json.loads(content)
+        raw = tomllib.loads(content) if p.suffix.lower() == ".toml" else json.loads(content)
     except (json.JSONDecodeError, tomllib.TOMLDecodeError, RecursionError) as e:
         raise UserError(f"{p}: cannot parse: {e}") from None
     if not isinstance(raw, dict):
@@ -190,6 +184,23 @@ def read_features_file(path: str | None) -> dict[str, Any]:
     spec = FeatureSpec.from_dict(out["features"], str(p))
     D.spec_extras(out, len(spec.inputs), str(p))
     return out
+
+
+def spec_text(p: Path) -> str:
+    """A spec file's text: UTF-8, with or without the byte order mark editors write (Notepad), or UTF-16
+    with its byte order mark (Notepad's 'Unicode')."""
+    try:
+        data = p.read_bytes()
+    except OSError as e:
+        raise UserError(f"{p}: cannot read: {e.strerror or e}") from None
+    utf16 = data[:2] in (codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)
+    try:
+        return data.decode("utf-16" if utf16 else "utf-8-sig")
+    except UnicodeDecodeError as e:
+        enc = "UTF-16" if utf16 else "UTF-8"
+        raise UserError(
+            f"{p}: not a text file (JSON or TOML in {enc}): byte {e.start} is not {enc}"
+        ) from None
 
 
 def load_float_model(

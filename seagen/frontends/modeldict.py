@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 import seagen.fields as F
-from seagen.cnames import comment_problem, is_identifier
+from seagen.cnames import comment_ascii, comment_problem, is_identifier
 from seagen.errors import UserError
 from seagen.ir import Signal
 
@@ -19,10 +19,12 @@ SPEC_KEYS = ("input_range", "input_units", "output_name", "output_units", "outpu
 
 
 def comment_text(v: Any, where: str, name: str) -> str:
-    """A string printed into the generated C's comments (a unit, the output name)."""
+    """A string printed into the generated C's comments (a unit, the output name), kept as written: the C
+    spells it in ASCII (seagen.cnames.comment_ascii)."""
     s = F.text(v, where, name)
-    if len(s) > MAX_TEXT:
-        raise F.bad(where, name, f"is {len(s)} characters long (at most {MAX_TEXT})")
+    n = max(len(s), len(comment_ascii(s)))
+    if n > MAX_TEXT:
+        raise F.bad(where, name, f"is {n} characters long as the C spells it (at most {MAX_TEXT})")
     if (why := comment_problem(s)) is not None:
         raise F.bad(where, name, f"{s!r} {why}")
     return s
