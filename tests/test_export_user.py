@@ -250,6 +250,27 @@ def test_onnx_external_data_outside_folder_refused(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("case", ["missing", "truncated"])
+def test_onnx_external_data_file_missing_or_short_says_so(case, tmp_path, capsys):
+    """An ONNX model whose external data file was not copied along (or was cut short): exit 2, one line
+    naming that file and saying it is missing (or too short), not that it lies outside the folder."""
+    from onnx import external_data_helper as ext
+
+    model = T.gemm_graph("transB0", 5)
+    ext.convert_model_to_external_data(
+        model, all_tensors_to_one_file=True, location="weights.bin", size_threshold=0
+    )
+    (tmp_path / "m.onnx").write_bytes(model.SerializeToString())  # the weights file is not written
+    if case == "truncated":
+        (tmp_path / "weights.bin").write_bytes(b"\0" * 8)
+    spec, out = str(T.spec_file(tmp_path)), str(tmp_path / "o")
+    rc = main(["export", str(tmp_path / "m.onnx"), "--features", spec, "--out", out])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and "m.onnx" in err and "weights.bin" in err, err
+    assert ("is missing" if case == "missing" else "cannot read external data") in err, err
+    assert "outside" not in err and not (tmp_path / "o").exists()
+
+
 def test_evaluate_refuses_pickles(tmp_path):
     """seagen evaluate loads model files without running code: a malicious pickle is refused, the payload
     never runs, and the message names --allow-pickle."""
