@@ -1,9 +1,10 @@
 """`seagen bench DIR`: per entry point of an export, on emulated Cortex-M cores, what firmware pays for it.
 
 For every model NAME in DIR (a header declaring NAME_infer) and each core: executed instructions of
-NAME_infer (inputs drawn across the calibrated box), NAME_step (a synthetic raw enc/pot run after NAME_reset)
-and, for a control predictor (NAME_predict_q16), one controller tick (sea_control_step with the predictor
-and the tuned PID, templates/bench_tick.c.j2); a cycle estimate (seagen/toolchain/mcu_trace.py);
+NAME_infer (inputs drawn across the calibrated box), NAME_step (a synthetic raw enc/pot run after NAME_reset,
+scaled to the export's actuator: seagen/bench/tick.py) and, for a control predictor (NAME_predict_q16), one
+controller tick along the same run (sea_control_step with the predictor and the settings `seagen export
+--controller` renders for that actuator, templates/bench_tick.c.j2); a cycle estimate (mcu_trace.py);
 flash (.text + .rodata + the initial values of .data of an image linked from that entry point alone, library
 helpers included) and RAM (.data + .bss); the stack: static worst case from -fstack-usage over the call
 graph, and the deepest stack measured; every library helper linked (none may be float) and an ISA check of
@@ -20,7 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from seagen import __version__
+from seagen.actuator import Actuator
+from seagen.bench import tick as T
 from seagen.errors import UserError
 from seagen.toolchain import cortexm as cm
 from seagen.toolchain.elfinfo import library_helpers, stack_usage, static_stack
@@ -99,65 +101,26 @@ def _machine(elf: Path, cpu: str) -> cm.Machine:
     return cm.Machine(image, cpu)
 
 
-def _trajectory(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """A raw enc/pot run: a push of 1,500 counts with pot wandering around mid-range (100 Hz samples) of the
-    shipped models' (the paper's) pot: 1,800 +- 40 + 3 counts of its 12-bit ADC, as shares of full scale."""
-    from seagen.runtime.control import pot_at
-
-    k = np.arange(n)
-    mid, wander, ripple = (pot_at(s) for s in (0.439453125, 0.009765625, 0.000732421875))
-    enc = np.rint(1500 * np.sin(np.pi * k / n) ** 2).astype(np.int64)
-    pot = np.rint(mid + wander * np.sin(k / 7.0) + ripple * np.cos(k * 1.7)).astype(np.int64)
-    return enc, pot
-
-
-def _tick_driver(prefix: str) -> dict[str, str]:
-    """The controller-tick driver of a control predictor with the tuned PID (templates/bench_tick.c.j2)."""
-    from seagen.codegen.render import environment
-    from seagen.runtime.control import MLP_PRED_AVG, ControlConfig
-
-    c = ControlConfig()
-    text = (
-        environment()
-        .get_template("bench_tick.c.j2")
-        .render(
-            P=prefix,
-            PU=prefix.upper(),
-            version=__version__,
-            pid=c.pid.as_tuple(),
-            pred_avg=MLP_PRED_AVG,
-            force_min=c.force_min,
-            force_max=c.force_max,
-        )
-    )
-    return {f"{prefix}_bench.c": text}
-
-
-def _calls(prefix: str, entry: str, header: str, box: tuple[np.ndarray, np.ndarray]) -> tuple[list, list]:
-    """(symbol, args) of the measured calls of one entry point, after the set-up calls (symbol, args)."""
+def _calls(prefix: str, entry: str, header: str, box: tuple[np.ndarray, np.ndarray], run: T.Run):
+    """(symbol, args) of the set-up calls and of the measured calls of one entry point."""
     rng = np.random.default_rng(0)
-    enc, pot = _trajectory(N_CALLS)
     if entry == "infer":
         rows = rng.integers(box[0], box[1] + 1, (N_CALLS, len(box[0])))
         return [], [(f"{prefix}_infer", [r.astype(np.int16), np.zeros(1, np.int16)]) for r in rows]
+    ep = zip(run.enc.tolist(), run.pot.tolist(), strict=True)
     if entry == "step":
         sig = re.search(rf"int16_t {prefix}_step\(([^)]*)\)", header)
         if sig is None:
             raise UserError(f"{prefix}.h declares no {prefix}_step")
         ext = [6000] * (len(sig.group(1).split(",")) - 3)  # a desired force ~6 N in the Q10 of a predictor
         setup: list[tuple[str, list]] = [(f"{prefix}_reset", ["state"])]
-        return setup, [
-            (f"{prefix}_step", ["state", int(e), int(p), *ext]) for e, p in zip(enc, pot, strict=True)
-        ]
-    force = 8 << 16  # 8 N desired, Q16
-    setup = [(f"{prefix}_bench_init", ["state", int(enc[0]), int(pot[0])])]
-    return setup, [
-        (f"{prefix}_bench_tick", ["state", int(e), int(p), force]) for e, p in zip(enc, pot, strict=True)
-    ]
+        return setup, [(f"{prefix}_step", ["state", e, p, *ext]) for e, p in ep]
+    setup = [(f"{prefix}_bench_init", ["state", int(run.enc[0]), int(run.pot[0])])]
+    return setup, [(f"{prefix}_bench_tick", ["state", e, p, run.force_q16]) for e, p in ep]
 
 
-def _run(machine, code, setup, calls, flash_wait: int = 0) -> list[Trace]:
-    """Run the set-up calls, then trace each measured call; 'state' is one RAM block carried through."""
+def _run(machine, code, setup, calls, flash_wait: int = 0, every: int = 1) -> list[Trace]:
+    """Run the set-up calls, then the calls, tracing every `every`-th ('state': one RAM block throughout)."""
     state = np.zeros(1024, np.uint8)  # first argument everywhere: it stays at the same RAM address
 
     def args(a: list) -> list:
@@ -168,16 +131,19 @@ def _run(machine, code, setup, calls, flash_wait: int = 0) -> list[Trace]:
         if a and isinstance(a[0], str):
             state = back[0].copy()
     traces = []
-    for sym, a in calls:
-        back, t = traced_call(machine, code, sym, *args(a), flash_wait=flash_wait)
+    for i, (sym, a) in enumerate(calls):
+        if i % every:
+            back, _ = machine.call(sym, *args(a))
+        else:
+            back, t = traced_call(machine, code, sym, *args(a), flash_wait=flash_wait)
+            traces.append(t)
         if isinstance(a[0], str):
             state = back[0].copy()
-        traces.append(t)
     return traces
 
 
-def _sources(d: Path, prefix: str) -> tuple[dict[str, str], list[str]]:
-    """The export's C files, plus the tick driver and sea_pid/sea_control for a control predictor."""
+def _sources(d: Path, prefix: str, act: Actuator) -> tuple[dict[str, str], list[str]]:
+    """The export's C files, plus the tick driver (act's controller) and sea_pid/sea_control if needed."""
     src = {p.name: p.read_text() for p in sorted(d.iterdir()) if p.suffix in (".c", ".h")}
     other = [
         f for f in src if f.endswith(".c") and f.startswith(tuple(find_models(d))) and f != f"{prefix}.c"
@@ -188,7 +154,8 @@ def _sources(d: Path, prefix: str) -> tuple[dict[str, str], list[str]]:
     if re.search(rf"\b{prefix}_predict_q16\(", src[f"{prefix}.h"]):
         from seagen.codegen.runtime import runtime_sources
 
-        src = {**runtime_sources(*CONTROL_FILES), **src, **_tick_driver(prefix)}
+        driver = T.tick_driver(prefix, T.controller_config(src[f"{prefix}.h"], prefix, act))
+        src = {**runtime_sources(*CONTROL_FILES), **src, **driver}
         entries.append("tick")
     return src, entries
 
@@ -200,11 +167,16 @@ ROOTS = {
 }
 
 
-def bench_model(d: Path, prefix: str, cpu: str, flash_wait: int = 0) -> list[Entry]:
-    """Measure every entry point of model `prefix` in export folder d on `cpu`."""
+def bench_model(
+    d: Path, prefix: str, cpu: str, flash_wait: int = 0, actuator: Actuator | None = None
+) -> list[Entry]:
+    """Measure every entry point of model `prefix` in export folder d on `cpu`, on the design it was exported
+    for (`actuator`: its description, the paper's when None; tick.export_actuator checks it)."""
+    act = T.export_actuator(d, prefix, actuator)
     if msg := cm.toolchain_missing():
         raise UserError(msg)
-    sources, entries = _sources(d, prefix)
+    sources, entries = _sources(d, prefix, act)
+    run = T.run_of(act, N_CALLS)
     flags = cm.cpu_flags(cpu)
     work = Path(tempfile.mkdtemp(prefix="seagen-bench."))
     try:
@@ -221,8 +193,8 @@ def bench_model(d: Path, prefix: str, cpu: str, flash_wait: int = 0) -> list[Ent
             measured = ROOTS[e][-1].format(p=prefix)
             keep = (ROOTS[e][0].format(p=prefix), measured) if e == "tick" else (measured,)
             alone = cm.link(work, objs, flags, keep, e)
-            setup, calls = _calls(prefix, e, sources[f"{prefix}.h"], box)
-            traces = _run(machine, code, setup, calls, flash_wait)
+            setup, calls = _calls(prefix, e, sources[f"{prefix}.h"], box, run)
+            traces = _run(machine, code, setup, calls, flash_wait, 1 if e == "infer" else run.every)
             n = np.array([t.instructions for t in traces])
             sections = cm._sections(alone)
             helpers = library_helpers(alone, objs)
@@ -251,13 +223,19 @@ def bench_model(d: Path, prefix: str, cpu: str, flash_wait: int = 0) -> list[Ent
         shutil.rmtree(work, ignore_errors=True)
 
 
-def bench_dir(d: Path, cpus: tuple[str, ...], flash_wait: int = 0) -> list[Entry]:
-    """Every model of the export folder on every named core, cycles at `flash_wait` wait states."""
+def bench_dir(
+    d: Path, cpus: tuple[str, ...], flash_wait: int = 0, actuator: Actuator | None = None
+) -> list[Entry]:
+    """Every model of the export folder on every named core, cycles at `flash_wait` wait states, on the
+    design `actuator` the folder was exported for (the paper's when None)."""
     if not d.is_dir():
         raise UserError(f"{d}: not a directory")
     if not 0 <= flash_wait <= 15:
         raise UserError(f"--flash-wait must be 0..15 wait states, got {flash_wait}")
-    return [e for prefix in find_models(d) for cpu in cpus for e in bench_model(d, prefix, cpu, flash_wait)]
+    models = find_models(d)
+    for prefix in models:  # a folder for another design is refused before anything is built
+        T.export_actuator(d, prefix, actuator)
+    return [e for p in models for cpu in cpus for e in bench_model(d, p, cpu, flash_wait, actuator)]
 
 
 def table(rows: list[Entry]) -> str:

@@ -33,6 +33,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="flash wait states priced into the cycles (default 0: zero-wait memory; "
         "1: e.g. a SAMD21 M0+ at 48 MHz)",
     )
+    p.add_argument(
+        "--actuator",
+        metavar="FILE",
+        help="the actuator description DIR was exported for (its sha256 must be the one DIR's sea_act_<id>.h "
+        "records; default: the paper's): the controller tick's settings and the run's counts and ticks",
+    )
     p.add_argument("--json", action="store_true", help="print the rows as JSON")
     p.set_defaults(func=cmd_bench)
 
@@ -40,8 +46,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 def cmd_bench(args: argparse.Namespace) -> int:
     """Measure, print, exit 1 on a float helper or an ISA violation."""
     from seagen.bench.run import as_json, bench_dir, failures, table
+    from seagen.runtime.control import proven_actuator
 
-    rows = bench_dir(Path(args.dir), tuple(args.target or ("cortex-m4", "cortex-m0plus")), args.flash_wait)
+    cpus = tuple(args.target or ("cortex-m4", "cortex-m0plus"))
+    rows = bench_dir(Path(args.dir), cpus, args.flash_wait, proven_actuator(args.actuator))
     print(json.dumps(as_json(rows), indent=2) if args.json else table(rows))
     bad = failures(rows)
     for line in bad:
