@@ -46,7 +46,12 @@ def test_a_design_too_slow_is_refused_with_its_numbers(tmp_path):
     for argv in (("data", "generate", "--out", str(out)), ("simulate", "--config", "kin_mcu"), ("tune",)):
         code, _, err = run_cli(*argv, "--actuator", str(slower))
         assert code == 2 and "Traceback" not in err and str(slower) in err, err
-        for word in ("s at the full supply", "mm/s at the nut", "mm of spring compression", "motor.gear_ratio"):
+        for word in (
+            "s at the full supply",
+            "mm/s at the nut",
+            "mm of spring compression",
+            "motor.gear_ratio",
+        ):
             assert word in err, err
     assert not out.exists() or not any(out.iterdir())
 
