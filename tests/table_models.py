@@ -62,21 +62,26 @@ def torch_original(m: nn.Module) -> Callable[[np.ndarray], np.ndarray]:
 
 
 def ort_original(path: Path, dtype=np.float32) -> Callable[[np.ndarray], np.ndarray]:
-    """onnxruntime on the file as written (one row per run when the graph fixes its batch at 1)."""
+    """onnxruntime on the file as written: rows laid out as its input (a symbolic dimension takes them all;
+    a fixed shape takes its rows one run each, e.g. a (features,) input one row, a batch fixed at 4 the
+    row repeated)."""
     import onnxruntime as ort
 
     sess = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
     inp = sess.get_inputs()[0]
-    batch = inp.shape[0] if isinstance(inp.shape[0], int) else None
+    shape = inp.shape
+    open_dim = next((i for i, d in enumerate(shape) if not isinstance(d, int)), None)
+    fixed_rows = int(np.prod(shape)) // N_IN if open_dim is None else 0
 
     def once(x: np.ndarray) -> np.ndarray:
-        y = sess.run(None, {inp.name: np.asarray(x, dtype)})[0]
+        layout = [len(x) if i == open_dim else d for i, d in enumerate(shape)]
+        y = sess.run(None, {inp.name: np.asarray(x, dtype).reshape(layout)})[0]
         return np.asarray(y, float).reshape(len(x), -1)[:, 0]
 
     def run(x: np.ndarray) -> np.ndarray:
-        if batch is None:
+        if open_dim is not None:
             return once(x)
-        rows = [once(np.repeat(x[i : i + 1], batch, axis=0))[:1] for i in range(len(x))]
+        rows = [once(np.repeat(x[i : i + 1], fixed_rows, axis=0))[:1] for i in range(len(x))]
         return np.concatenate(rows)
 
     return run

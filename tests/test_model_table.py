@@ -18,6 +18,7 @@ from seagen.reference import numpy_ref
 from seagen.reference.float_ref import quantize_features
 from seagen.reference.oracle import box_points
 from tests import table_models as T
+from tests import table_onnx_idioms as I
 from tests.table_models import Row
 
 PT2_EXPORTED = (
@@ -212,6 +213,19 @@ def _onnx_rows(d: Path, spec: list[str]) -> dict[str, Row]:
     for kind, msg in ONNX_REFUSED.items():
         p = T.save_onnx(T.graph_case(kind, 80), d / f"graph_{kind}.onnx")
         rows[f"onnx {kind} (refused)"] = Row([str(p), *spec], "refuse", 2, msg)
+    return rows | _idiom_rows(d, spec)
+
+
+def _idiom_rows(d: Path, spec: list[str]) -> dict[str, Row]:
+    """Converters' idioms (tests/table_onnx_idioms.py): Max/Min by a number, batch bookkeeping at the ends,
+    a float16 body between Casts; each checked against onnxruntime on the graph as written, or refused."""
+    rows: dict[str, Row] = {}
+    for i, kind in enumerate([*I.EXPORTED, *I.REFUSED]):
+        p = T.save_onnx(I.idiom_case(kind, 90 + i), d / f"idiom_{i}.onnx")
+        if kind in I.REFUSED:
+            rows[f"onnx idiom {kind} (refused)"] = Row([str(p), *spec], "refuse", 2, I.REFUSED[kind])
+        else:
+            rows[f"onnx idiom {kind}"] = Row([str(p), *spec], "export", original=T.ort_original(p))
     return rows
 
 
@@ -270,6 +284,8 @@ ROW_NAMES = [
     *(f"onnx {f}" for f in ("transB0", "alpha_beta", "bias_1n", "no_bias", "matmul_add")),
     *(f"onnx {k}" for k in ONNX_GRAPHS),
     *(f"onnx {k} (refused)" for k in ONNX_REFUSED),
+    *(f"onnx idiom {k}" for k in I.EXPORTED),
+    *(f"onnx idiom {k} (refused)" for k in I.REFUSED),
 ]
 
 

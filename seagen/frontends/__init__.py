@@ -36,20 +36,25 @@ def read_onnx(p: Path) -> Network:
     from seagen.frontends.onnx_reader import load_onnx, onnx_items
 
     model = load_onnx(p)
-    items, n_in = onnx_items(p, model)
+    items, n_in, feed = onnx_items(p, model)
     dtype = onnx_dtype(model)
-    run = _ort_runner(model, str(p))
+    run = _ort_runner(model, str(p), feed)
     return Network(to_layers(items, n_in, str(p)), n_in, run, f"onnxruntime ({dtype})", dtype)
 
 
 def onnx_dtype(model: Any) -> str:
-    """The narrowest float type among the graph's inputs and initializers (float32 when there is none)."""
+    """The narrowest float type among the graph's inputs, outputs, initializers, constants and cast targets
+    (float32 when there is none): the rounding the original may add."""
     from onnx import TensorProto
 
     names = {TensorProto.DOUBLE: "float64", TensorProto.FLOAT: "float32"}
     names |= {TensorProto.FLOAT16: "float16", TensorProto.BFLOAT16: "bfloat16"}
-    types = [i.type.tensor_type.elem_type for i in model.graph.input]
-    types += [t.data_type for t in model.graph.initializer]
+    g = model.graph
+    types = [i.type.tensor_type.elem_type for i in [*g.input, *g.output]]
+    types += [t.data_type for t in g.initializer]
+    for n in g.node:
+        types += [a.i for a in n.attribute if n.op_type == "Cast" and a.name == "to"]
+        types += [a.t.data_type for a in n.attribute if n.op_type == "Constant" and a.name == "value"]
     return narrowest([names[t] for t in types if t in names])
 
 
@@ -72,9 +77,9 @@ def _first_line(e: BaseException) -> str:
     return lines[0]
 
 
-def _ort_runner(model: Any, where: str) -> Callable[[np.ndarray], np.ndarray]:
-    """onnxruntime on the original graph, inputs cast to the graph input's type; a batch dimension the graph
-    fixes is respected (rows are fed in batches of that size, the last one padded)."""
+def _ort_runner(model: Any, where: str, feed: Any) -> Callable[[np.ndarray], np.ndarray]:
+    """onnxruntime on the original graph, rows laid out as its input (`feed`, seagen.frontends.onnx_shapes)
+    in its type; a graph that takes a fixed number of rows gets runs of that size (the last one padded)."""
     import onnxruntime as ort
     from onnx import helper
 
@@ -84,21 +89,19 @@ def _ort_runner(model: Any, where: str) -> Callable[[np.ndarray], np.ndarray]:
         raise UserError(
             f"{where}: onnxruntime cannot run the original graph (the oracle needs it): {_first_line(e)}"
         ) from None
-    inp = model.graph.input[[i.name for i in model.graph.input].index(sess.get_inputs()[0].name)]
+    inp = model.graph.input[[i.name for i in model.graph.input].index(feed.name)]
     dtype = helper.tensor_dtype_to_np_dtype(inp.type.tensor_type.elem_type)
-    dim0 = inp.type.tensor_type.shape.dim[0]
-    fixed = dim0.dim_value if dim0.HasField("dim_value") and dim0.dim_value > 0 else None
 
     def once(x: np.ndarray) -> np.ndarray:
         try:
-            y = sess.run(None, {inp.name: np.asarray(x, dtype=dtype)})[0]
+            y = sess.run(None, {feed.name: np.asarray(x, dtype=dtype).reshape(feed.layout(len(x)))})[0]
         except Exception as e:  # onnxruntime raises its own types
             raise UserError(
                 f"{where}: onnxruntime failed running the original graph: {_first_line(e)}"
             ) from None
         return np.asarray(y, dtype=float).reshape(len(x), -1)
 
-    return once if fixed is None else batched(once, fixed)
+    return once if feed.rows is None else batched(once, feed.rows)
 
 
 def batched(run: Callable[[np.ndarray], np.ndarray], size: int) -> Callable[[np.ndarray], np.ndarray]:
@@ -146,7 +149,7 @@ def _read_script(sm: Any, p: Path, n_in: int) -> Network:
     from seagen.frontends.onnx_reader import onnx_items
 
     notes = _eval_mode(sm, p)
-    items, width = onnx_items(p, _script_to_onnx(sm, p, n_in))
+    items, width, _feed = onnx_items(p, _script_to_onnx(sm, p, n_in))
     d = _dn(_dtype(sm))
     run = _torch_runner(sm, None, _in_dtype(sm), str(p))
     return Network(to_layers(items, width, str(p)), width, run, f"TorchScript ({d})", d, notes)

@@ -84,6 +84,31 @@ def clip_act(op: str, path: str, lo: float | None, hi: float | None) -> Act:
     return Act(op, path, "hardtanh", lo=lo_f, hi=hi_f)
 
 
+def _clip_bounds(it: Item) -> tuple[float, float] | None:
+    """The [lo, hi] of a clip activation (ReLU, Hardtanh and its forms), None for any other item."""
+    if isinstance(it, Act) and it.kind == "relu":
+        return 0.0, np.inf
+    if isinstance(it, Act) and it.kind == "hardtanh":
+        return it.lo, it.hi
+    return None
+
+
+def merge_clips(items: list[Item]) -> list[Item]:
+    """Clips in a row as the one clip they are: clip(clip(x, a, b), c, d) = clip(x, L, H) with L, H the
+    clip of a, b to [c, d] (ReLU then Min(x, 6) is ReLU6; Max(x, 0) then Min(x, 6) too)."""
+    out: list[Item] = []
+    for it in items:
+        second = _clip_bounds(it)
+        first = _clip_bounds(out[-1]) if out else None
+        if first is None or second is None:
+            out.append(it)
+            continue
+        (a, b), (c, d) = first, second
+        prev = out.pop()
+        out.append(clip_act(f"{prev.op}+{it.op}", prev.path, min(max(a, c), d), min(max(b, c), d)))
+    return out
+
+
 def batchnorm_affine(op: str, path: str, gamma, beta, mean, var, eps: float) -> Affine:
     """An eval-mode batch normalisation as the elementwise affine map it is: x * s + (beta - mean * s),
     s = gamma / sqrt(var + eps)."""
@@ -154,7 +179,7 @@ def to_layers(items: list[Item], n_in: int, where: str) -> list[FloatLayer]:
     """Normalised chain -> float layers: each Dense followed by at most one activation."""
     layers: list[FloatLayer] = []
     width = n_in
-    for it in fold_affines(drop_reshapes(items, n_in, where), n_in, where):
+    for it in fold_affines(merge_clips(drop_reshapes(items, n_in, where)), n_in, where):
         if isinstance(it, Dense):
             if not layers and it.weight.ndim == 2 and it.weight.shape[1] != width:
                 raise UserError(

@@ -10,10 +10,14 @@ import numpy as np
 from seagen.errors import UserError
 from seagen.frontends.chain import Act, Affine, Dense, Item, Reshape, batchnorm_affine, clip_act, refuse
 from seagen.frontends.graph import Node, chain_nodes
+from seagen.frontends.onnx_shapes import SHAPE_OPS, B, Feed, Shape, after, declared, shape_text, shape_text_of
 
 _ACTS = {"Relu": "relu", "Tanh": "tanh", "Sigmoid": "sigmoid"}
 _NOOPS = ("Identity", "Dropout")
-_FLOAT = (1, 11)  # TensorProto.FLOAT, DOUBLE
+# TensorProto FLOAT, DOUBLE, FLOAT16, BFLOAT16: a Cast to one is read as the identity (the original's margin
+# is that of the narrowest float type in the graph: seagen.frontends.onnx_dtype)
+_FLOAT = (1, 11, 10, 16)
+_ENDS = (*SHAPE_OPS, "Identity", "Cast")  # what a converter writes between the graph's ends and the network
 
 
 def load_onnx(path: Path) -> Any:
@@ -101,8 +105,8 @@ def _run_node(model: Any, node: Any, consts: dict[str, np.ndarray]) -> list[np.n
     return list(ReferenceEvaluator(m).run(None, {}))
 
 
-def onnx_items(path: Path, model: Any) -> tuple[list[Item], int]:
-    """The model's op chain and its input width."""
+def onnx_items(path: Path, model: Any) -> tuple[list[Item], int, Feed]:
+    """The model's op chain, its input width and how its original takes rows."""
     import onnx
 
     where = str(path)
@@ -126,28 +130,44 @@ def onnx_items(path: Path, model: Any) -> tuple[list[Item], int]:
             f"{where}: the graph has {len(inputs)} inputs ({names}) and {len(g.output)} outputs; "
             "seagen exports one input tensor (a weight must be an initializer) and one output"
         )
-    dims = [d.dim_value for d in inputs[0].type.tensor_type.shape.dim]
-    if len(dims) != 2 or dims[1] <= 0:
-        raise UserError(
-            f"{where}: input '{inputs[0].name}' has shape {shape_text(inputs[0])}; "
-            "seagen needs (batch, features)"
-        )
     chain = chain_nodes(nodes, set(consts), inputs[0].name, g.output[0].name, where)
-    batch = dims[0] or -1  # a fixed batch size (or -1): a Reshape to (batch, width) keeps the rows
+    return _read_chain(chain, consts, where, inputs[0])
+
+
+def _read_chain(chain: list[Node], consts: dict, where: str, vi: Any) -> tuple[list[Item], int, Feed]:
+    """The chain's items; the shape-only nodes at its ends (batch bookkeeping, onnx_shapes) followed on the
+    shapes: the network between them must take (batch, features) and give whole rows."""
+    shape = declared(vi, where)
     items: list[Item] = []
-    for n in chain:
-        items.extend(_item(n, consts, where, batch))
-    return items, dims[1]
+    k = 0
+    while k < len(chain) and chain[k].op in _ENDS:
+        shape = _end_node(chain[k], shape, consts, where, items)
+        k += 1
+    if len(shape) != 2 or shape[1] == B:
+        reshaped = f", reshaped to {shape_text_of(shape)}," if k else ""
+        raise UserError(
+            f"{where}: input '{vi.name}' has shape {shape_text(vi)}{reshaped}; seagen needs (batch, features)"
+        )
+    feed = Feed(vi.name, declared(vi, where), None if shape[0] == B else shape[0])
+    j = len(chain)
+    while j > k and chain[j - 1].op in _ENDS:
+        j -= 1
+    for n in chain[k:j]:
+        items.extend(_item(n, consts, where, -1 if shape[0] == B else shape[0]))
+    width = next((it.weight.shape[0] for it in reversed(items) if isinstance(it, Dense)), None)
+    out: Shape = (shape[0], width or 1)
+    for n in chain[j:]:
+        out = _end_node(n, out, consts, where, items)
+    return items, shape[1], feed
 
 
-def shape_text(value_info: Any) -> str:
-    """A graph input's shape as ONNX declares it: numbers, symbolic dimensions by name, '?' when unknown."""
-    dims = value_info.type.tensor_type.shape.dim
-    return (
-        "["
-        + ", ".join(d.dim_param or (str(d.dim_value) if d.HasField("dim_value") else "?") for d in dims)
-        + "]"
-    )
+def _end_node(n: Node, shape: Shape, consts: dict, where: str, items: list[Item]) -> Shape:
+    """A node at an end of the chain: a shape-only node changes the tracked shape; Identity or a Cast to a
+    float type is read as any other node (it keeps the shape)."""
+    if n.op in SHAPE_OPS:
+        return after(n, shape, consts, where)
+    items.extend(_item(n, consts, where))
+    return shape
 
 
 def _c(n: Node, consts: dict, k: int, where: str = "") -> np.ndarray | None:
@@ -190,6 +210,8 @@ def _item(n: Node, consts: dict, where: str, batch: int = -1) -> list[Item]:
         return [Act(op, p, "leaky_relu", alpha=float(a.get("alpha", 0.01)))]
     if op == "Clip":
         return [clip_act(op, p, _bound(n, consts, 1, "min", where), _bound(n, consts, 2, "max", where))]
+    if op in ("Max", "Min"):
+        return _minmax(n, consts, where)
     if op == "BatchNormalization" and not a.get("training_mode", 0):
         g_, b_, m_, v_ = (_c(n, consts, k, where) for k in (1, 2, 3, 4))
         return [batchnorm_affine(op, p, g_, b_, m_, v_, float(a.get("epsilon", 1e-5)))]
@@ -206,6 +228,23 @@ def _item(n: Node, consts: dict, where: str, batch: int = -1) -> list[Item]:
         if shape is not None and shape.size == 2 and shape[0] in (-1, 0, batch):
             return [Reshape(op, p, int(shape[1]))]
     raise refuse(where, Item(op, p), "unsupported op")
+
+
+def _minmax(n: Node, consts: dict, where: str) -> list[Item]:
+    """Max/Min of the computed input and constant numbers as the clip it is (jax2onnx writes ReLU as
+    Max(x, 0)); with no constant (Max(x), Max(x, x)) the identity."""
+    vals = [np.asarray(consts[i], dtype=float) for i in n.inputs if i in consts]
+    if any(v.size != 1 or v.ndim > 2 for v in vals):
+        shapes = ", ".join(str(v.shape) for v in vals)
+        raise refuse(where, Item(n.op, n.path), f"constant of shape {shapes} (read as a clip: one number)")
+    bounds = [float(v.reshape(-1)[0]) for v in vals]
+    if any(np.isnan(b) for b in bounds):
+        raise refuse(where, Item(n.op, n.path), "a NaN constant")
+    if not bounds:
+        return []
+    if n.op == "Max":
+        return [clip_act(n.op, n.path, max(bounds), None)]
+    return [clip_act(n.op, n.path, None, min(bounds))]
 
 
 def _dropout_trains(n: Node, consts: dict, where: str) -> bool:
