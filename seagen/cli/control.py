@@ -17,6 +17,7 @@ if TYPE_CHECKING:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the `simulate` and `tune` commands."""
+    from seagen.cli.linkopts import add_link_options
     from seagen.setups.shipped import CONFIGS
 
     _register_tune(sub)
@@ -29,8 +30,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "targets 1/4, 1/2 and 3/4 of control.force_max_n (5/10/15 N on the paper's actuator), 6 s runs, "
         "one controller tick per control.loop_hz (100 Hz on the paper's); prints the average error and "
         "settling time per configuration and target. Configurations: sf_mcu (the shipped SF in C), "
-        "mlp_cloud (the shipped float MLP behind a 10 Hz Bluetooth link) and mlp_mcu (the shipped MLP "
-        "in C) run the shipped models, trained for the paper's actuator; kin_mcu (the kinematics "
+        "mlp_cloud (the shipped float MLP on a PC behind a Bluetooth LE link in 10 Hz rounds, the MCU "
+        "holding the paper's 0.1 mm margin; --latency and --link-* set the link) and mlp_mcu (the shipped "
+        "MLP in C) run the shipped models, trained for the paper's actuator; kin_mcu (the kinematics "
         "baseline) needs no model and runs on any actuator. Default: sf_mcu, mlp_cloud, mlp_mcu on the "
         "paper's actuator; with another --actuator, kin_mcu only (the others are refused there: they need "
         "--model). With --model, the same experiment on your own control model: NAME_mcu (exported to C, "
@@ -69,7 +71,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--config", action="append", choices=sorted(CONFIGS), help="configurations (default: see above)"
     )
-    p.add_argument("--latency", type=float, default=0.1, help="cloud round-trip latency, s (default 0.1)")
+    add_link_options(p)
     p.add_argument(
         "--impl",
         choices=("c", "py", "pil"),
@@ -96,14 +98,15 @@ def register(sub: argparse._SubParsersAction) -> None:
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Run each configuration at its actuator's targets over the contact angles; print Table II or JSON."""
     from seagen.actuator import ActuatorError, is_default
+    from seagen.cli.linkopts import link_from
     from seagen.control.experiment import TABLE2_CONFIGS, format_table2, model_free_setups, simulate, sweep
+    from seagen.control.link import with_link
     from seagen.data.protocol import sample_every
     from seagen.plant import PlantConfig
     from seagen.setups.pil import loop_controller
     from seagen.setups.shipped import CONFIGS, MODEL_FREE
 
-    if not 0.0 <= args.latency <= 3600.0:  # NaN fails too
-        raise UserError(f"--latency must be a time from 0 to 3600 s, got {args.latency}")
+    link = link_from(args)  # NaN fails too
     if args.seed < 0:
         raise UserError(f"--seed must be >= 0, got {args.seed}")
     if args.seeds < 1:
@@ -141,6 +144,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         setups |= mine
         rows = dict.fromkeys(mine, row)
         names = (*names, *mine)
+    setups = {n: with_link(f, link) for n, f in setups.items()}  # the cloud rows' link: the options'
     if free_only:  # said once everything is accepted
         print(model_free_note(act), file=sys.stderr)
     impl = partial(loop_controller, args.core) if args.impl == "pil" else args.impl  # pil: a board's

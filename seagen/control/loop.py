@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from seagen.control.link import BleLink, make_link
 from seagen.errors import UserError
 from seagen.plant import Plant, PlantConfig
 from seagen.runtime.actq import act_q
@@ -37,18 +38,18 @@ class McuPredictor:
 
 @dataclass(frozen=True)
 class CloudPredictor:
-    """A float predictor off the MCU: (enc, pot, force N) -> compression mm over a Bluetooth link.
+    """A float predictor off the MCU: (enc rows, pot rows, force N) -> compression mm over a wireless link.
 
-    `fn` gets the last three loop-rate samples of enc and pot (rows k-2, k-1, k; the MCU sends them, so the
-    cloud sees the training data's differences) and the desired force. One request in flight:
-    at a 10 Hz slot with no reply outstanding the MCU sends its samples; the reply (the new desired
-    compression) is applied `latency_s` later. So the setpoint changes at most every max(period, latency)
-    and always reflects the state of one round trip ago.
+    `fn` gets three rows of enc and pot (the oldest first) and the desired force. `link` is the Bluetooth LE
+    link as the paper ran it (seagen.control.link.BleLink: 10 Hz rounds of one sample, connection events,
+    retransmission, the PC's turnaround); None is the idealised link: the last three loop-rate samples with
+    each request at a `refresh_hz` slot with no reply outstanding, the reply applied `latency_s` later.
     """
 
     fn: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
-    latency_s: float = 0.1  # Bluetooth round trip
+    latency_s: float = 0.1  # the idealised link's round trip
     refresh_hz: float = 10.0
+    link: BleLink | None = None
 
 
 # The controller: "c" (built by cffi), "py" (the Python twin), or a maker (predictor, configuration) ->
@@ -132,7 +133,7 @@ def run_closed_loop(
         )
     ctrl = make_controller(impl, pred, control_cfg)
     try:
-        return _run(plant, ctrl, pred, target_n, duration_s, sensor_hook)
+        return _run(plant, ctrl, pred, target_n, duration_s, sensor_hook, seed)
     finally:
         if hasattr(ctrl, "close"):  # a board in QEMU
             ctrl.close()
@@ -143,14 +144,16 @@ def plant_steps_per_tick(cfg: PlantConfig) -> int:
     return int(round(1.0 / (cfg.actuator.loop_hz * cfg.dt_s)))
 
 
-def _run(plant: Plant, ctrl, pred, target_n, duration_s: float, sensor_hook) -> dict[str, np.ndarray]:
+def _run(
+    plant: Plant, ctrl, pred, target_n, duration_s: float, sensor_hook, seed: int
+) -> dict[str, np.ndarray]:
     """The loop of run_closed_loop with its plant and controller."""
     steps = plant_steps_per_tick(plant.cfg)
     tick_s = 1.0 / plant.cfg.actuator.loop_hz
     s = plant.read()
     ctrl.reset(s.enc, s.pot)
     target = target_n if callable(target_n) else (lambda _k: float(target_n))
-    cloud = _Link(pred, tick_s) if isinstance(pred, CloudPredictor) else None
+    cloud = make_link(pred, tick_s, seed) if isinstance(pred, CloudPredictor) else None
     rec: dict[str, list[np.ndarray]] = {}
     for k in range(int(round(duration_s / tick_s))):
         s = plant.read()
@@ -163,31 +166,6 @@ def _run(plant: Plant, ctrl, pred, target_n, duration_s: float, sensor_hook) -> 
         for _ in range(steps):
             plant.step(out / 1000.0)
     return {k: np.array(v) for k, v in rec.items()}
-
-
-class _Link:
-    """The Bluetooth link to a CloudPredictor: the tick's sample history, one request in flight."""
-
-    def __init__(self, cloud: CloudPredictor, tick_s: float) -> None:
-        self.cloud = cloud
-        self.period = max(int(round(1.0 / (cloud.refresh_hz * tick_s))), 1)
-        self.delay = int(round(cloud.latency_s / tick_s))
-        self.hist: np.ndarray | None = None  # (3, 2, n): rows k-2, k-1, k of (enc, pot)
-        self.reply: tuple[int, np.ndarray] | None = None
-
-    def tick(self, ctrl, k: int, enc: np.ndarray, pot: np.ndarray, f_n: float) -> None:
-        """Record this tick's sample; apply a due reply; send a request at an idle 10 Hz slot."""
-        now = np.stack([enc, pot]).astype(np.int64)
-        self.hist = np.stack([now] * 3) if self.hist is None else np.concatenate([self.hist[1:], now[None]])
-        if self.reply is not None and self.reply[0] <= k:
-            ctrl.set_desired(self.reply[1])
-            self.reply = None
-        if self.reply is None and k % self.period == 0:
-            mm = self.cloud.fn(self.hist[:, 0], self.hist[:, 1], np.full(enc.shape, f_n))
-            self.reply = (k + self.delay, np.rint(np.asarray(mm, float) * 65536.0).astype(np.int64))
-            if self.delay == 0:
-                ctrl.set_desired(self.reply[1])
-                self.reply = None
 
 
 def _record(rec, t_s: float, s, plant: Plant, ctrl, out: np.ndarray, enc, pot, f_n: float) -> None:

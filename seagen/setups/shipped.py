@@ -10,6 +10,7 @@ from functools import cache
 import numpy as np
 
 from seagen.control.experiment import Setup
+from seagen.control.link import BleLink, cloud_control
 from seagen.control.loop import CloudPredictor, McuPredictor
 from seagen.control.predictors import kinematic_mcu
 from seagen.defaults import DEFAULT_PREFIX, GENERATED
@@ -75,15 +76,27 @@ def generated_mcu(prefix: str, predict_every: int = 1) -> McuPredictor:
     )
 
 
-def generated_cloud(prefix: str, latency_s: float = 0.1, refresh_hz: float = 10.0) -> CloudPredictor:
-    """The float model behind `prefix` off the MCU (the paper's set-up), over the Bluetooth link."""
-    return CloudPredictor(float_predictor(prefix), latency_s, refresh_hz)
+def generated_cloud(prefix: str, link: BleLink | None = None) -> CloudPredictor:
+    """The float model behind `prefix` on the PC (the paper's set-up), over the Bluetooth LE link `link`
+    (the sourced defaults when None) in 10 Hz rounds (paper §VI)."""
+    return CloudPredictor(float_predictor(prefix), refresh_hz=10.0, link=link or BleLink())
 
 
-# Configuration name -> factory(latency_s) of its predictor and controller configuration (Table II rows).
+@cache
+def paper_cloud_control() -> ControlConfig:
+    """The MCU's controller of the paper's cloud set-up: the paper's actuator with its 0.1 mm margin."""
+    from seagen.actuator import default_actuator
+    from seagen.runtime.actq import act_q
+
+    act = default_actuator()
+    return cloud_control(act_q(act), act.stiffness_n_per_mm, act.stiffness_n_per_mm)
+
+
+# Configuration name -> factory(latency_s) of its predictor and controller configuration (Table II rows). The
+# cloud's link is its own (seagen.control.link: `seagen simulate`'s --latency and --link-* replace it).
 CONFIGS: dict[str, Callable[[float], Setup]] = {
     "sf_mcu": lambda latency_s: (generated_mcu("ctl_sf"), ControlConfig()),
-    "mlp_cloud": lambda latency_s: (generated_cloud("ctl_mlp", latency_s, 10.0), ControlConfig()),
+    "mlp_cloud": lambda _latency_s: (generated_cloud("ctl_mlp"), paper_cloud_control()),
     "mlp_mcu": lambda latency_s: (generated_mcu("ctl_mlp"), ControlConfig(pred_avg=MLP_PRED_AVG)),
     "kin_mcu": lambda latency_s: (kinematic_mcu(predict_every=1), ControlConfig()),  # baseline
 }

@@ -74,9 +74,11 @@ def control_setups(
     """{NAME_mcu, NAME_cloud: factory(latency_s) -> (predictor, controller configuration)} for a control
     model file, and the paper's row (SF or MLP) its kind compares with; `given`: the simulated actuator
     (a bare network's; a model file recording another is refused)."""
+    from seagen.actuator import default_actuator
     from seagen.codegen.controller import shipped_config
     from seagen.codegen.runtime import cdef_of, runtime_sources
     from seagen.control.gentwin import StepTwin, float_features
+    from seagen.control.link import BleLink, cloud_control
     from seagen.geometry import geometry
     from seagen.ir import QMLP
     from seagen.reference import float_ref
@@ -113,8 +115,10 @@ def control_setups(
     def cloud_fn(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
         return float_ref.predict(fm, float_features(names, enc, pot, force_n, geo))
 
-    def cloud(latency_s: float) -> Setup:
-        return CloudPredictor(cloud_fn, latency_s, 10.0), ControlConfig.for_act(ex.act)
+    def cloud(_latency_s: float) -> Setup:  # the paper's set-up: the link's defaults, its 0.1 mm margin
+        stiffness = (ex.actuator or default_actuator()).stiffness_n_per_mm
+        ctl = cloud_control(ex.act, stiffness, default_actuator().stiffness_n_per_mm)
+        return CloudPredictor(cloud_fn, refresh_hz=10.0, link=BleLink()), ctl
 
     return {f"{p}_mcu": mcu, f"{p}_cloud": cloud}, "MLP" if isinstance(qm, QMLP) else "SF"
 
