@@ -2,8 +2,8 @@
 
 A chain is what the model computes from its one input to its one output, in order: dense layers, elementwise
 activations, constant elementwise affine maps (Add/Sub/Mul/Div by a constant, BatchNorm in eval mode) and
-no-ops (Dropout, Identity, casts to float, reshapes to the same shape). Each item remembers the op and the
-node or module path it came from, so a refusal can name it.
+no-ops (Dropout, Identity, casts to float, reshapes to the same shape); clips in a row are the one clip they
+compose to. Each item remembers the op and the node or module path it came from, so a refusal can name it.
 """
 
 from __future__ import annotations
@@ -17,8 +17,9 @@ from seagen.ir import FloatLayer
 
 SUPPORTED = (
     "supported: a chain of distinct dense layers (Linear, Gemm, MatMul+Add), each followed by at most one "
-    "of ReLU, LeakyReLU, Hardtanh, ReLU6, Clip, Tanh, Sigmoid; constant Add/Sub/Mul/Div, BatchNorm (eval), "
-    "Dropout, Identity, Flatten, casts to float"
+    "of ReLU, LeakyReLU, Hardtanh, ReLU6, Clip (ONNX: or Max/Min by a number), Tanh, Sigmoid; constant "
+    "Add/Sub/Mul/Div, BatchNorm (eval), Dropout, Identity, Flatten, casts to float; at the input and output, "
+    "Unsqueeze/Squeeze/Reshape/Flatten that keep whole rows"
 )
 
 
