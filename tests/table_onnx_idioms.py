@@ -22,7 +22,7 @@ REFUSED = {
     "Squeeze of the batch axis": "squeezes the open batch axis",
     "Reshape mixing rows": "mixes rows",
     "Reshape to a fixed batch": "a fixed shape while the batch is open",
-    "Cast to int32": "(Cast): unsupported op",
+    "Cast to int32": "(Cast): a cast to INT32",
 }
 
 

@@ -33,7 +33,8 @@ class Network:
 
 def read_onnx(p: Path) -> Network:
     """An .onnx file: its chain by edges, and onnxruntime on the original file."""
-    from seagen.frontends.onnx_reader import load_onnx, onnx_items
+    from seagen.frontends.onnx_file import load_onnx
+    from seagen.frontends.onnx_reader import onnx_items
 
     model = load_onnx(p)
     items, n_in, feed = onnx_items(p, model)

@@ -20,56 +20,6 @@ _FLOAT = (1, 11, 10, 16)
 _ENDS = (*SHAPE_OPS, "Identity", "Cast")  # what a converter writes between the graph's ends and the network
 
 
-def load_onnx(path: Path) -> Any:
-    """The ONNX model; external data must lie inside the model's folder, be there and hold the values."""
-    import onnx
-    from onnx import external_data_helper as ext
-
-    try:
-        model = onnx.load(str(path), load_external_data=False)
-    except Exception as e:  # onnx raises several types for unreadable files
-        raise UserError(f"{path}: not a readable ONNX file: {e}") from None
-    folder = path.resolve().parent
-    external = [t for t in ext._get_all_tensors(model) if ext.uses_external_data(t)]
-    locs = [{e.key: e.value for e in t.external_data}.get("location", "") for t in external]
-    for t, loc in zip(external, locs, strict=True):
-        _check_external(path, folder, t.name, loc)
-    try:
-        ext.load_external_data_for_model(model, str(folder))
-        for t, loc in zip(external, locs, strict=True):
-            _values(t, loc)
-    except Exception as e:  # onnx and numpy raise several types
-        lines = str(e).strip().splitlines() or [type(e).__name__]
-        raise UserError(f"{path}: cannot read external data: {lines[0]}") from None
-    return model
-
-
-def _values(t: Any, loc: str) -> None:
-    """A tensor read from external data holds as many bytes as its shape and type need."""
-    from onnx import numpy_helper
-
-    try:
-        numpy_helper.to_array(t)
-    except ValueError as e:
-        raise ValueError(f"tensor '{t.name}': '{loc}' holds too few bytes (cut short?): {e}") from None
-
-
-def _check_external(path: Path, folder: Path, tensor: str, loc: str) -> None:
-    """A tensor's external data file: named, inside the model's folder, and there."""
-    if not loc:
-        raise UserError(f"{path}: tensor '{tensor}' has external data but names no file (no 'location')")
-    target = (folder / loc).resolve()
-    if not target.is_relative_to(folder):
-        raise UserError(f"{path}: tensor '{tensor}' has external data '{loc}' outside the model folder")
-    if not target.exists():
-        raise UserError(
-            f"{path}: tensor '{tensor}' has its data in '{loc}', which is missing (looked for {target}; "
-            "copy it next to the model)"
-        )
-    if not target.is_file():
-        raise UserError(f"{path}: tensor '{tensor}' has its data in '{loc}', which is not a file")
-
-
 def _fold_constants(model: Any, nodes: list[Node], where: str) -> dict[str, np.ndarray]:
     """Initializers and every node whose inputs are all constant, evaluated once (onnx reference runtime)."""
     from onnx import numpy_helper
@@ -219,8 +169,19 @@ def _item(n: Node, consts: dict, where: str, batch: int = -1) -> list[Item]:
         raise refuse(where, Item(op, p), "Dropout in training mode (random at inference)")
     if op == "BatchNormalization":
         raise refuse(where, Item(op, p), "BatchNormalization in training mode")
+    return _passing(n, consts, where, batch)
+
+
+def _passing(n: Node, consts: dict, where: str, batch: int) -> list[Item]:
+    """Nodes that pass values on: Identity, Dropout (inference), a Cast to a float type, Flatten(axis=1), a
+    Reshape to (batch, width); anything else is refused."""
+    op, p, a = n.op, n.path, n.attrs
     if op in _NOOPS or (op == "Cast" and a.get("to") in _FLOAT):
         return []
+    if op == "Cast":
+        raise refuse(
+            where, Item(op, p), f"a cast to {_type_name(a.get('to'))} (casts to a float type are read)"
+        )
     if op == "Flatten" and int(a.get("axis", 1)) == 1:
         return []
     if op == "Reshape":
@@ -228,6 +189,16 @@ def _item(n: Node, consts: dict, where: str, batch: int = -1) -> list[Item]:
         if shape is not None and shape.size == 2 and shape[0] in (-1, 0, batch):
             return [Reshape(op, p, int(shape[1]))]
     raise refuse(where, Item(op, p), "unsupported op")
+
+
+def _type_name(t: Any) -> str:
+    """An ONNX element type by name (INT32), or as given when it is not one."""
+    from onnx import TensorProto
+
+    try:
+        return TensorProto.DataType.Name(int(t))
+    except (TypeError, ValueError):
+        return repr(t)
 
 
 def _minmax(n: Node, consts: dict, where: str) -> list[Item]:
