@@ -205,6 +205,7 @@ def test_run_on_the_paper_is_its_old_run():
     assert no_fault(default_actuator(), run)
 
 
+@pytest.mark.slow  # ~4 s: 5,209 ticks of the slow design's push
 def test_run_of_a_slow_drive_stays_within_its_encoder_jump_bound():
     """tests/slow_6v.toml (51 counts per tick at most, 60,000 counts of compression range): the push takes
     more than 0.4 s of ticks so that no step trips the encoder-jump fault; still 40 traced ticks."""
@@ -225,6 +226,7 @@ def test_bench_of_another_designs_export_needs_its_description(design_export):
     assert code == 2 and "'slow 6 V SEA (seagen test design)'" in err
 
 
+@pytest.mark.slow  # ~6 s on the emulated core; the fast tests check the driver's settings and run in Python
 def test_bench_cli_measures_another_designs_tick(design_export):
     """`seagen bench --actuator` on design_12v's SF export: the tick is measured (M0+), no float helper."""
     pytest.importorskip("unicorn", reason="unicorn (seagen[mcu]) is not installed")
