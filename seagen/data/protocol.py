@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from seagen.actuator import Actuator, default_actuator
-from seagen.data.reach import pace, push_volts, reach_problem
+from seagen.data.reach import pace, push_volts, reach_problem, stretch
 from seagen.errors import UserError
 from seagen.geometry import Geometry, geometry
 from seagen.plant import Plant, PlantConfig
@@ -218,6 +218,16 @@ def collect(
     return out
 
 
+def _split_pace(act: Actuator, split: str, moves: tuple[tuple[float, ...], ...], slow: float) -> float:
+    """Factor on a split's duration: the protocol's pace; for validation (one trial, cut on the paper's
+    actuator too) at least its move's own push-time ratio to the paper's, so it is cut at the same stage."""
+    if split != "validation":
+        return slow
+    push, peak, *_ = moves[0]
+    m = scaled_move(0.0, moves[0], act)
+    return max(slow, stretch(act, m.push_v, m.peak_n, push, peak))
+
+
 def generate(
     cfg: PlantConfig, seed: int = 0, progress: Callable[[str], None] | None = None
 ) -> dict[str, pd.DataFrame]:
@@ -245,7 +255,7 @@ def generate(
     for split, at, moves, k in plan:
         if progress:
             progress(split)
-        total = int(round(rows(split, cfg.actuator.loop_hz) * slow))
+        total = int(round(rows(split, cfg.actuator.loop_hz) * _split_pace(cfg.actuator, split, moves, slow)))
         if slow > 1.0:  # on a slower design every angle of every split gets at least one whole push
             total = max(total, int(round(len(at) * 0.5 * TRIAL_CAP_S * slow * cfg.actuator.loop_hz)))
         out[split] = collect(cfg, at, moves, total, seed=seed * 10 + k)

@@ -63,6 +63,12 @@ def push_volts(act: Actuator, volts: float, peak_n: float, paper_volts: float) -
     return hi
 
 
+def stretch(act: Actuator, volts: float, peak_n: float, paper_volts: float, paper_peak_n: float) -> float:
+    """How many times longer (>= 1) a push of `act` at `volts` to `peak_n` takes than the paper's same move
+    (exactly 1 on the paper's actuator and on any design at least as brisk)."""
+    return max(1.0, push_time(act, volts, peak_n) / push_time(default_actuator(), paper_volts, paper_peak_n))
+
+
 def pace(act: Actuator | None = None) -> float:
     """Factor (>= 1) on the protocol's split durations and trial cap for `act`: how much longer than SLACK
     times the paper's its reference push takes at full supply (exactly 1 for a design near the paper's)."""
