@@ -35,6 +35,16 @@ toolchain:
 	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq cppcheck >/dev/null; \
 	  else echo "warning: cppcheck missing and not root; the MISRA checks will be skipped"; fi; \
 	fi
+	@# cmake and ninja for tests/test_cmake_package.py (the export folder built as a CMake package).
+	@for tool in cmake:cmake ninja:ninja-build; do \
+	  cmd=$${tool%%:*}; pkg=$${tool#*:}; \
+	  if ! command -v $$cmd >/dev/null 2>&1; then \
+	    if [ "$$(id -u)" = "0" ]; then \
+	      echo "installing $$pkg"; \
+	      apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$pkg >/dev/null; \
+	    else echo "warning: $$cmd missing and not root; the CMake package tests will be skipped or use make"; fi; \
+	  fi; \
+	done
 
 
 # QEMU's Arm system emulator (processor-in-the-loop boards), from Debian, when root and missing.

@@ -14,6 +14,7 @@ from seagen.actuator import Actuator
 from seagen.atomic import locked_folder, writable_place
 from seagen.cnames import assert_valid_prefix, identifier_from
 from seagen.codegen.actfile import export_actuator
+from seagen.codegen.cmake import DEFAULT_PACKAGE, check_folder_package, cmake_files
 from seagen.codegen.manifest import SUFFIX, manifest_text
 from seagen.codegen.quant_summary import summary_lines
 from seagen.codegen.render import RUNTIME, model_hash, render
@@ -41,6 +42,7 @@ class Export:
     lines: list[str] = field(default_factory=list)
     act: ActQ | None = None  # the actuator's proven constants (its sea_act_<id> file)
     actuator: Actuator | None = None  # its description
+    package: str = DEFAULT_PACKAGE  # the CMake package of its folder (seagen::NAME)
 
     @property
     def float_model(self) -> FloatModel:
@@ -79,6 +81,7 @@ def prepare(
     ranges: list[list[float]] | None = None,
     target: str = "portable",
     actuator: Actuator | None = None,
+    package: str | None = None,
 ) -> Export:
     """Everything of an export, in memory (nothing is written); refuses (CheckFailed) when the integer
     reference and the original model disagree beyond the proven bound on the calibrated box.
@@ -87,7 +90,9 @@ def prepare(
     input ranges outright (seagen verify rebuilds an export from its manifest that way); `target` picks the
     kernel of NAME_infer (seagen/codegen/targets.py) and the runtime header it includes; `features` is a
     --features file or the spec already read from one (a manifest's); `actuator`: a description given with
-    --actuator (the model file's own is used; a disagreeing one is refused)."""
+    --actuator (the model file's own is used; a disagreeing one is refused); `package`: the CMake library
+    seagen::NAME of the folder (CMakeLists.txt, codegen/cmake.py; default models)."""
+    package = DEFAULT_PACKAGE if package is None else package
     prefix = assert_valid_prefix(default_prefix(model_path) if prefix is None else prefix)
     bits = {"int16": 16, "int8": 8}.get(weights)
     if bits is None:
@@ -116,13 +121,14 @@ def prepare(
         from seagen.codegen.controller import controller_files
 
         files.update(controller_files(prefix, qm, act=aq))
+    files.update(cmake_files(prefix, files, package))
     onnx_bytes = None
     if with_onnx:
         from seagen.reference.onnx_ref import build_onnx
 
         onnx_bytes = build_onnx(qm, prefix).SerializeToString()
     options = {"weights": weights, "target": target, "calib": calib, "onnx": with_onnx}
-    options["controller"] = controller
+    options |= {"controller": controller, "package": package}
     if allow_pickle:  # recorded only when used: torch's own readers opened the file, past the allow-list
         options["allow_pickle"] = True
     original = {"runtime": loaded.runtime, "dtype": loaded.dtype, "margin": float(f"{loaded.margin:.6g}")}
@@ -130,7 +136,7 @@ def prepare(
         qm, prefix, model_path, options, spec, files, onnx_bytes, original, aq
     )
     lines = [*loaded.notes, *summary_lines(qm), f"actuator '{act.name}' (sha256 {aq.digest[:12]}): {aq.cid}"]
-    return Export(loaded, qm, prefix, files, rep, onnx_bytes, lines, aq, act)
+    return Export(loaded, qm, prefix, files, rep, onnx_bytes, lines, aq, act, package)
 
 
 def export_manifest(
@@ -178,9 +184,10 @@ def write(ex: Export, out_dir: str | os.PathLike[str]) -> list[Path]:
     """Write all files atomically: staged in a temporary folder, then renamed in under a lock on the folder
     (a second export into it waits), the manifest last. A NAME.onnx or NAME_controller.{h,c} from an
     earlier export that this one does not write is removed (it would describe another model or
-    configuration). Other exports in the folder are not touched (the shared runtime files they also use
-    are rewritten with the same text)."""
+    configuration). Other exports in the folder are not touched (the shared runtime and CMake files they also
+    use are rewritten with the same text)."""
     out = check_out_dir(out_dir)
+    check_folder_package(out, ex.prefix, ex.package)
     try:
         out.mkdir(parents=True, exist_ok=True)
         stage = Path(tempfile.mkdtemp(dir=out, prefix=".export."))

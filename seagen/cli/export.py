@@ -62,6 +62,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         "own, and a FILE that disagrees with it is refused (default: the model's, else the paper's)",
     )
     p.add_argument(
+        "--package",
+        metavar="NAME",
+        help="CMake library of the folder: its CMakeLists.txt builds every export there as seagen::NAME "
+        "(default: models; every export in one folder shares it)",
+    )
+    p.add_argument(
         "--check",
         metavar="DIR",
         help="before writing, also check C == numpy == torch == onnxruntime on DIR's test and validation "
@@ -88,6 +94,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         controller=args.controller,
         target=args.target,
         actuator=proven_actuator(args.actuator),
+        package=args.package,
     )
     if args.check:
         from seagen.datacheck import check_data_dir

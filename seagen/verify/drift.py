@@ -155,7 +155,7 @@ def check_fields(v: Verdict, man: Manifest, recomputed: Manifest) -> None:
             problems.append(
                 f"resolved.{key} {got['resolved'].get(key)!r} (recomputed: {want['resolved'][key]!r})"
             )
-    for key in ("weights", "target", "controller", "onnx"):
+    for key in ("weights", "target", "controller", "onnx", "package"):
         if got["options"].get(key) != want["options"].get(key):
             problems.append(f"options.{key} {got['options'].get(key)!r} (expected {want['options'][key]!r})")
     if set(man.files) != set(recomputed.files):

@@ -55,6 +55,7 @@ def rebuild(
         target=opts.get("target", "portable"),
         ranges=[[float(lo), float(hi)] for _n, _u, lo, hi in res["inputs"]],
         actuator=actuator,
+        package=opts.get("package"),
     )
 
 

@@ -1,0 +1,152 @@
+"""The export folder is a CMake package: add_subdirectory + seagen::NAME builds an app whose outputs equal the
+numpy reference bit for bit, with one copy of the shared runtime; verify hashes the CMake files; the shipped
+toolchain file cross-builds it for a Cortex-M core."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from seagen.defaults import GENERATED
+from seagen.export import prepare, write
+from seagen.reference import numpy_ref
+from seagen.toolchain.equivalence import edge_inputs, random_inputs
+from seagen.toolchain.host import STRICT_CFLAGS
+from seagen.verify.run import verify
+from tests.conftest import run_cli
+
+MODELS = {"cal_mlp": ("mlp_calibration", False), "ctl_mlp": ("mlp_control", True)}
+CMAKE = shutil.which("cmake")
+needs_cmake = pytest.mark.skipif(CMAKE is None, reason="cmake not found (Debian: apt-get install cmake)")
+
+
+def _model(prefix: str) -> str:
+    """The shipped model file of an export of MODELS."""
+    return str(GENERATED / "models" / f"{MODELS[prefix][0]}.pt")
+
+
+@pytest.fixture(scope="module")
+def exports(tmp_path_factory):
+    """A calibration and a control model (with its controller) exported into one folder, as the firmware
+    example does: (folder, {prefix: Export})."""
+    fw = tmp_path_factory.mktemp("pkg") / "fw"
+    done = {}
+    for prefix, (_name, controller) in MODELS.items():
+        done[prefix] = prepare(_model(prefix), prefix=prefix, controller=controller, package="sea")
+        write(done[prefix], fw)
+    return fw, done
+
+
+def _inputs(qm) -> np.ndarray:
+    """A few recorded int16 input vectors: random in and around the calibrated box, and the edges."""
+    return np.vstack([random_inputs(qm, 24, seed=3), edge_inputs(len(qm.inputs))]).astype(np.int64)
+
+
+def _main_c(vectors: dict[str, np.ndarray]) -> str:
+    """An app calling each export's NAME_infer on its vectors and printing the integers, one per line."""
+    head = ["#include <stdio.h>", *[f'#include "{p}.h"' for p in vectors], ""]
+    body = []
+    for p, x in vectors.items():
+        rows = ",\n".join("    {" + ", ".join(str(int(v)) for v in row) + "}" for row in x)
+        head.append(f"static const int16_t {p}_x[{len(x)}][{p.upper()}_N_IN] = {{\n{rows}\n}};")
+        body += [
+            f"    for (i = 0; i < {len(x)}; i++) {{",
+            f"        int16_t y[{p.upper()}_N_OUT];",
+            f"        {p}_infer({p}_x[i], y);",
+            '        printf("%d\\n", (int)y[0]);',
+            "    }",
+        ]
+    return "\n".join([*head, "", "int main(void)", "{", "    unsigned i;", *body, "    return 0;", "}", ""])
+
+
+def _app(root: Path, fw: Path, package: str, main_c: str) -> Path:
+    """The user's project: CMakeLists.txt adding the export folder and linking seagen::PACKAGE, and main.c."""
+    root.mkdir(parents=True, exist_ok=True)
+    (root / "main.c").write_text(main_c)
+    (root / "CMakeLists.txt").write_text(
+        "cmake_minimum_required(VERSION 3.13)\nproject(app C)\n"
+        f'add_subdirectory("{fw.as_posix()}" seagen)\n'
+        f"add_executable(app main.c)\ntarget_link_libraries(app PRIVATE seagen::{package})\n"
+    )
+    return root
+
+
+def _build(src: Path, build: Path, *defs: str) -> None:
+    """Configure (ninja if present, else make) and build, with the strict flags of seagen's own builds."""
+    gen = ["-G", "Ninja"] if shutil.which("ninja") else []
+    flags = " ".join(f for f in STRICT_CFLAGS if not f.startswith(("-std", "-O")))
+    cfg = [CMAKE, "-S", str(src), "-B", str(build), *gen, f"-DCMAKE_C_FLAGS={flags}", *defs]
+    for cmd in (cfg, [CMAKE, "--build", str(build)]):
+        res = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+        assert res.returncode == 0, f"{' '.join(map(str, cmd))}:\n{res.stdout[-3000:]}{res.stderr[-3000:]}"
+
+
+def _archive(build: Path) -> list[str]:
+    """The object names in the export folder's static library."""
+    lib = next(build.rglob("libseagen_sea.a"))
+    ar = shutil.which("ar") or shutil.which("arm-none-eabi-ar")
+    return subprocess.run([ar, "t", str(lib)], capture_output=True, text=True, check=True).stdout.split()
+
+
+@needs_cmake
+def test_add_subdirectory_app_equals_the_numpy_reference(exports, tmp_path):
+    """add_subdirectory(fw) + target_link_libraries(app seagen::sea): the app's integers == numpy_ref's, and
+    the library holds every C file of both exports once (a sources file without its manifest is ignored)."""
+    fw, done = exports
+    vectors = {p: _inputs(ex.qmodel) for p, ex in done.items()}
+    src = _app(tmp_path / "app", fw, "sea", _main_c(vectors))
+    (fw / "gone.seagen.cmake").write_text("list(APPEND SEAGEN_SOURCES gone.c)\n")  # no gone.seagen.json
+    _build(src, tmp_path / "build")
+    out = subprocess.run([str(tmp_path / "build" / "app")], capture_output=True, text=True, check=True)
+    got = np.array(out.stdout.split(), dtype=np.int64)
+    want = np.concatenate([numpy_ref.infer(done[p].qmodel, x).reshape(-1) for p, x in vectors.items()])
+    np.testing.assert_array_equal(got, want)
+    objects = _archive(tmp_path / "build")
+    sources = {n for ex in done.values() for n in ex.files if n.endswith(".c")}
+    assert sorted(objects) == sorted(f"{n}.o" for n in sources), objects
+
+
+@needs_cmake
+@pytest.mark.skipif(shutil.which("arm-none-eabi-gcc") is None, reason="arm-none-eabi-gcc not found")
+def test_toolchain_file_cross_builds_for_cortex_m4(exports, tmp_path):
+    """-DCMAKE_TOOLCHAIN_FILE=fw/arm-none-eabi.cmake: the library and the app are Thumb code for the M4."""
+    fw, done = exports
+    src = _app(tmp_path / "app", fw, "sea", _main_c({p: _inputs(ex.qmodel)[:2] for p, ex in done.items()}))
+    build = tmp_path / "build"
+    _build(src, build, f"-DCMAKE_TOOLCHAIN_FILE={fw / 'arm-none-eabi.cmake'}", "-DSEAGEN_CPU=cortex-m4")
+    lib = next(build.rglob("libseagen_sea.a"))
+    tags = subprocess.run(["arm-none-eabi-readelf", "-A", str(lib)], capture_output=True, text=True).stdout
+    assert tags.count('Tag_CPU_name: "7E-M"') == len(_archive(build)), tags
+    syms = subprocess.run(["arm-none-eabi-nm", str(build / "app")], capture_output=True, text=True).stdout
+    assert " T cal_mlp_infer" in syms and " T ctl_mlp_infer" in syms
+
+
+def test_verify_hashes_the_cmake_files_and_reexport_restores_them(tmp_path):
+    """CMakeLists.txt and NAME.seagen.cmake are files of the export: verify passes, a hand edit of either is
+    a changed file, and re-exporting writes them back in place."""
+    fw = tmp_path / "fw"
+    write(prepare(_model("cal_mlp"), prefix="cal_mlp"), fw)
+    assert verify(str(fw), _model("cal_mlp"), vectors=50).ok
+    good = (fw / "CMakeLists.txt").read_text()
+    (fw / "CMakeLists.txt").write_text(good.replace("C_STANDARD 99", "C_STANDARD 11"))
+    (fw / "cal_mlp.seagen.cmake").write_text("list(APPEND SEAGEN_SOURCES cal_mlp.c)\n")
+    bad = verify(str(fw), _model("cal_mlp"), vectors=50)
+    failed = {i.name for i in bad.items if not i.ok}
+    assert {"CMakeLists.txt unchanged", "cal_mlp.seagen.cmake unchanged"} <= failed, bad.text()
+    code, _out, _err = run_cli("export", _model("cal_mlp"), "--prefix", "cal_mlp", "--out", str(fw))
+    assert code == 0 and (fw / "CMakeLists.txt").read_text() == good
+    assert verify(str(fw), _model("cal_mlp"), vectors=50).ok
+
+
+def test_package_name_and_folder_conflicts_are_one_line_exit_2(exports, tmp_path):
+    """A --package that is not a CMake name, or another package than the folder's exports', is refused."""
+    fw, _done = exports
+    code, _out, err = run_cli("export", _model("cal_mlp"), "--package", "a-b", "--out", str(tmp_path))
+    assert code == 2 and "--package" in err and len(err.strip().splitlines()) == 1, err
+    code, _out, err = run_cli("export", _model("cal_mlp"), "--prefix", "cal2", "--out", str(fw))
+    assert code == 2 and "package 'sea'" in err and len(err.strip().splitlines()) == 1, err
+    assert not (fw / "cal2.c").exists()
