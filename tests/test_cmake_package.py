@@ -110,19 +110,50 @@ def test_add_subdirectory_app_equals_the_numpy_reference(exports, tmp_path):
     assert sorted(objects) == sorted(f"{n}.o" for n in sources), objects
 
 
+def _emulated(lib: Path, work: Path, roots: tuple[str, ...]):
+    """The library linked into a Cortex-M4 image keeping `roots`, on the emulated core."""
+    from seagen.toolchain.cortexm import (
+        LINKER_SCRIPT,
+        Image,
+        Machine,
+        _symbols,
+        cpu_flags,
+        data_section,
+        flat_section,
+        link,
+        no_startup_sections,
+    )
+
+    work.mkdir()
+    (work / "link.ld").write_text(LINKER_SCRIPT)
+    elf = link(work, [lib], cpu_flags("cortex-m4"), roots)
+    sections = no_startup_sections(elf)
+    image = Image(flat_section(elf), _symbols(elf), {}, sections, data_section(elf, sections))
+    return Machine(image, "cortex-m4")
+
+
 @needs_cmake
 @pytest.mark.skipif(shutil.which("arm-none-eabi-gcc") is None, reason="arm-none-eabi-gcc not found")
 def test_toolchain_file_cross_builds_for_cortex_m4(exports, tmp_path):
-    """-DCMAKE_TOOLCHAIN_FILE=fw/arm-none-eabi.cmake: the library and the app are Thumb code for the M4."""
+    """-DCMAKE_TOOLCHAIN_FILE=fw/arm-none-eabi.cmake: the library and the app are Thumb code for the M4, and
+    the library's NAME_infer on the emulated core == numpy_ref bit for bit."""
+    pytest.importorskip("unicorn", reason="unicorn (the Cortex-M emulator) is not installed")
     fw, done = exports
-    src = _app(tmp_path / "app", fw, "sea", _main_c({p: _inputs(ex.qmodel)[:2] for p, ex in done.items()}))
+    vectors = {p: _inputs(ex.qmodel) for p, ex in done.items()}
+    src = _app(tmp_path / "app", fw, "sea", _main_c({p: x[:2] for p, x in vectors.items()}))
     build = tmp_path / "build"
-    _build(src, build, f"-DCMAKE_TOOLCHAIN_FILE={fw / 'arm-none-eabi.cmake'}", "-DSEAGEN_CPU=cortex-m4")
+    toolchain = f"-DCMAKE_TOOLCHAIN_FILE={fw / 'arm-none-eabi.cmake'}"
+    _build(src, build, toolchain, "-DSEAGEN_CPU=cortex-m4", "-DCMAKE_BUILD_TYPE=Release")
     lib = next(build.rglob("libseagen_sea.a"))
     tags = subprocess.run(["arm-none-eabi-readelf", "-A", str(lib)], capture_output=True, text=True).stdout
     assert tags.count('Tag_CPU_name: "7E-M"') == len(_archive(build)), tags
     syms = subprocess.run(["arm-none-eabi-nm", str(build / "app")], capture_output=True, text=True).stdout
     assert " T cal_mlp_infer" in syms and " T ctl_mlp_infer" in syms
+    core = _emulated(lib, tmp_path / "image", tuple(f"{p}_infer" for p in done))
+    for p, x in vectors.items():
+        got = [core.call(f"{p}_infer", row, np.zeros(1, np.int16))[0][1][0] for row in x.astype(np.int16)]
+        want = numpy_ref.infer(done[p].qmodel, x).reshape(-1)
+        np.testing.assert_array_equal(np.array(got, dtype=np.int64), want)
 
 
 def test_verify_hashes_the_cmake_files_and_reexport_restores_them(tmp_path):
