@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from seagen.cli import main
-from seagen.control.experiment import N_CONTACT, metrics
+from seagen.control.experiment import metrics
 from seagen.control.loop import run_closed_loop
 from seagen.control.predictors import kinematic_cloud, kinematic_mcu
 from seagen.runtime import control as ct
@@ -86,8 +86,13 @@ def test_cli_bad_latency(capsys):
     assert "--latency" in capsys.readouterr().err
 
 
-def test_cli_simulate_seed_sweep_is_the_mean_of_single_seeds(capsys):
-    """`--seeds 2` reports per target the mean of the two single-seed runs and their settling range."""
+def test_cli_simulate_seed_sweep_is_the_mean_of_single_seeds(capsys, monkeypatch):
+    """`--seeds 2` reports per target the mean of the two single-seed runs and their settling range (the
+    experiment shortened for time: 4 contact angles, 3 s runs)."""
+    from seagen.control import experiment
+
+    monkeypatch.setattr(experiment, "N_CONTACT", 4)
+    monkeypatch.setattr(experiment, "DURATION_S", 3.0)
     runs = []
     for seed in (3, 4):
         assert main(["simulate", "--json", "--config", "kin_mcu", "--seed", str(seed)]) == 0
@@ -98,7 +103,7 @@ def test_cli_simulate_seed_sweep_is_the_mean_of_single_seeds(capsys):
         one = [x[t] for x in runs]
         st = [x["settling_s"] for x in one if x["settling_s"] is not None]
         assert abs(r["error_avg_n"] - np.mean([x["error_avg_n"] for x in one])) < 1e-4
-        assert r["settled"] == sum(x["settled"] for x in one) and r["angles"] == 2 * N_CONTACT
+        assert r["settled"] == sum(x["settled"] for x in one) and r["angles"] == 2 * experiment.N_CONTACT
         assert (r["settling_min_s"], r["settling_max_s"]) == ((min(st), max(st)) if st else (None, None))
 
 
