@@ -332,3 +332,40 @@ def save_onnx(model, path: Path) -> Path:
     """Write an ONNX model."""
     onnx.save(model, str(path))
     return path
+
+
+class DeviceAttr(nn.Module):
+    """A module holding a torch.device attribute and moving its input there, as LightningModule does (its
+    to_torchscript() keeps the device in data.pkl)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.device = torch.device("cpu")
+        self.fc1, self.out = nn.Linear(N_IN, HIDDEN), nn.Linear(HIDDEN, 1)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.out(torch.tanh(self.fc1(x.to(self.device))))
+
+
+class TensorConst(nn.Module):
+    """A forward that builds its constants with torch.tensor([...]) (a scale list and a scalar offset)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.fc1, self.out = nn.Linear(N_IN, HIDDEN), nn.Linear(HIDDEN, 1)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        scale = torch.tensor([0.5, 1.0, 1.5, 2.0, -1.0, 0.25, 3.0, 1.0])
+        return self.out(F.relu(self.fc1(x)) * scale + torch.tensor(0.125))
+
+
+class ViewBatch(nn.Module):
+    """x.view(x.shape[0], -1) between layers and a reshape to (batch, 1) at the end."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.fc1, self.out = nn.Linear(N_IN, HIDDEN), nn.Linear(HIDDEN, 1)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        h = F.relu(self.fc1(x.view(x.shape[0], -1)))
+        return self.out(h.view(h.shape[0], -1)).reshape(x.shape[0], 1)

@@ -22,9 +22,12 @@ OPT_IN = "only --allow-pickle opens it (with torch, which can run code the file 
 META = frozenset({"byteorder", "version", ".data/version", ".data/serialization_id"})
 TS_PICKLES = frozenset({"data.pkl", "constants.pkl", "traced_inputs.pkl"})
 TS_STORAGES = ("data/", "constants/", "traced_inputs/")  # raw storage bytes, e.g. data/0
-# torch's own helpers a TorchScript pickle names (its C++ unpickler implements them; none imports code)
+# torch's own helpers a TorchScript pickle names (its C++ unpickler implements them; none imports code).
+# torch.device: a module attribute holding a device (LightningModule.to_torchscript() keeps one); the C++
+# unpickler rebuilds it as c10::Device from the one string argument ("cpu", "cuda:0"; any other string is an
+# error), plain data that runs no user code.
 TS_PICKLE_HELPERS = frozenset(
-    ["torch._utils._rebuild_tensor_v2", "collections.OrderedDict"]
+    ["torch._utils._rebuild_tensor_v2", "collections.OrderedDict", "torch.device"]
     + [f"torch.jit._pickle.{n}" for n in ("restore_type_tag", "build_tensor_from_id", "build_genericlist")]
     + [f"torch.jit._pickle.build_{t}list" for t in ("int", "double", "bool", "tensor")]
 )
@@ -346,6 +349,7 @@ SCRIPT_ATEN = {
     "Int", "Float", "Bool", "ScalarImplicit", "item", "eq", "ne", "lt", "gt", "le", "ge", "__is__",
     "__isnot__", "__not__", "__and__", "__or__", "floordiv", "remainder", "format", "list", "slice",
     "select", "__getitem__", "append", "cat", "stack", "identity", "numel", "is_floating_point", "floor",
+    "tensor",  # torch.tensor([...]) in forward: a tensor built from a list of numbers (pure, no I/O)
 }  # fmt: skip
 SCRIPT_PRIM = {
     "Constant", "GetAttr", "ListConstruct", "ListUnpack", "TupleConstruct", "TupleUnpack", "TupleIndex",

@@ -148,13 +148,27 @@ def exported_items(ep: Any, where: str) -> tuple[list[Item], int]:
         raise UserError(f"{where}: input '{users[0]}' has shape {shape}; seagen needs (batch, features)")
     fx = {n.name: n for n in ep.graph.nodes}
     nodes = [
-        Node(str(n.target), _path(n), [a.name for a in n.all_input_nodes], [n.name], raw=n)
+        Node(str(n.target), _path(n), _inputs(n), [n.name], raw=n)
         for n in ep.graph.nodes
         if n.op == "call_function" and n.name not in consts
     ]
     chain = chain_nodes(nodes, set(consts), users[0], outs[0], where)
     items = [it for n in chain for it in _item(n.raw, consts, fx, where)]
     return items, int(shape[1])
+
+
+def _keeps_rows(n: Any) -> bool:
+    """A view/reshape whose input and output are both (batch, k) of the same sizes (e.g.
+    x.view(x.shape[0], -1) on a dynamic batch): every row stays as it is, whatever computed the sizes."""
+    if str(n.target) not in _VIEWS or not n.args or _name(n.args[0]) is None:
+        return False
+    a, b = getattr(n.args[0].meta.get("val"), "shape", None), getattr(n.meta.get("val"), "shape", None)
+    return a is not None and b is not None and len(a) == 2 and [str(d) for d in a] == [str(d) for d in b]
+
+
+def _inputs(n: Any) -> list[str]:
+    """The edges an fx node reads: a row-keeping view reads only its tensor (its sizes are bookkeeping)."""
+    return [n.args[0].name] if _keeps_rows(n) else [a.name for a in n.all_input_nodes]
 
 
 def _arg(n: Any, k: int, key: str, default: Any, consts: dict) -> Any:
@@ -195,6 +209,8 @@ def _item(n: Any, consts: dict, fx: dict, where: str) -> list[Item]:
         dtype = n.kwargs.get("dtype", n.args[1] if len(n.args) > 1 else None)
         if str(dtype) in _FLOATS:
             return []
+    if _keeps_rows(n):
+        return []
     if t in _VIEWS:
         shape = list(n.args[1])
         if len(shape) == 2 and all(isinstance(s, int) for s in shape):

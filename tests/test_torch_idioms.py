@@ -1,0 +1,85 @@
+"""Idioms of torch files (issue 36), each exported and checked against the module's own forward within the
+proven bound: a TorchScript module holding a torch.device (what LightningModule.to_torchscript() writes)
+read without --allow-pickle, torch.tensor([...]) constants in a scripted forward, and view(x.shape[0], -1)
+in a .pt2 exported with a dynamic batch. ~10 s."""
+
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from seagen.cli import main
+from seagen.export import prepare
+from seagen.filekind import pickle_globals
+from seagen.reference import numpy_ref
+from seagen.reference.float_ref import quantize_features
+from seagen.reference.oracle import box_points
+from tests import table_models as T
+from tests.table_models import Row
+
+
+def _rows(d: Path, spec: list[str]) -> dict[str, Row]:
+    """The idiom rows, each file written by torch itself."""
+    rows: dict[str, Row] = {}
+    m = T._init(T.DeviceAttr(), 100)
+    T._quiet(torch.jit.script(m).save, str(d / "device.pt"))
+    rows["TorchScript with a torch.device attribute"] = Row(
+        [str(d / "device.pt"), *spec], "export", original=T.torch_original(m)
+    )
+    m = T._init(T.TensorConst(), 101)
+    T._quiet(torch.jit.script(m).save, str(d / "tensor_const.pt"))
+    rows["TorchScript torch.tensor constants"] = Row(
+        [str(d / "tensor_const.pt"), *spec], "export", original=T.torch_original(m)
+    )
+    m = T._init(T.ViewBatch(), 102)
+    ep = T._quiet(torch.export.export, m, T.example(), dynamic_shapes=({0: torch.export.Dim("batch")},))
+    torch.export.save(ep, d / "view_batch.pt2")
+    rows[".pt2 dynamic batch view(x.shape[0], -1)"] = Row(
+        [str(d / "view_batch.pt2"), *spec], "export", original=T.torch_original(m)
+    )
+    return rows
+
+
+@pytest.fixture(scope="module")
+def table(tmp_path_factory) -> dict[str, Row]:
+    """Every idiom row, built once."""
+    d = tmp_path_factory.mktemp("idioms")
+    return _rows(d, ["--features", str(T.spec_file(d))])
+
+
+NAMES = [
+    "TorchScript with a torch.device attribute",
+    "TorchScript torch.tensor constants",
+    ".pt2 dynamic batch view(x.shape[0], -1)",
+]
+
+
+def test_device_is_in_the_pickle(table):
+    """The scripted file really names torch.device in its data.pkl (the class the allow-list admits)."""
+    with zipfile.ZipFile(table[NAMES[0]].args[0]) as z:
+        pkl = next(n for n in z.namelist() if n.endswith("/data.pkl"))
+        assert "torch.device" in pickle_globals(z.read(pkl))
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_idiom_row(name, table, tmp_path, capsys):
+    """Exit 0 without --allow-pickle, and the integer reference within the proven bound (+ the float32
+    margin) of the module's own forward on box points."""
+    row = table[name]
+    rc = main(["export", *row.args, "--out", str(tmp_path / "out"), "--prefix", "m"])
+    assert rc == 0, capsys.readouterr().err
+    ex = prepare(row.args[0], prefix="m", features=row.args[2])
+    qm = ex.qmodel
+    x = box_points(qm, 500, seed=1)
+    got = numpy_ref.infer(qm, quantize_features(qm, x)) * 2.0**-qm.out_frac
+    mean, std = np.array(T.MEAN), np.array(T.STD)
+    assert row.original is not None and ex.loaded is not None
+    want = row.original((x - mean) / std) * T.OUT_STD + T.OUT_MEAN
+    err = float(np.max(np.abs(got - want)))
+    bound = f"bound {qm.error_bound:.3g} + margin {ex.loaded.margin:.3g}"
+    print(f"{name}: max |integer - original| {err:.3g} <= {bound}")
+    assert err <= qm.error_bound + ex.loaded.margin, name
