@@ -369,3 +369,29 @@ class ViewBatch(nn.Module):
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         h = F.relu(self.fc1(x.view(x.shape[0], -1)))
         return self.out(h.view(h.shape[0], -1)).reshape(x.shape[0], 1)
+
+
+class TwoInputs(nn.Module):
+    """A forward that takes two tensors, (batch, 2) and (batch, 1), and concatenates them into one vector."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.fc1, self.out = nn.Linear(N_IN, HIDDEN), nn.Linear(HIDDEN, 1)
+
+    def forward(self, a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+        return self.out(F.relu(self.fc1(torch.cat([a, b], dim=1))))
+
+
+def ort_two_inputs(path: Path, width_a: int) -> Callable[[np.ndarray], np.ndarray]:
+    """onnxruntime on a graph of two inputs (batch, width_a) and (batch, rest): the row's columns split."""
+    import onnxruntime as ort
+
+    sess = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    a, b = (i.name for i in sess.get_inputs())
+
+    def run(x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, np.float32)
+        y = sess.run(None, {a: x[:, :width_a].copy(), b: x[:, width_a:].copy()})[0]
+        return np.asarray(y, float).reshape(len(x), -1)[:, 0]
+
+    return run

@@ -1,7 +1,7 @@
 """Idioms of torch files (issue 36), each exported and checked against the module's own forward within the
 proven bound: a TorchScript module holding a torch.device (what LightningModule.to_torchscript() writes)
 read without --allow-pickle, torch.tensor([...]) constants in a scripted forward, and view(x.shape[0], -1)
-in a .pt2 exported with a dynamic batch. ~10 s."""
+in a .pt2 exported with a dynamic batch, two inputs concatenated into one vector. ~10 s."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+from onnx import TensorProto, helper
 
 from seagen.cli import main
 from seagen.export import prepare
@@ -41,7 +42,43 @@ def _rows(d: Path, spec: list[str]) -> dict[str, Row]:
     rows[".pt2 dynamic batch view(x.shape[0], -1)"] = Row(
         [str(d / "view_batch.pt2"), *spec], "export", original=T.torch_original(m)
     )
+    return rows | _two_input_rows(d, spec)
+
+
+def _two_input_rows(d: Path, spec: list[str]) -> dict[str, Row]:
+    """A module of two inputs concatenated in forward, through both torch ONNX exporters (a Concat of the two
+    graph inputs), and a Concat of the inputs along the batch (refused)."""
+    rows: dict[str, Row] = {}
+    m = T._init(T.TwoInputs(), 103)
+    ex, n = (torch.zeros(4, 2), torch.zeros(4, 1)), torch.export.Dim("N")
+    p = d / "two_legacy.onnx"
+    axes = {"a": {0: "N"}, "b": {0: "N"}}
+    T._quiet(torch.onnx.export, m, ex, str(p), dynamo=False, input_names=["a", "b"], dynamic_axes=axes)
+    rows["onnx legacy two inputs concatenated"] = Row(
+        [str(p), *spec], "export", original=T.ort_two_inputs(p, 2)
+    )
+    p = d / "two_dynamo.onnx"
+    T._quiet(torch.onnx.export, m, ex, str(p), dynamo=True, dynamic_shapes=({0: n}, {0: n}), verbose=False)
+    rows["onnx dynamo two inputs concatenated"] = Row(
+        [str(p), *spec], "export", original=T.ort_two_inputs(p, 2)
+    )
+    p = d / "two_batch_cat.onnx"
+    T.save_onnx(_batch_concat(), p)
+    rows["onnx two inputs concatenated along the batch (refused)"] = Row(
+        [str(p), *spec], "refuse", 2, "other than along the features"
+    )
     return rows
+
+
+def _batch_concat():
+    """Two (N, 3) graph inputs concatenated along axis 0 (rows of both), then a dense layer."""
+    w = T.weights(0)
+    extra = [helper.make_tensor_value_info("b", TensorProto.FLOAT, ["N", T.N_IN])]
+    nodes = [
+        helper.make_node("Concat", ["x", "b"], ["c"], axis=0),
+        helper.make_node("Gemm", ["c", "W2x", "B2"], ["y"], transB=1),
+    ]
+    return T.onnx_model(nodes, {"W2x": w["W1"][:1], "B2": w["B2"]}, extra_inputs=extra)
 
 
 @pytest.fixture(scope="module")
@@ -55,7 +92,15 @@ NAMES = [
     "TorchScript with a torch.device attribute",
     "TorchScript torch.tensor constants",
     ".pt2 dynamic batch view(x.shape[0], -1)",
+    "onnx legacy two inputs concatenated",
+    "onnx dynamo two inputs concatenated",
+    "onnx two inputs concatenated along the batch (refused)",
 ]
+
+
+def test_table_is_complete(table):
+    """Every built row is tested."""
+    assert sorted(table) == sorted(NAMES)
 
 
 def test_device_is_in_the_pickle(table):
@@ -71,7 +116,12 @@ def test_idiom_row(name, table, tmp_path, capsys):
     margin) of the module's own forward on box points."""
     row = table[name]
     rc = main(["export", *row.args, "--out", str(tmp_path / "out"), "--prefix", "m"])
-    assert rc == 0, capsys.readouterr().err
+    err = capsys.readouterr().err
+    if row.expect == "refuse":
+        assert rc == row.code and len(err.strip().splitlines()) == 1 and row.message in err, err
+        assert not (tmp_path / "out").exists()
+        return
+    assert rc == 0, err
     ex = prepare(row.args[0], prefix="m", features=row.args[2])
     qm = ex.qmodel
     x = box_points(qm, 500, seed=1)

@@ -84,18 +84,22 @@ def _ort_runner(model: Any, where: str, feed: Any) -> Callable[[np.ndarray], np.
     import onnxruntime as ort
     from onnx import helper
 
+    from seagen.frontends.onnx_shapes import split_parts
+
     try:
         sess = ort.InferenceSession(model.SerializeToString(), providers=["CPUExecutionProvider"])
     except Exception as e:  # onnxruntime raises its own types
         raise UserError(
             f"{where}: onnxruntime cannot run the original graph (the oracle needs it): {_first_line(e)}"
         ) from None
-    inp = model.graph.input[[i.name for i in model.graph.input].index(feed.name)]
+    first = feed.parts[0][0] if feed.parts else feed.name  # inputs a Concat joins share one type
+    inp = model.graph.input[[i.name for i in model.graph.input].index(first)]
     dtype = helper.tensor_dtype_to_np_dtype(inp.type.tensor_type.elem_type)
 
     def once(x: np.ndarray) -> np.ndarray:
         try:
-            y = sess.run(None, {feed.name: np.asarray(x, dtype=dtype).reshape(feed.layout(len(x)))})[0]
+            xs = np.asarray(x, dtype=dtype).reshape(feed.layout(len(x)))
+            y = sess.run(None, split_parts(feed, xs))[0]
         except Exception as e:  # onnxruntime raises its own types
             raise UserError(
                 f"{where}: onnxruntime failed running the original graph: {_first_line(e)}"

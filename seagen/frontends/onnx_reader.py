@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -10,7 +11,17 @@ import numpy as np
 from seagen.errors import UserError
 from seagen.frontends.chain import Act, Affine, Dense, Item, Reshape, batchnorm_affine, clip_act, refuse
 from seagen.frontends.graph import Node, chain_nodes
-from seagen.frontends.onnx_shapes import SHAPE_OPS, B, Feed, Shape, after, declared, shape_text, shape_text_of
+from seagen.frontends.onnx_shapes import (
+    SHAPE_OPS,
+    B,
+    Feed,
+    Shape,
+    after,
+    concat_inputs,
+    declared,
+    shape_text,
+    shape_text_of,
+)
 
 _ACTS = {"Relu": "relu", "Tanh": "tanh", "Sigmoid": "sigmoid"}
 _NOOPS = ("Identity", "Dropout")
@@ -74,14 +85,17 @@ def onnx_items(path: Path, model: Any) -> tuple[list[Item], int, Feed]:
     ]
     consts = _fold_constants(model, nodes, where)
     inputs = [i for i in g.input if i.name not in consts]
-    if len(inputs) != 1 or len(g.output) != 1:
+    cat = concat_inputs(nodes, inputs, where) if len(inputs) > 1 else None  # inputs joined into one vector
+    if (len(inputs) != 1 and cat is None) or len(g.output) != 1:
         names = ", ".join(i.name for i in inputs)
         raise UserError(
             f"{where}: the graph has {len(inputs)} inputs ({names}) and {len(g.output)} outputs; "
             "seagen exports one input tensor (a weight must be an initializer) and one output"
         )
-    chain = chain_nodes(nodes, set(consts), inputs[0].name, g.output[0].name, where)
-    return _read_chain(chain, consts, where, inputs[0])
+    vi, parts = cat if cat is not None else (inputs[0], ())
+    chain = chain_nodes(nodes, set(consts), vi.name, g.output[0].name, where)
+    items, width, feed = _read_chain(chain, consts, where, vi)
+    return items, width, dataclasses.replace(feed, parts=parts)
 
 
 def _read_chain(chain: list[Node], consts: dict, where: str, vi: Any) -> tuple[list[Item], int, Feed]:

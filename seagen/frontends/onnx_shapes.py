@@ -28,6 +28,7 @@ class Feed:
     name: str
     shape: Shape
     rows: int | None  # None: any number of rows in one run
+    parts: tuple[tuple[str, int], ...] = ()  # graph inputs concatenated into this one: (name, width) in order
 
     def layout(self, n: int) -> Shape:
         """The input shape for a run of n rows."""
@@ -55,6 +56,37 @@ def declared(value_info: Any, where: str) -> Shape:
             "(batch, features), or a shape the graph reshapes to it with the batch as the leading axis"
         )
     return shape
+
+
+def concat_inputs(nodes: list[Node], inputs: list[Any], where: str) -> tuple[Any, tuple] | None:
+    """A Concat along the features of exactly the graph's inputs (each once, all (batch, width) with the same
+    batch), read as one input: the value info of its output, (batch, sum of widths), and the parts (name,
+    width) in the Concat's order; None when no node concatenates all the inputs."""
+    from onnx import helper
+
+    vis = {i.name: i for i in inputs}
+    cat = next((n for n in nodes if n.op == "Concat" and sorted(n.inputs) == sorted(vis)), None)
+    if cat is None:
+        return None
+    shapes = [declared(vis[i], where) for i in cat.inputs]
+    rows = {s[0] for s in shapes}
+    if cat.attrs.get("axis") not in (1, -1) or any(len(s) != 2 or s[1] == B for s in shapes) or len(rows) > 1:
+        why = "concatenates the graph inputs other than along the features of (batch, width) inputs"
+        raise refuse(where, Item(cat.op, cat.path), why)
+    batch = "N" if B in rows else rows.pop()
+    elem = vis[cat.inputs[0]].type.tensor_type.elem_type
+    vi = helper.make_tensor_value_info(cat.outputs[0], elem, [batch, sum(s[1] for s in shapes)])
+    return vi, tuple((i, s[1]) for i, s in zip(cat.inputs, shapes, strict=True))
+
+
+def split_parts(feed: Feed, x: np.ndarray) -> dict[str, np.ndarray]:
+    """The graph's input feed for rows x laid out as feed: x itself, or its columns split into the inputs a
+    Concat joins."""
+    if not feed.parts:
+        return {feed.name: x}
+    cuts = np.cumsum([w for _, w in feed.parts])[:-1]
+    cols = np.split(x, cuts, axis=1)
+    return {name: np.ascontiguousarray(c) for (name, _), c in zip(feed.parts, cols, strict=True)}
 
 
 def _rows_in_order(shape: Shape) -> bool:
