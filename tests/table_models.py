@@ -395,3 +395,39 @@ def ort_two_inputs(path: Path, width_a: int) -> Callable[[np.ndarray], np.ndarra
         return np.asarray(y, float).reshape(len(x), -1)[:, 0]
 
     return run
+
+
+class TwoInputsSwapped(nn.Module):
+    """TwoInputs taking its inputs the other way round: forward(b, a) concatenates [a, b]."""
+
+    def __init__(self, inner: nn.Module) -> None:
+        super().__init__()
+        self.inner = inner
+
+    def forward(self, b: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
+        return self.inner(a, b)
+
+
+class RowsJoined(nn.Module):
+    """Two (batch, 3) inputs concatenated along the batch (rows of both), then a dense layer."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.fc = nn.Linear(N_IN, 1)
+
+    def forward(self, a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+        return self.fc(torch.cat([a, b], dim=0))
+
+
+def torch_two_inputs(m: nn.Module, width_a: int, swap: bool = False) -> Callable[[np.ndarray], np.ndarray]:
+    """The module's own forward on the row's columns split into a (the first width_a) and b (the rest);
+    `swap` passes them as (b, a)."""
+    m.eval()
+
+    def run(x: np.ndarray) -> np.ndarray:
+        t = torch.from_numpy(np.asarray(x, np.float32))
+        a, b = t[:, :width_a], t[:, width_a:]
+        with torch.no_grad():
+            return m(*((b, a) if swap else (a, b))).double().numpy().reshape(len(x), -1)[:, 0]
+
+    return run

@@ -47,7 +47,8 @@ def _rows(d: Path, spec: list[str]) -> dict[str, Row]:
 
 def _two_input_rows(d: Path, spec: list[str]) -> dict[str, Row]:
     """A module of two inputs concatenated in forward, through both torch ONNX exporters (a Concat of the two
-    graph inputs), and a Concat of the inputs along the batch (refused)."""
+    graph inputs) and torch.export (dynamic batch; a fixed one taking them as (b, a)), and inputs
+    concatenated along the batch (refused)."""
     rows: dict[str, Row] = {}
     m = T._init(T.TwoInputs(), 103)
     ex, n = (torch.zeros(4, 2), torch.zeros(4, 1)), torch.export.Dim("N")
@@ -61,6 +62,23 @@ def _two_input_rows(d: Path, spec: list[str]) -> dict[str, Row]:
     T._quiet(torch.onnx.export, m, ex, str(p), dynamo=True, dynamic_shapes=({0: n}, {0: n}), verbose=False)
     rows["onnx dynamo two inputs concatenated"] = Row(
         [str(p), *spec], "export", original=T.ort_two_inputs(p, 2)
+    )
+    ep = T._quiet(torch.export.export, m, ex, dynamic_shapes=({0: n}, {0: n}))
+    torch.export.save(ep, d / "two.pt2")
+    rows[".pt2 two inputs concatenated"] = Row(
+        [str(d / "two.pt2"), *spec], "export", original=T.torch_two_inputs(m, 2)
+    )
+    sw = T.TwoInputsSwapped(m).eval()
+    torch.export.save(T._quiet(torch.export.export, sw, ex[::-1]), d / "two_swapped.pt2")
+    rows[".pt2 two inputs concatenated, forward(b, a)"] = Row(
+        [str(d / "two_swapped.pt2"), *spec], "export", original=T.torch_two_inputs(sw, 2, swap=True)
+    )
+    rj = T._init(T.RowsJoined(), 104)
+    torch.export.save(
+        T._quiet(torch.export.export, rj, (torch.zeros(4, 3), torch.ones(4, 3))), d / "two_rows.pt2"
+    )
+    rows[".pt2 two inputs concatenated along the batch (refused)"] = Row(
+        [str(d / "two_rows.pt2"), *spec], "refuse", 2, "other than along the features"
     )
     p = d / "two_batch_cat.onnx"
     T.save_onnx(_batch_concat(), p)
@@ -95,6 +113,9 @@ NAMES = [
     "onnx legacy two inputs concatenated",
     "onnx dynamo two inputs concatenated",
     "onnx two inputs concatenated along the batch (refused)",
+    ".pt2 two inputs concatenated",
+    ".pt2 two inputs concatenated, forward(b, a)",
+    ".pt2 two inputs concatenated along the batch (refused)",
 ]
 
 

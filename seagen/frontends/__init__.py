@@ -175,13 +175,15 @@ def _eval_mode(m: Any, p: Path) -> list[str]:
 
 def _read_exported(ep: Any, runner: Any, p: Path, fixed: int | None) -> Network:
     """An ExportedProgram's ATen graph; the original is `runner` (the module, or the program's module)."""
+    from seagen.frontends.joined import joined_inputs
     from seagen.frontends.torch_reader import exported_items
 
     items, width = exported_items(ep, str(p))
     d_in = _user_input(ep, p).meta["val"].dtype
     weights = [_dn(v.dtype) for v in ep.state_dict.values() if v.is_floating_point()]
     d = narrowest([_dn(d_in), *weights])
-    run = _torch_runner(runner, fixed, d_in, str(p))
+    joined = joined_inputs(ep, str(p))
+    run = _torch_runner(runner, fixed, d_in, str(p), joined[1] if joined else None)
     return Network(to_layers(items, width, str(p)), width, run, f"torch forward ({d})", d)
 
 
@@ -206,13 +208,17 @@ def _dn(d: Any) -> str:
 
 
 def _user_input(ep: Any, p: Path) -> Any:
-    """The placeholder node of an ExportedProgram's one user input."""
-    users = {s.arg.name for s in ep.graph_signature.input_specs if s.kind.name == "USER_INPUT"}
-    nodes = [n for n in ep.graph.nodes if n.op == "placeholder" and n.name in users]
-    if len(nodes) != 1 or len(getattr(nodes[0].meta.get("val"), "shape", ())) != 2:
+    """The placeholder node of an ExportedProgram's one user input (the first of inputs it concatenates
+    into one: seagen.frontends.joined)."""
+    from seagen.frontends.joined import joined_inputs, user_placeholders
+
+    nodes = user_placeholders(ep)
+    if len(nodes) != 1 and (len(nodes) < 2 or joined_inputs(ep, str(p)) is None):
         raise UserError(
             f"{p}: the program takes {len(nodes)} inputs; seagen needs one (batch, features) tensor"
         )
+    if any(len(getattr(n.meta.get("val"), "shape", ())) != 2 for n in nodes):
+        raise UserError(f"{p}: the program's input is not (batch, features); seagen needs one such tensor")
     return nodes[0]
 
 
@@ -271,17 +277,20 @@ def _script_to_onnx(sm: Any, p: Path, n_in: int) -> Any:
 
 
 def _torch_runner(
-    m: Any, fixed_batch: int | None, dtype: Any, where: str
+    m: Any, fixed_batch: int | None, dtype: Any, where: str, parts: Any = None
 ) -> Callable[[np.ndarray], np.ndarray]:
-    """The module's own forward in its dtype (in batches of the exported batch size for a .pt2); an error
-    the forward raises is one line naming the file."""
+    """The module's own forward in its dtype (in batches of the exported batch size for a .pt2; the row's
+    columns split into the inputs a program concatenates, `parts`); an error the forward raises is one line
+    naming the file."""
     import torch
+
+    from seagen.frontends.joined import split_args
 
     def run(x: np.ndarray) -> np.ndarray:
         t = torch.as_tensor(np.asarray(x, dtype=np.float64)).to(dtype)
         try:
             with torch.no_grad():
-                return m(t).double().numpy().reshape(len(x), -1)
+                return m(*split_args(t, parts)).double().numpy().reshape(len(x), -1)
         except Exception as e:  # any forward can raise anything
             raise UserError(
                 f"{where}: the model's own forward failed (the oracle needs it): {_first_line(e)}"

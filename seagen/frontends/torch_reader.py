@@ -9,6 +9,7 @@ import numpy as np
 from seagen.errors import UserError
 from seagen.frontends.chain import Act, Affine, Dense, Item, Reshape, batchnorm_affine, clip_act, refuse
 from seagen.frontends.graph import Node, chain_nodes
+from seagen.frontends.joined import joined_inputs
 
 _ACTS = {"aten.relu.default": "relu", "aten.tanh.default": "tanh", "aten.sigmoid.default": "sigmoid"}
 _NOOPS = (
@@ -137,22 +138,24 @@ def exported_items(ep: Any, where: str) -> tuple[list[Item], int]:
     _fold(ep, consts, where)
     users = [s.arg.name for s in ep.graph_signature.input_specs if s.kind.name == "USER_INPUT"]
     outs = [s.arg.name for s in ep.graph_signature.output_specs if s.kind.name == "USER_OUTPUT"]
-    if len(users) != 1 or len(outs) != 1:
+    joined = joined_inputs(ep, where) if len(users) > 1 else None  # inputs concatenated into one vector
+    if (len(users) != 1 and joined is None) or len(outs) != 1:
         raise UserError(
             f"{where}: the program has {len(users)} inputs and {len(outs)} outputs; "
-            "seagen exports one input tensor and one output"
+            "seagen exports one input tensor (or inputs it concatenates first) and one output"
         )
-    ph = next(n for n in ep.graph.nodes if n.name == users[0])
+    start = joined[0] if joined else users[0]
+    ph = next(n for n in ep.graph.nodes if n.name == start)
     shape = tuple(ph.meta["val"].shape)
     if len(shape) != 2:
-        raise UserError(f"{where}: input '{users[0]}' has shape {shape}; seagen needs (batch, features)")
+        raise UserError(f"{where}: input '{start}' has shape {shape}; seagen needs (batch, features)")
     fx = {n.name: n for n in ep.graph.nodes}
     nodes = [
         Node(str(n.target), _path(n), _inputs(n), [n.name], raw=n)
         for n in ep.graph.nodes
         if n.op == "call_function" and n.name not in consts
     ]
-    chain = chain_nodes(nodes, set(consts), users[0], outs[0], where)
+    chain = chain_nodes(nodes, set(consts), start, outs[0], where)
     items = [it for n in chain for it in _item(n.raw, consts, fx, where)]
     return items, int(shape[1])
 
