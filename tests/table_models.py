@@ -431,3 +431,14 @@ def torch_two_inputs(m: nn.Module, width_a: int, swap: bool = False) -> Callable
             return m(*((b, a) if swap else (a, b))).double().numpy().reshape(len(x), -1)[:, 0]
 
     return run
+
+
+class TensorConstMixed(nn.Module):
+    """torch.tensor of a list mixing ints and floats (TorchScript types it List[Union[float, int]])."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.fc1, self.out = nn.Linear(N_IN, HIDDEN), nn.Linear(HIDDEN, 1)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.out(F.relu(self.fc1(x)) * torch.tensor([1.0, 2, 3, 4, 5, 6, 7, 8]))

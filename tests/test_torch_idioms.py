@@ -5,6 +5,8 @@ in a .pt2 exported with a dynamic batch, two inputs concatenated into one vector
 
 from __future__ import annotations
 
+import re
+import struct
 import zipfile
 from pathlib import Path
 
@@ -35,6 +37,10 @@ def _rows(d: Path, spec: list[str]) -> dict[str, Row]:
     T._quiet(torch.jit.script(m).save, str(d / "tensor_const.pt"))
     rows["TorchScript torch.tensor constants"] = Row(
         [str(d / "tensor_const.pt"), *spec], "export", original=T.torch_original(m)
+    )
+    T._quiet(torch.jit.script(T._init(T.TensorConstMixed(), 105)).save, str(d / "tensor_mixed.pt"))
+    rows["TorchScript torch.tensor of mixed ints and floats (refused)"] = Row(
+        [str(d / "tensor_mixed.pt"), *spec], "refuse", 2, "cannot read the TorchScript graph"
     )
     m = T._init(T.ViewBatch(), 102)
     ep = T._quiet(torch.export.export, m, T.example(), dynamic_shapes=({0: torch.export.Dim("batch")},))
@@ -109,6 +115,7 @@ def table(tmp_path_factory) -> dict[str, Row]:
 NAMES = [
     "TorchScript with a torch.device attribute",
     "TorchScript torch.tensor constants",
+    "TorchScript torch.tensor of mixed ints and floats (refused)",
     ".pt2 dynamic batch view(x.shape[0], -1)",
     "onnx legacy two inputs concatenated",
     "onnx dynamo two inputs concatenated",
@@ -129,6 +136,35 @@ def test_device_is_in_the_pickle(table):
     with zipfile.ZipFile(table[NAMES[0]].args[0]) as z:
         pkl = next(n for n in z.namelist() if n.endswith("/data.pkl"))
         assert "torch.device" in pickle_globals(z.read(pkl))
+
+
+def _with_device(src: str, dst: Path, dev: str) -> None:
+    """A copy of a scripted file whose data.pkl rebuilds its torch.device from `dev` instead of 'cpu' (the
+    memoised 'cpu' the storages share is written out in full where they use it)."""
+    cpu = b"X\x03\x00\x00\x00cpu"
+    with zipfile.ZipFile(src) as z, zipfile.ZipFile(dst, "w") as out:
+        for info in z.infolist():
+            data = z.read(info.filename)
+            if info.filename.endswith("/data.pkl"):
+                m = re.search(rb"ctorch\ndevice\n(?:q.)?" + re.escape(cpu) + rb"q(.)\x85R", data, re.S)
+                assert m is not None
+                data = data[: m.start(1) - 1] + b"\x85R" + data[m.end(0) :]  # the device's 'cpu', unmemoised
+                data = data.replace(b"h" + m.group(1), cpu)  # the storages' uses of the memo
+                new = b"X" + struct.pack("<I", len(dev)) + dev.encode()
+                data = data.replace(cpu + b"\x85R", new + b"\x85R", 1)
+            out.writestr(info, data)
+
+
+@pytest.mark.parametrize(("dev", "rc"), [("cpu", 0), ("not_a_device", 2)])
+def test_device_string(dev, rc, table, tmp_path, capsys):
+    """The device is rebuilt from its string: 'cpu' exports; a string that is no device is refused in one
+    line (exit 2) by torch's C++ unpickler, nothing run."""
+    bad = tmp_path / "device.pt"
+    _with_device(table[NAMES[0]].args[0], bad, dev)
+    args = ["export", str(bad), *table[NAMES[0]].args[1:], "--out", str(tmp_path / "out"), "--prefix", "m"]
+    assert main(args) == rc
+    err = capsys.readouterr().err.strip()
+    assert rc == 0 or (len(err.splitlines()) == 1 and dev in err and str(bad) in err), err
 
 
 @pytest.mark.parametrize("name", NAMES)
