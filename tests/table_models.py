@@ -442,3 +442,15 @@ class TensorConstMixed(nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return self.out(F.relu(self.fc1(x)) * torch.tensor([1.0, 2, 3, 4, 5, 6, 7, 8]))
+
+
+class HalfRows(nn.Module):
+    """A reshape to (batch // 2, -1): values of two rows joined into one (refused)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.fc1, self.out = nn.Linear(N_IN, HIDDEN), nn.Linear(2 * HIDDEN, 1)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        h = F.relu(self.fc1(x))
+        return self.out(h.reshape(h.shape[0] // 2, -1))

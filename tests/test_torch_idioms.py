@@ -48,7 +48,37 @@ def _rows(d: Path, spec: list[str]) -> dict[str, Row]:
     rows[".pt2 dynamic batch view(x.shape[0], -1)"] = Row(
         [str(d / "view_batch.pt2"), *spec], "export", original=T.torch_original(m)
     )
-    return rows | _two_input_rows(d, spec)
+    return rows | _view_rows(d, spec) | _two_input_rows(d, spec)
+
+
+def _view_rows(d: Path, spec: list[str]) -> dict[str, Row]:
+    """view(x.shape[0], -1) scripted, traced and through the legacy ONNX exporter (Shape, Gather, Unsqueeze,
+    Concat into the Reshape's shape), and a reshape to (batch // 2, -1), which joins rows (refused)."""
+    rows: dict[str, Row] = {}
+    m = T._init(T.ViewBatch(), 106)
+    T._quiet(torch.jit.script(m).save, str(d / "view_script.pt"))
+    rows["TorchScript scripted view(x.shape[0], -1)"] = Row(
+        [str(d / "view_script.pt"), *spec], "export", original=T.torch_original(m)
+    )
+    T._quiet(torch.jit.trace, m, T.example()).save(str(d / "view_trace.pt"))
+    rows["TorchScript traced view(x.shape[0], -1)"] = Row(
+        [str(d / "view_trace.pt"), *spec], "export", original=T.torch_original(m)
+    )
+    for name, mod in (("view", m), ("half_rows", T._init(T.HalfRows(), 107))):
+        p = d / f"{name}_legacy.onnx"
+        axes = {"x": {0: "N"}}
+        T._quiet(
+            torch.onnx.export, mod, T.example(), str(p), dynamo=False, input_names=["x"], dynamic_axes=axes
+        )
+        if name == "view":
+            rows["onnx legacy view(x.shape[0], -1)"] = Row(
+                [str(p), *spec], "export", original=T.ort_original(p)
+            )
+        else:
+            rows["onnx legacy reshape(x.shape[0] // 2, -1) (refused)"] = Row(
+                [str(p), *spec], "refuse", 2, "computed inputs"
+            )
+    return rows
 
 
 def _two_input_rows(d: Path, spec: list[str]) -> dict[str, Row]:
@@ -117,6 +147,10 @@ NAMES = [
     "TorchScript torch.tensor constants",
     "TorchScript torch.tensor of mixed ints and floats (refused)",
     ".pt2 dynamic batch view(x.shape[0], -1)",
+    "TorchScript scripted view(x.shape[0], -1)",
+    "TorchScript traced view(x.shape[0], -1)",
+    "onnx legacy view(x.shape[0], -1)",
+    "onnx legacy reshape(x.shape[0] // 2, -1) (refused)",
     "onnx legacy two inputs concatenated",
     "onnx dynamo two inputs concatenated",
     "onnx two inputs concatenated along the batch (refused)",

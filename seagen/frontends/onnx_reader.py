@@ -11,6 +11,7 @@ import numpy as np
 from seagen.errors import UserError
 from seagen.frontends.chain import Act, Affine, Dense, Item, Reshape, batchnorm_affine, clip_act, refuse
 from seagen.frontends.graph import Node, chain_nodes
+from seagen.frontends.onnx_batch import batch_reshapes
 from seagen.frontends.onnx_shapes import (
     SHAPE_OPS,
     B,
@@ -93,6 +94,7 @@ def onnx_items(path: Path, model: Any) -> tuple[list[Item], int, Feed]:
             "seagen exports one input tensor (a weight must be an initializer) and one output"
         )
     vi, parts = cat if cat is not None else (inputs[0], ())
+    batch_reshapes(nodes, consts, vi)  # x.view(x.shape[0], -1)
     chain = chain_nodes(nodes, set(consts), vi.name, g.output[0].name, where)
     items, width, feed = _read_chain(chain, consts, where, vi)
     return items, width, dataclasses.replace(feed, parts=parts)
