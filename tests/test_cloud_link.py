@@ -170,3 +170,14 @@ def test_cloud_over_ble_c_and_twin_same_trajectory():
     desired = runs[0]["desired"]
     changes = np.flatnonzero((np.diff(desired, axis=0) != 0).any(axis=1))
     assert len(changes) >= 3 and (runs[0]["true_force_n"][-1] > 1.0).all()
+
+
+def test_demo_says_what_the_cloud_rows_are():
+    """The demo's note under Table II names the link's sourced interval and jitter (from the link model, so
+    it cannot drift from it) and where the sources and the sensitivity table are."""
+    from seagen.control.link import INTERVAL_S, JITTER_S
+    from seagen.demo.steps import cloud_note
+
+    note = cloud_note()
+    assert f"{INTERVAL_S * 1e3:g} ms connection interval" in note and f"{JITTER_S * 1e3:g} ms" in note
+    assert "2.7-3.2 s" in note and "docs/cloud.md" in note

@@ -82,6 +82,19 @@ def step_export(out: Path, data: Path, models: dict[str, Path]) -> None:
 DEMO_SEEDS = 4  # plant-noise seeds of the closed-loop table (single seeds vary by up to 0.3 s)
 
 
+def cloud_note() -> str:
+    """What the mlp_cloud rows are (docs/cloud.md holds the sources and the sensitivity table)."""
+    from seagen.control.link import INTERVAL_S, JITTER_S
+
+    return (
+        "mlp_cloud: the float MLP on a PC over the paper's 10 Hz Bluetooth LE rounds "
+        f"({INTERVAL_S * 1e3:g} ms connection interval,\nup to {JITTER_S * 1e3:g} ms of the PC's timer "
+        "jitter, the paper's 0.1 mm margin on the MCU);\ncompare it with mlp_mcu, the same MLP in C at "
+        "100 Hz. No sourced link parameter makes it as slow as\nthe paper's 2.7-3.2 s: the paper's "
+        "round-by-round predictor is what the simulation lacks (docs/cloud.md)."
+    )
+
+
 def step_control(out: Path, seed: int, models: dict[str, Path], act: Actuator | None = None) -> None:
     """The paper's force-control experiment in closed loop (Table II), mean and range over noise seeds:
     the shipped configurations on the paper's actuator, the control models just trained on another."""
@@ -95,6 +108,7 @@ def step_control(out: Path, seed: int, models: dict[str, Path], act: Actuator | 
     plots = str(out / "plots")
     if act is None or is_default(act):
         print(exp.format_table2(exp.sweep(CONFIGS, seeds=DEMO_SEEDS, seed=seed, plots=plots)))
+        print(cloud_note())
     else:  # the shipped models are the paper's actuator's: run the ones trained above, on the MCU
         setups: dict = {}
         rows: dict[str, str] = {}
