@@ -34,6 +34,7 @@ def slow_splits() -> dict[str, pd.DataFrame]:
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(protocol, "SECONDS", QUICK)
         mp.setattr(protocol, "pace", lambda act=None: 1.0)
+        mp.setattr(protocol, "TRIAL_CAP_S", 2.0)  # longer than any split's quota per angle (1.4 s)
         return protocol.generate(PlantConfig(actuator=load_actuator(SLOW)), seed=0)
 
 
