@@ -128,17 +128,17 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
     """Print Table IV / V (or JSON) and optionally write the plots."""
+    from seagen.actuator import is_default
     from seagen.data.schema import data_actuator
-    from seagen.fit.data_summary import paper_data
     from seagen.fit.evaluate import evaluate, format_tables, frames_and_models, model_names
     from seagen.fit.kinematics import error_threshold_n
 
     result = evaluate(args.models, args.data, args.allow_pickle)
-    threshold = error_threshold_n(data_actuator(args.data))
+    act = data_actuator(args.data)  # read once: the threshold, the paper's rows and the plots' geometry
     print(
         json.dumps(result, indent=2)
         if args.json
-        else format_tables(result, paper_data(args.data), threshold),
+        else format_tables(result, is_default(act), error_threshold_n(act)),
         end="" if not args.json else "\n",
     )
     if args.plots:
@@ -147,7 +147,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
         frames, models = frames_and_models(args.models, args.data, args.allow_pickle)
         named = dict(zip(model_names(args.models), models, strict=True))
-        written = write_plots(named, frames, args.plots, geometry(data_actuator(args.data)))
+        written = write_plots(named, frames, args.plots, geometry(act))
         if not args.json:
             print("wrote " + ", ".join(str(p) for p in written))
     return 0
