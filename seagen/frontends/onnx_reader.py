@@ -103,7 +103,7 @@ def onnx_items(path: Path, model: Any) -> tuple[list[Item], int, Feed]:
 def _read_chain(chain: list[Node], consts: dict, where: str, vi: Any) -> tuple[list[Item], int, Feed]:
     """The chain's items; the shape-only nodes at its ends (batch bookkeeping, onnx_shapes) followed on the
     shapes: the network between them must take (batch, features) and give whole rows."""
-    shape = declared(vi, where)
+    shape = given = declared(vi, where)
     items: list[Item] = []
     k = 0
     while k < len(chain) and chain[k].op in _ENDS:
@@ -114,7 +114,7 @@ def _read_chain(chain: list[Node], consts: dict, where: str, vi: Any) -> tuple[l
         raise UserError(
             f"{where}: input '{vi.name}' has shape {shape_text(vi)}{reshaped}; seagen needs (batch, features)"
         )
-    feed = Feed(vi.name, declared(vi, where), None if shape[0] == B else shape[0])
+    feed = Feed(vi.name, given, None if shape[0] == B else shape[0])
     j = len(chain)
     while j > k and chain[j - 1].op in _ENDS:
         j -= 1
