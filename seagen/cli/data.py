@@ -31,8 +31,7 @@ def given_actuator(args: argparse.Namespace) -> Actuator | None:
     from seagen.runtime.control import proven_actuator
 
     act = proven_actuator(getattr(args, "actuator", None))
-    problem = reach_problem(act) if act is not None else None
-    if act is not None and problem:
+    if act is not None and (problem := reach_problem(act)):
         raise ActuatorError(f"{act.source} ('{act.name}'): {problem}")
     return act
 

@@ -151,7 +151,7 @@ def run_trials(
     }
     alive: list[np.ndarray] = []
     volts = push.copy()
-    cap = TRIAL_CAP_S * pace(cfg.actuator) if max_s is None else max_s
+    cap = trial_cap_s(cfg.actuator) if max_s is None else max_s
     for k in range(int(cap / cfg.dt_s)):
         if k % every == 0:
             s = plant.read()
@@ -218,14 +218,24 @@ def collect(
     return out
 
 
-def _split_pace(act: Actuator, split: str, moves: tuple[tuple[float, ...], ...], slow: float) -> float:
-    """Factor on a split's duration: the protocol's pace; for validation (one trial, cut on the paper's
-    actuator too) at least its move's own push-time ratio to the paper's, so it is cut at the same stage."""
-    if split != "validation":
-        return slow
-    push, peak, *_ = moves[0]
-    m = scaled_move(0.0, moves[0], act)
-    return max(slow, stretch(act, m.push_v, m.peak_n, push, peak))
+def trial_cap_s(act: Actuator) -> float:
+    """A trial's longest time on `act`: TRIAL_CAP_S, longer by reach.pace on a slower design."""
+    return TRIAL_CAP_S * pace(act)
+
+
+def _split_rows(act: Actuator, split: str, n_angles: int, moves: tuple[tuple[float, ...], ...]) -> int:
+    """Rows of a split on `act`: the paper's, longer by the protocol's pace; on a slower design every angle
+    gets at least half the trial cap (one whole push); validation (one trial, cut on the paper's actuator
+    too) at least its move's own push-time ratio to the paper's, so it is cut at the same stage."""
+    slow = pace(act)
+    factor = slow
+    if split == "validation":
+        m = scaled_move(0.0, moves[0], act)
+        factor = max(slow, stretch(act, m.push_v, m.peak_n, moves[0][0]))
+    total = int(round(rows(split, act.loop_hz) * factor))
+    if slow > 1.0:
+        total = max(total, int(round(n_angles * 0.5 * trial_cap_s(act) * act.loop_hz)))
+    return total
 
 
 def generate(
@@ -239,7 +249,6 @@ def generate(
     if problem:
         raise UserError(f"{cfg.actuator.name}: {problem}")
     rng = np.random.default_rng(seed)
-    slow = pace(cfg.actuator)  # 1 unless the design's pushes are slower than the paper's at full supply
     geo = geometry(cfg.actuator)
     lo, hi = geo.angle_min_deg + 2.0, geo.angle_max_deg - 1.5
     angles = train_angles(geo)
@@ -255,8 +264,6 @@ def generate(
     for split, at, moves, k in plan:
         if progress:
             progress(split)
-        total = int(round(rows(split, cfg.actuator.loop_hz) * _split_pace(cfg.actuator, split, moves, slow)))
-        if slow > 1.0:  # on a slower design every angle of every split gets at least one whole push
-            total = max(total, int(round(len(at) * 0.5 * TRIAL_CAP_S * slow * cfg.actuator.loop_hz)))
+        total = _split_rows(cfg.actuator, split, len(at), moves)
         out[split] = collect(cfg, at, moves, total, seed=seed * 10 + k)
     return out

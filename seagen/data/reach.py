@@ -63,10 +63,11 @@ def push_volts(act: Actuator, volts: float, peak_n: float, paper_volts: float) -
     return hi
 
 
-def stretch(act: Actuator, volts: float, peak_n: float, paper_volts: float, paper_peak_n: float) -> float:
+def stretch(act: Actuator, volts: float, peak_n: float, paper_volts: float) -> float:
     """How many times longer (>= 1) a push of `act` at `volts` to `peak_n` takes than the paper's same move
-    (exactly 1 on the paper's actuator and on any design at least as brisk)."""
-    return max(1.0, push_time(act, volts, peak_n) / push_time(default_actuator(), paper_volts, paper_peak_n))
+    (at `paper_volts`; exactly 1 on the paper's actuator and on any design at least as brisk)."""
+    paper = _paper_time(peak_n / act.control.force_max_n, paper_volts)
+    return max(1.0, push_time(act, volts, peak_n) / paper)
 
 
 def pace(act: Actuator | None = None) -> float:

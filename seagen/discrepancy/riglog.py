@@ -6,8 +6,7 @@ import numpy as np
 import pandas as pd
 
 from seagen.actuator import Actuator, default_actuator
-from seagen.data.protocol import TRIAL_CAP_S, Move, _stairs
-from seagen.data.reach import pace
+from seagen.data.protocol import Move, _stairs, trial_cap_s
 from seagen.plant import Plant, PlantConfig
 
 CONVENTIONS = ("from_row", "up_to_row")  # the command on a row: applied from it on / applied up to it
@@ -39,7 +38,7 @@ def rig_trials(
     nxt = np.zeros(n, dtype=int)  # plant step of each trial's next sample
     volts = np.zeros(n)
     rows: list[list[tuple]] = [[] for _ in range(n)]
-    cap = TRIAL_CAP_S * pace(cfg.actuator) if max_s is None else max_s  # as protocol.run_trials
+    cap = trial_cap_s(cfg.actuator) if max_s is None else max_s
     for k in range(int(cap / cfg.dt_s)):
         due = (nxt == k) & (phase < 2)
         if due.any():
