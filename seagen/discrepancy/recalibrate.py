@@ -90,6 +90,14 @@ def unit_sigmas(jac: np.ndarray, scale: float = 1.0) -> np.ndarray:
     return out
 
 
+def box_sigma(s: float, value: float, lo: float, hi: float, log: bool) -> float:
+    """A box-normalised 1-sigma `s` (unit_sigmas) in the parameter's own unit at `value`: infinite stays
+    infinite (a parameter the data do not exercise)."""
+    if not math.isfinite(s):
+        return math.inf
+    return float(s * (value * math.log(hi / lo) if log else hi - lo))
+
+
 def uncertainty(base: PlantConfig, params: ParamSet, fit: Runs, sigma: dict) -> dict[str, dict[str, float]]:
     """1-sigma of every fitted parameter from the Gauss-Newton covariance of the fitting trials."""
     cand = from_params(params, base)
@@ -102,8 +110,7 @@ def uncertainty(base: PlantConfig, params: ParamSet, fit: Runs, sigma: dict) -> 
     sig_u = unit_sigmas(jac, scale)
     out: dict[str, dict[str, float]] = {e: {} for e in params}
     for (e, p), s in zip(cand.keys, sig_u, strict=True):
-        lo, hi, log = box(e, p, cand.full_scale)
-        out[e][p] = float(s * (params[e][p] * math.log(hi / lo) if log else hi - lo))
+        out[e][p] = box_sigma(s, params[e][p], *box(e, p, cand.full_scale))
     return out
 
 
@@ -185,7 +192,7 @@ def base_check(base: PlantConfig, fit: Runs, sigma: dict) -> BaseCheck:
     for (e, p), s in zip(cand.keys, sig_u, strict=True):
         lo, hi, log = box(e, p, cand.full_scale)
         v = params[e][p]
-        sig = float(s * (v * math.log(hi / lo) if log else hi - lo)) if np.isfinite(s) else math.inf
+        sig = box_sigma(s, v, lo, hi, log)
         out.sigma[f"{e}.{p}"] = sig
         scale = abs(v) if v != 0 else hi - lo
         if PIN_SIGMAS * sig > PIN_SHARE * scale:
