@@ -47,7 +47,7 @@ def summarize(data_dir: str | os.PathLike[str]) -> dict[str, Any]:
         "kinematics_error_avg_pct": errs.get("error_avg_pct"),
         "kinematics_error_max_pct": errs.get("error_max_pct"),
         "kinematics_threshold_n": threshold,
-        **_friction(derive(frames.get("train", frames[split]), geo), geo),
+        **_friction(derive(frames["train"], geo) if split != "train" and "train" in frames else derived, geo),
     }
 
 
