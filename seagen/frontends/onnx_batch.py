@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from seagen.frontends.graph import Node
+from seagen.frontends.onnx_shapes import node_axes
 
 
 def batch_reshapes(nodes: list[Node], consts: dict[str, Any], vi: Any) -> None:
@@ -38,7 +39,9 @@ def _batch_led(producer: dict[str, Node], consts: dict[str, Any], edge: str, sou
     if any(i not in consts for i in cat.inputs[1:]):
         return None
     unsq = producer.get(cat.inputs[0])
-    if unsq is None or unsq.op != "Unsqueeze" or _ints(unsq, consts, "axes") != [0]:
+    if unsq is None or unsq.op != "Unsqueeze" or (len(unsq.inputs) > 1 and unsq.inputs[1] not in consts):
+        return None
+    if node_axes(unsq, consts, "") != [0]:
         return None
     gather = producer.get(unsq.inputs[0])
     if gather is None or gather.op != "Gather" or gather.attrs.get("axis", 0) != 0 or len(gather.inputs) < 2:
@@ -50,12 +53,3 @@ def _batch_led(producer: dict[str, Node], consts: dict[str, Any], edge: str, sou
     if shp is None or shp.op != "Shape" or shp.attrs.get("start", 0) != 0 or shp.inputs[0] not in sources:
         return None
     return np.concatenate([np.asarray(consts[i], dtype=np.int64).reshape(-1) for i in cat.inputs[1:]])
-
-
-def _ints(n: Node, consts: dict[str, Any], attr: str) -> list[int] | None:
-    """An Unsqueeze's axes: its attribute (opset < 13) or its constant second input."""
-    if attr in n.attrs:
-        return [int(a) for a in n.attrs[attr]]
-    if len(n.inputs) > 1 and n.inputs[1] in consts:
-        return [int(a) for a in np.asarray(consts[n.inputs[1]]).reshape(-1)]
-    return None

@@ -106,7 +106,7 @@ def after(n: Node, shape: Shape, consts: dict[str, np.ndarray], where: str) -> S
         axis = _axis(axis, len(shape) + 1, item, where) if axis >= 0 else _axis(axis, len(shape), item, where)
         out = (_product(shape[:axis], item, where), _product(shape[axis:], item, where))
     elif n.op == "Unsqueeze":
-        axes = _axes(n, consts, where)
+        axes = node_axes(n, consts, where)
         grown = list(shape)
         for a in sorted(_axis(a, len(shape) + len(axes), item, where) for a in axes):
             grown.insert(a, 1)
@@ -125,7 +125,7 @@ def shape_text_of(shape: Shape) -> str:
     return "[" + ", ".join("N" if d == B else str(d) for d in shape) + "]"
 
 
-def _axes(n: Node, consts: dict[str, np.ndarray], where: str) -> list[int]:
+def node_axes(n: Node, consts: dict[str, np.ndarray], where: str) -> list[int]:
     """Unsqueeze/Squeeze axes: the attribute (opset < 13) or the constant second input; [] when absent."""
     if "axes" in n.attrs:
         return [int(a) for a in n.attrs["axes"]]
@@ -155,7 +155,7 @@ def _product(dims: Shape, item: Item, where: str) -> int:
 def _squeeze(n: Node, shape: Shape, consts: dict[str, np.ndarray], where: str) -> Shape:
     """Squeeze of axes of size 1 (all of them when none are given); never of the open batch axis."""
     item = Item(n.op, n.path)
-    axes = {_axis(a, len(shape), item, where) for a in _axes(n, consts, where)}
+    axes = {_axis(a, len(shape), item, where) for a in node_axes(n, consts, where)}
     if not axes:
         if B in shape:
             raise refuse(where, item, "Squeeze without axes of a tensor with an open batch axis")
