@@ -50,9 +50,9 @@ def shortfalls(cov: dict[str, SplitCoverage], act: Actuator) -> list[str]:
     """What the splits miss, in words ([] when they serve): the peak force and the rows in contact."""
     top = act.control.force_max_n
     out = []
-    low = {s: c for s, c in cov.items() if not c.peak_n >= REACH.get(s, 0.5) * top}
+    need = {s: REACH.get(s, 0.5) for s in cov}
+    low = {s: c for s, c in cov.items() if not c.peak_n >= need[s] * top}
     if low:
-        need = {s: REACH.get(s, 0.5) for s in low}
         out.append(
             "peak force "
             + ", ".join(
