@@ -351,7 +351,7 @@ def _closed_loop_c_equals_twin(ctl: str, act) -> None:
 
     setups, _row = control_setups(ctl)
     name = next(k for k in setups if k.endswith("_mcu"))
-    pred, cfg = setups[name](0.1)
+    pred, cfg = setups[name]()
     assert cfg.act.digest == act.digest() and cfg.act.loop_hz == act.loop_hz
     plant = PlantConfig(actuator=act)
     angles = np.array([8.0, 16.0, 24.0])
@@ -381,7 +381,7 @@ def _cloud_features_of_the_model_actuator(ctl: Path, act, tmp: Path) -> None:
     saved["actuator"] = shifted.record()
     save_model(saved, tmp / "ctl_shifted.pt")
     setups, _row = control_setups(str(tmp / "ctl_shifted.pt"))
-    pred = setups["ctl_shifted_cloud"](0.1)[0]
+    pred = setups["ctl_shifted_cloud"]()[0]
     fm = load_float_model(str(tmp / "ctl_shifted.pt"))
     names = [s.name for s in fm.inputs]
     enc, pot = np.array([[0, 90], [40, 130], [90, 180]]), np.array([[900, 1500]] * 3)
@@ -424,13 +424,13 @@ def test_kin_mcu_on_another_design_uses_its_friction_spring_and_controller():
     from seagen.setups.shipped import CONFIGS
 
     act = load_actuator(EXAMPLE)
-    pred, ctl = model_free_setups(act)["kin_mcu"](0.1)
+    pred, ctl = model_free_setups(act)["kin_mcu"]()
     assert ctl.act.digest == act.digest() and ctl == ControlConfig.for_act(act_q(act))
     force = np.array([0, 5 << 16, 10 << 16])
     want = predict_kinematic(KinParams.of(act))(force, force, force)
     paper = predict_kinematic(KinParams())(force, force, force)
     assert np.array_equal(pred.make_twin()(force, force, force), want) and not np.array_equal(want, paper)
-    assert CONFIGS["kin_mcu"](0.1)[1].act.digest == default_actuator().digest()  # the paper's stays
+    assert CONFIGS["kin_mcu"]()[1].act.digest == default_actuator().digest()  # the paper's stays
 
 
 def test_data_folder_actuator_mismatch_is_refused(tmp_path):

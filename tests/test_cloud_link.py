@@ -145,7 +145,7 @@ def test_the_link_leaves_mcu_configurations_alone(monkeypatch, capsys):
     from seagen.setups.shipped import CONFIGS
 
     link = BleLink(interval_s=0.125, loss=0.5)
-    cloud = with_link(CONFIGS["mlp_cloud"], link)(0.0)[0]
+    cloud = with_link(CONFIGS["mlp_cloud"], link)()[0]
     assert isinstance(cloud, CloudPredictor) and cloud.link == link
     monkeypatch.setattr(experiment, "TARGET_FRACTIONS", (0.5,))
     monkeypatch.setattr(experiment, "N_CONTACT", 2)

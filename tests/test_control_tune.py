@@ -31,7 +31,7 @@ def test_shipped_parameters_are_the_defaults():
     p = dict(SHIPPED)
     pred_avg = p.pop("pred_avg")
     assert PidParams.from_si(**p, max_mv=MOTOR_MAX_MV, tick_s=TICK_S) == DEFAULT_PID
-    assert CONFIGS["mlp_mcu"](0.1)[1].pred_avg == pred_avg and CONFIGS["mlp_mcu"](0.1)[1].pid == DEFAULT_PID
+    assert CONFIGS["mlp_mcu"]()[1].pred_avg == pred_avg and CONFIGS["mlp_mcu"]()[1].pid == DEFAULT_PID
 
 
 def test_search_space_is_the_papers_on_the_paper_and_carried_to_another_design():

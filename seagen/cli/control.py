@@ -149,7 +149,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         print(model_free_note(act), file=sys.stderr)
     impl = partial(loop_controller, args.core) if args.impl == "pil" else args.impl  # pil: a board's
     if args.seeds == 1:
-        table = simulate(setups, names, args.latency, impl, args.seed, args.plots, estimator, plant_cfg)
+        table = simulate(setups, names, impl, args.seed, args.plots, estimator, plant_cfg)
     else:
         from tqdm import tqdm
 
@@ -158,7 +158,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                 setups,
                 names,
                 args.seeds,
-                args.latency,
                 impl,
                 args.seed,
                 lambda _k: bar.update(),

@@ -25,9 +25,9 @@ ERROR_WINDOW_S = 2.0  # the average error is taken over the last 2 s of the run
 DURATION_S = 6.0
 
 Setup = tuple[McuPredictor | CloudPredictor, ControlConfig]
-# Configuration name -> factory(latency_s) of its predictor and controller configuration: the shipped ones
+# Configuration name -> factory() of its predictor and controller configuration: the shipped ones
 # (Table II rows and the kin_mcu baseline) are seagen.setups.shipped.CONFIGS.
-Setups = dict[str, Callable[[float], Setup]]
+Setups = dict[str, Callable[[], Setup]]
 TABLE2_CONFIGS = ("sf_mcu", "mlp_cloud", "mlp_mcu")
 PAPER_TABLE2 = {  # paper Table II: (average force error N, average settling time s) per method and target
     "SF": {"5": (0.29, 0.32), "10": (0.41, 0.50), "15": (0.18, 0.58)},
@@ -36,14 +36,14 @@ PAPER_TABLE2 = {  # paper Table II: (average force error N, average settling tim
 PAPER_ROW = {"sf_mcu": "SF", "mlp_cloud": "MLP", "mlp_mcu": "MLP", "kin_mcu": "SF"}
 
 
-def model_free_setups(act: Actuator) -> dict[str, Callable[[float], Setup]]:
+def model_free_setups(act: Actuator) -> dict[str, Callable[[], Setup]]:
     """The model-free configurations (kin_mcu) on actuator `act`: the kinematic inverse with its friction
     and spring, the controller configuration of its description."""
     from seagen.runtime.actq import act_q
     from seagen.runtime.control import KinParams
 
     ctl = ControlConfig.for_act(act_q(act))
-    return {"kin_mcu": lambda latency_s: (kinematic_mcu(1, KinParams.of(act)), ctl)}
+    return {"kin_mcu": lambda: (kinematic_mcu(1, KinParams.of(act)), ctl)}
 
 
 def duration_s(act: Actuator) -> float:
@@ -156,7 +156,6 @@ def estimate_error(rec: dict[str, np.ndarray]) -> float:
 def run_config(
     setups: Setups,
     name: str,
-    latency_s: float = 0.1,
     impl: Impl = "c",
     seed: int = 0,
     estimator: Callable[[dict[str, np.ndarray]], np.ndarray] | None = None,
@@ -166,7 +165,7 @@ def run_config(
     {target: {metric: value, ...}}; settling_s is the mean over the angles that settle (`settled` of them),
     None if none does. `estimator` (a calibration model) adds its force estimate and its error."""
     out: dict[str, dict] = {}
-    pred, ctl = setups[name](latency_s)
+    pred, ctl = setups[name]()
     for target, rec in runs(pred, ctl, impl=impl, seed=seed, plant_cfg=plant_cfg):
         m = metrics(rec)
         s = m["settling_s"]
@@ -188,7 +187,6 @@ def run_config(
 def simulate(
     setups: Setups,
     names: tuple[str, ...] = TABLE2_CONFIGS,
-    latency_s: float = 0.1,
     impl: Impl = "c",
     seed: int = 0,
     plots: str | None = None,
@@ -197,7 +195,7 @@ def simulate(
 ) -> dict[str, dict[str, dict]]:
     """Run the configurations (of `setups`, e.g. the shipped CONFIGS) on the plant `plant_cfg`, write a
     step-response plot of each into `plots`, return Table II."""
-    results = {n: run_config(setups, n, latency_s, impl, seed, estimator, plant_cfg) for n in names}
+    results = {n: run_config(setups, n, impl, seed, estimator, plant_cfg) for n in names}
     if plots:
         from pathlib import Path
 
@@ -215,7 +213,6 @@ def sweep(
     setups: Setups,
     names: tuple[str, ...] = TABLE2_CONFIGS,
     seeds: int = 5,
-    latency_s: float = 0.1,
     impl: Impl = "c",
     seed: int = 0,
     progress: Callable[[int], None] | None = None,
@@ -228,11 +225,7 @@ def sweep(
     (plots, if asked for, are of the first seed)."""
     runs = []
     for k in range(seeds):
-        runs.append(
-            simulate(
-                setups, names, latency_s, impl, seed + k, plots if k == 0 else None, estimator, plant_cfg
-            )
-        )
+        runs.append(simulate(setups, names, impl, seed + k, plots if k == 0 else None, estimator, plant_cfg))
         if progress:
             progress(k)
     out: dict[str, dict[str, dict]] = {}

@@ -74,8 +74,8 @@ def with_link(factory: Any, link: BleLink) -> Any:
     """A configuration factory whose cloud predictor (if any) talks over `link` instead."""
     from seagen.control.loop import CloudPredictor
 
-    def make(latency_s: float) -> Any:
-        pred, cfg = factory(latency_s)
+    def make() -> Any:
+        pred, cfg = factory()
         return (replace(pred, link=link) if isinstance(pred, CloudPredictor) else pred), cfg
 
     return make

@@ -121,7 +121,7 @@ def tune(
     trials: int,
     seeds: tuple[int, ...],
     sampler_seed: int = 1,
-    setup: Callable[[float], Setup] | None = None,
+    setup: Callable[[], Setup] | None = None,
     act: Actuator | None = None,
     progress: bool = True,
     name: str = "mine",
@@ -142,8 +142,8 @@ def tune(
     if setup is None and not paper:
         raise ValueError("tune: another actuator needs its configuration (setup), the paper's `shipped`")
     space, aq = search_space(act), act_q_of(act)
-    mlp_setup, sf_setup = (paper["mlp_mcu"](0.1), paper["sf_mcu"](0.1)) if paper else (None, None)
-    mine_setup = None if setup is None else setup(0.1)
+    mlp_setup, sf_setup = (paper["mlp_mcu"](), paper["sf_mcu"]()) if paper else (None, None)
+    mine_setup = None if setup is None else setup()
 
     def trial_fn(trial: optuna.Trial) -> float:
         pid = _pid(trial, space, aq)

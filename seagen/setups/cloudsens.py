@@ -59,13 +59,13 @@ ROWS = [
 ]
 
 
-def row_setup(row: Row) -> Callable[[float], Setup]:
+def row_setup(row: Row) -> Callable[[], Setup]:
     """The mlp_cloud configuration of one row: its link (or the idealised one) and the MCU's margin."""
     ctl = paper_cloud_control()
     if row.tuned_margin:
         ctl = ControlConfig.for_act(ctl.act)  # the description's margin (0.025 mm on the paper's)
     pred = replace(generated_cloud("ctl_mlp"), link=None if row.ideal else row.link)
-    return lambda _latency_s: (pred, ctl)
+    return lambda: (pred, ctl)
 
 
 def table(seeds: int, seed: int) -> str:

@@ -92,13 +92,13 @@ def paper_cloud_control() -> ControlConfig:
     return cloud_control(act_q(act), act.stiffness_n_per_mm, act.stiffness_n_per_mm)
 
 
-# Configuration name -> factory(latency_s) of its predictor and controller configuration (Table II rows). The
+# Configuration name -> factory() of its predictor and controller configuration (Table II rows). The
 # cloud's link is its own (seagen.control.link: `seagen simulate`'s --latency and --link-* replace it).
-CONFIGS: dict[str, Callable[[float], Setup]] = {
-    "sf_mcu": lambda latency_s: (generated_mcu("ctl_sf"), ControlConfig()),
-    "mlp_cloud": lambda _latency_s: (generated_cloud("ctl_mlp"), paper_cloud_control()),
-    "mlp_mcu": lambda latency_s: (generated_mcu("ctl_mlp"), ControlConfig(pred_avg=MLP_PRED_AVG)),
-    "kin_mcu": lambda latency_s: (kinematic_mcu(predict_every=1), ControlConfig()),  # baseline
+CONFIGS: dict[str, Callable[[], Setup]] = {
+    "sf_mcu": lambda: (generated_mcu("ctl_sf"), ControlConfig()),
+    "mlp_cloud": lambda: (generated_cloud("ctl_mlp"), paper_cloud_control()),
+    "mlp_mcu": lambda: (generated_mcu("ctl_mlp"), ControlConfig(pred_avg=MLP_PRED_AVG)),
+    "kin_mcu": lambda: (kinematic_mcu(predict_every=1), ControlConfig()),  # baseline
 }
 # Configurations running a shipped model (trained for the paper's actuator): name -> that model's default:NAME
 NEEDS_SHIPPED = {"sf_mcu": "sf_control", "mlp_cloud": "mlp_control", "mlp_mcu": "mlp_control"}

@@ -70,8 +70,8 @@ def prefix_of(model: str) -> str:
 
 def control_setups(
     model: str, features: str | None = None, allow_pickle: bool = False, given: Any = None
-) -> tuple[dict[str, Callable[[float], Setup]], str]:
-    """{NAME_mcu, NAME_cloud: factory(latency_s) -> (predictor, controller configuration)} for a control
+) -> tuple[dict[str, Callable[[], Setup]], str]:
+    """{NAME_mcu, NAME_cloud: factory() -> (predictor, controller configuration)} for a control
     model file, and the paper's row (SF or MLP) its kind compares with; `given`: the simulated actuator
     (a bare network's; a model file recording another is refused)."""
     from seagen.actuator import default_actuator
@@ -100,7 +100,7 @@ def control_setups(
     names = [s.name for s in fm.inputs]
     geo = geometry(ex.actuator)  # the float model's features on the model's own actuator
 
-    def mcu(_latency_s: float) -> Setup:
+    def mcu() -> Setup:
         pred = McuPredictor(
             f"{p}_predict_q16",
             generated_ctx(p),
@@ -115,7 +115,7 @@ def control_setups(
     def cloud_fn(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
         return float_ref.predict(fm, float_features(names, enc, pot, force_n, geo))
 
-    def cloud(_latency_s: float) -> Setup:  # the paper's set-up: the link's defaults, its 0.1 mm margin
+    def cloud() -> Setup:  # the paper's set-up: the link's defaults, its 0.1 mm margin
         stiffness = (ex.actuator or default_actuator()).stiffness_n_per_mm
         ctl = cloud_control(ex.act, stiffness, default_actuator().stiffness_n_per_mm)
         return CloudPredictor(cloud_fn, refresh_hz=10.0, link=BleLink()), ctl
