@@ -81,7 +81,7 @@ def section(prog: str, help: str, parser: argparse.ArgumentParser) -> str:
     """One command's section: heading, one-line help, usage and its table of arguments."""
     usage = " ".join(parser.format_usage().split())
     lines = [f"## `{prog}`", "", cell(help), "", "```text", usage, "```", ""]
-    names = [p.split()[-1] for p, _h, _s in subcommands(parser) if p.count(" ") == prog.count(" ") + 1]
+    names = [n for a in parser._actions if isinstance(a, argparse._SubParsersAction) for n in a.choices]
     if names:
         lines += ["Sub-commands: " + ", ".join(f"`{n}`" for n in names) + ".", ""]
     args = options(parser)
