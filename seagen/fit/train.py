@@ -165,7 +165,7 @@ def train(
     _check_args(model, loss, task, hidden, trials)
     frames = load_derived(data_dir, actuator=actuator)
     act = data_actuator(data_dir, actuator)
-    tr = frames["train"]
+    tr, threshold = frames["train"], error_threshold_n(act)
     held = holdout_mask(tr, MlpConfig.holdout, seed) if model == "mlp" and trials else None
     check_scorable(data_dir, frames, act, held)
     t0 = time.perf_counter()
@@ -177,7 +177,7 @@ def train(
         fields = {k: options[k] for k in keys if options.get(k) is not None}
         cfg = replace(MlpConfig(seed=seed, loss=loss), hidden=hidden or DEFAULT_HIDDEN[task], **fields)
         search = {"trials": trials, **{k: options.get(k) for k in ("storage", "study_name")}}
-        search["threshold_n"] = error_threshold_n(act)
+        search["threshold_n"] = threshold
         body = _fit_mlp_model(tr, task, cfg, search)
     body["features"]["sample_rate_hz"] = act.loop_hz
     inputs = tuple(body["features"]["inputs"])
@@ -188,7 +188,6 @@ def train(
     obj["train_seconds"] = time.perf_counter() - t0
     obj["seagen_version"] = __version__
     scored = [s for s in frames if s != "train"]
-    threshold = error_threshold_n(act)
     obj["metrics"] = {s: task_errors(task, predict(obj, frames[s]), frames[s], threshold) for s in scored}
     for s, m in obj["metrics"].items():
         if not all(np.isfinite(v) for v in m.values()):
