@@ -7,8 +7,8 @@ import pandas as pd
 
 from seagen.data.features import derive
 from seagen.geometry import Geometry
-from seagen.ir import QModel
-from seagen.reference import numpy_ref
+from seagen.ir import FloatModel, QModel
+from seagen.reference import float_ref, numpy_ref
 from seagen.runtime import features as F
 from seagen.runtime import fixed as P
 from seagen.runtime import nn as K
@@ -63,3 +63,14 @@ def float_features(
     rows = pd.DataFrame({"trial": np.tile(np.arange(n), 3), "enc": np.ravel(enc), "pot": np.ravel(pot)})
     last = derive(rows.sort_values("trial", kind="stable"), geo).groupby("trial").tail(1)
     return last.assign(force_n=np.asarray(force_n, float))[names].to_numpy(dtype=float)
+
+
+def float_predictor(fm: FloatModel, geo: Geometry):
+    """The float model `fm` as a CloudPredictor function: (enc rows, pot rows, force N) -> mm, its features
+    computed with the geometry `geo` of the actuator it was trained on."""
+    names = [s.name for s in fm.inputs]
+
+    def fn(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
+        return float_ref.predict(fm, float_features(names, enc, pot, force_n, geo))
+
+    return fn

@@ -7,8 +7,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
 
-import numpy as np
-
 from seagen.control.experiment import Setup
 from seagen.control.link import BleLink, cloud_control
 from seagen.control.loop import CloudPredictor, McuPredictor
@@ -41,18 +39,11 @@ def export(prefix: str) -> DefaultModel:
 def float_predictor(prefix: str):
     """The float model of `prefix` as a CloudPredictor function: (enc rows, pot rows, force N) -> mm."""
     from seagen.actuator import default_actuator
-    from seagen.control.gentwin import float_features
+    from seagen.control import gentwin
     from seagen.geometry import geometry
-    from seagen.reference import float_ref
 
-    fm = export(prefix).float_model
-    names = [s.name for s in fm.inputs]
-    geo = geometry(default_actuator())  # the shipped models were trained on the paper's actuator
-
-    def fn(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
-        return float_ref.predict(fm, float_features(names, enc, pot, force_n, geo))
-
-    return fn
+    # the shipped models were trained on the paper's actuator
+    return gentwin.float_predictor(export(prefix).float_model, geometry(default_actuator()))
 
 
 def generated_mcu(prefix: str, predict_every: int = 1) -> McuPredictor:

@@ -77,11 +77,10 @@ def control_setups(
     from seagen.actuator import default_actuator
     from seagen.codegen.controller import shipped_config
     from seagen.codegen.runtime import cdef_of, runtime_sources
-    from seagen.control.gentwin import StepTwin, float_features
+    from seagen.control.gentwin import StepTwin, float_predictor
     from seagen.control.link import BleLink, cloud_control
     from seagen.geometry import geometry
     from seagen.ir import QMLP
-    from seagen.reference import float_ref
     from seagen.runtime.features import has_pipeline, is_predictor
     from seagen.toolchain.controller import NN_SOURCES, generated_ctx
 
@@ -96,9 +95,7 @@ def control_setups(
     sources = {**runtime_sources(*NN_SOURCES), f"{p}.h": ex.files[f"{p}.h"], f"{p}.c": ex.files[f"{p}.c"]}
     sources |= {n: t for n, t in ex.files.items() if n.startswith("sea_act_")}
     cfg = shipped_config(qm, ex.act)
-    fm = ex.float_model
-    names = [s.name for s in fm.inputs]
-    geo = geometry(ex.actuator)  # the float model's features on the model's own actuator
+    cloud_fn = float_predictor(ex.float_model, geometry(ex.actuator))  # features on the model's own actuator
 
     def mcu() -> Setup:
         pred = McuPredictor(
@@ -111,9 +108,6 @@ def control_setups(
             stateful=True,
         )
         return pred, cfg
-
-    def cloud_fn(enc: np.ndarray, pot: np.ndarray, force_n: np.ndarray) -> np.ndarray:
-        return float_ref.predict(fm, float_features(names, enc, pot, force_n, geo))
 
     def cloud() -> Setup:  # the paper's set-up: the link's defaults, its 0.1 mm margin
         stiffness = (ex.actuator or default_actuator()).stiffness_n_per_mm
