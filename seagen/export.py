@@ -187,7 +187,6 @@ def write(ex: Export, out_dir: str | os.PathLike[str]) -> list[Path]:
     configuration). Other exports in the folder are not touched (the shared runtime and CMake files they also
     use are rewritten with the same text)."""
     out = check_out_dir(out_dir)
-    check_folder_package(out, ex.prefix, ex.package)
     try:
         out.mkdir(parents=True, exist_ok=True)
         stage = Path(tempfile.mkdtemp(dir=out, prefix=".export."))
@@ -201,7 +200,8 @@ def write(ex: Export, out_dir: str | os.PathLike[str]) -> list[Path]:
         manifest = f"{ex.prefix}{SUFFIX}"
         names = sorted(f.name for f in stage.iterdir() if f.name != manifest) + [manifest]
         own = (f"{ex.prefix}.onnx", f"{ex.prefix}_controller.h", f"{ex.prefix}_controller.c")
-        with locked_folder(out):
+        with locked_folder(out):  # the folder's package checked under the lock another export waits on
+            check_folder_package(out, ex.prefix, ex.package)
             for name in names[:-1]:
                 os.replace(stage / name, out / name)
             for name in set(own) - set(names):  # left by an earlier export of NAME
