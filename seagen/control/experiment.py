@@ -130,14 +130,14 @@ def runs(
     paper's actuator); the targets and angles are those of the plant's actuator. Each record also holds
     its contact angles (`contact_deg`, ticks x actuators)."""
     act = (plant_cfg or PlantConfig()).actuator
-    angles = np.array(contact_deg(act))
+    angles, run_s = np.array(contact_deg(act)), duration_s(act)
     for i, target in enumerate(targets_n(act)):
         rec = run_closed_loop(
             pred,
             target,
             angles,
             impl=impl,
-            duration_s=duration_s(act),
+            duration_s=run_s,
             seed=seed + i,
             plant_cfg=plant_cfg,
             control_cfg=ctl,

@@ -88,9 +88,9 @@ def mean_settling(
     pred, ctl = setup
     cfg = replace(ctl, pid=pid) if pred_avg is None else replace(ctl, pid=pid, pred_avg=pred_avg)
     out: dict[float, list[float]] = {t: [] for t in targets_n(plant_cfg.actuator)}
+    never = NEVER_S * duration_s(plant_cfg.actuator) / DURATION_S  # the whole run
     for seed in seeds:
         for target, rec in runs(pred, cfg, seed=seed, plant_cfg=plant_cfg):
-            never = NEVER_S * duration_s(plant_cfg.actuator) / DURATION_S  # the whole run
             out[target].append(float(np.nan_to_num(metrics(rec)[metric], nan=never).mean()))
     return {t: float(np.mean(v)) for t, v in out.items()}
 
