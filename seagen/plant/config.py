@@ -232,9 +232,101 @@ class LearnedResidual(Effect):
         return None
 
 
+# --- The term library (discrepancy/terms.py): forms the catalogue lacks, each a plant effect (off by default)
+# that a discrepancy run adds only when the catalogue runs out; never a catalogue name (CATALOGUE).
+
+
+@dataclass
+class LeadError(Effect):
+    """Lead-screw error: the nut is ahead of the motor by a cos(2 pi x / P + phi), x the motor's travel."""
+
+    amplitude_mm: float = 0.02
+    period_mm: float = 1.0
+    phase_rad: float = 0.0
+
+
+@dataclass
+class Cogging(Effect):
+    """Cogging: a force A cos(2 pi x / P + phi) on the motor (at the nut), x the motor's travel."""
+
+    force_n: float = 1.0
+    period_mm: float = 0.5
+    phase_rad: float = 0.0
+
+
+@dataclass
+class SpringDrift(Effect):
+    """A spring whose stiffness drifts during a trial: k (1 + share (1 - exp(-t / tau))) for compression."""
+
+    share: float = 0.1
+    time_constant_s: float = 2.0
+
+
+@dataclass
+class CellDrift(Effect):
+    """A load-cell zero drifting during a trial: offset A (1 - exp(-t / tau)), N at the tip."""
+
+    offset_n: float = 0.5
+    time_constant_s: float = 2.0
+
+
+@dataclass
+class RateFriction(Effect):
+    """Friction with a speed state: extra (exp(-w / v_c)) on the shaft, w = |v| through a first-order lag."""
+
+    extra_n: float = 1.0
+    v_c_mm_s: float = 1.0
+    time_constant_s: float = 0.02
+
+
+@dataclass
+class BristleFriction(Effect):
+    """Presliding friction: a band F (1 - exp(-s / x0)) with s the shaft's travel since its last reversal."""
+
+    force_n: float = 1.0
+    x0_mm: float = 0.05
+
+
+@dataclass
+class SpringHysteresis(Effect):
+    """An elastoplastic (Prandtl) element beside the spring: k_h (d - h), h following d in a play of +-w."""
+
+    k_n_per_mm: float = 1.0
+    half_width_mm: float = 0.2
+
+
+@dataclass
+class SpringPoly(Effect):
+    """A polynomial spring: F = k d + k2 d^2 + k3 d^3 (either sign) for compression d >= 0."""
+
+    k2_n_per_mm2: float = 0.1
+    k3_n_per_mm3: float = 0.0
+
+
+@dataclass
+class CellLag(Effect):
+    """A load cell behind a first-order lag of time constant tau."""
+
+    time_constant_s: float = 0.02
+
+
+@dataclass
+class CellQuantisation(Effect):
+    """A load cell read in steps of q newtons (after its noise)."""
+
+    step_n: float = 0.2
+
+
+@dataclass
+class CellSaturation(Effect):
+    """A load cell that saturates at +-limit newtons."""
+
+    limit_n: float = 10.0
+
+
 @dataclass
 class Effects:
-    """The catalogue of DESIGN.md §3: exactly these names."""
+    """The catalogue of DESIGN.md §3 (EFFECT_NAMES: exactly these names), then the term library (TERMS)."""
 
     actuator_friction: ActuatorFriction = field(default_factory=ActuatorFriction)
     linkage_friction: LinkageFriction = field(default_factory=LinkageFriction)
@@ -249,6 +341,17 @@ class Effects:
     load_cell_offset: LoadCellOffset = field(default_factory=LoadCellOffset)
     transport_delay: TransportDelay = field(default_factory=TransportDelay)
     learned_residual: LearnedResidual = field(default_factory=LearnedResidual)
+    lead_error: LeadError = field(default_factory=LeadError)
+    cogging: Cogging = field(default_factory=Cogging)
+    spring_drift: SpringDrift = field(default_factory=SpringDrift)
+    cell_drift: CellDrift = field(default_factory=CellDrift)
+    rate_friction: RateFriction = field(default_factory=RateFriction)
+    bristle_friction: BristleFriction = field(default_factory=BristleFriction)
+    spring_hysteresis: SpringHysteresis = field(default_factory=SpringHysteresis)
+    spring_poly: SpringPoly = field(default_factory=SpringPoly)
+    cell_lag: CellLag = field(default_factory=CellLag)
+    cell_quantisation: CellQuantisation = field(default_factory=CellQuantisation)
+    cell_saturation: CellSaturation = field(default_factory=CellSaturation)
 
     @classmethod
     def of(cls, act: Actuator) -> Effects:
@@ -262,7 +365,22 @@ class Effects:
 _UNRESOLVED = Effects()  # PlantConfig's marker for "the default catalogue of its actuator" (never kept)
 
 
-EFFECT_NAMES: tuple[str, ...] = tuple(f.name for f in fields(Effects))
+# The term library's effects (discrepancy/terms.py): plant effects, but not catalogue names.
+TERMS: tuple[str, ...] = (
+    "lead_error",
+    "cogging",
+    "spring_drift",
+    "cell_drift",
+    "rate_friction",
+    "bristle_friction",
+    "spring_hysteresis",
+    "spring_poly",
+    "cell_lag",
+    "cell_quantisation",
+    "cell_saturation",
+)
+ALL_EFFECTS: tuple[str, ...] = tuple(f.name for f in fields(Effects))
+EFFECT_NAMES: tuple[str, ...] = tuple(e for e in ALL_EFFECTS if e not in TERMS)
 # The physical catalogue a discrepancy search names from (pot_noise is a noise model, learned_residual a fit).
 CATALOGUE: tuple[str, ...] = tuple(e for e in EFFECT_NAMES if e not in ("pot_noise", "learned_residual"))
 
@@ -293,9 +411,9 @@ class PlantConfig:
         return dataclasses.replace(self, actuator=act)
 
     def effect(self, name: str) -> Effect:
-        """The effect called `name` (one of EFFECT_NAMES)."""
-        if name not in EFFECT_NAMES:
-            raise KeyError(f"unknown effect {name!r}; known: {', '.join(EFFECT_NAMES)}")
+        """The effect called `name` (one of EFFECT_NAMES or TERMS)."""
+        if name not in ALL_EFFECTS:
+            raise KeyError(f"unknown effect {name!r}; known: {', '.join(ALL_EFFECTS)}")
         return getattr(self.effects, name)
 
     def on(self, name: str) -> bool:
@@ -310,8 +428,11 @@ class PlantConfig:
         return new
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain nested dict (TOML-ready): what plant.toml holds, without the actuator description."""
-        return {f.name: dataclasses.asdict(self)[f.name] for f in fields(self) if f.name != "actuator"}
+        """Plain nested dict (TOML-ready): what plant.toml holds, without the actuator description (a term of
+        the library only when it is on: plant.toml lists the catalogue and what a discovery added)."""
+        out = {f.name: dataclasses.asdict(self)[f.name] for f in fields(self) if f.name != "actuator"}
+        out["effects"] = {e: v for e, v in out["effects"].items() if e not in TERMS or v["enabled"]}
+        return out
 
 
 # plant.toml before the actuator description: [motor] keys -> the description's [motor] keys

@@ -34,6 +34,24 @@ PARAMS = (
     ("backlash", "half_width_mm"),
     ("spring_preload", "force_n"),
     ("spring_nonlinearity", "k3_n_per_mm3"),
+    # the term library's force-side effects (config.TERMS), from index 13
+    ("lead_error", "amplitude_mm"),
+    ("lead_error", "period_mm"),
+    ("lead_error", "phase_rad"),
+    ("cogging", "force_n"),
+    ("cogging", "period_mm"),
+    ("cogging", "phase_rad"),
+    ("spring_drift", "share"),
+    ("spring_drift", "time_constant_s"),
+    ("rate_friction", "extra_n"),
+    ("rate_friction", "v_c_mm_s"),
+    ("rate_friction", "time_constant_s"),
+    ("bristle_friction", "force_n"),
+    ("bristle_friction", "x0_mm"),
+    ("spring_hysteresis", "k_n_per_mm"),
+    ("spring_hysteresis", "half_width_mm"),
+    ("spring_poly", "k2_n_per_mm2"),
+    ("spring_poly", "k3_n_per_mm3"),
 )
 FLAGS = (
     "actuator_friction",
@@ -44,8 +62,25 @@ FLAGS = (
     "backlash",
     "spring_preload",
     "spring_nonlinearity",
+    "lead_error",
+    "cogging",
+    "spring_drift",
+    "rate_friction",
+    "bristle_friction",
+    "spring_hysteresis",
+    "spring_poly",
 )
-SENSOR_SIDE = ("pot_voltage_drop", "transport_delay", "load_cell_offset", "pot_noise", "learned_residual")
+SENSOR_SIDE = (
+    "pot_voltage_drop",
+    "transport_delay",
+    "load_cell_offset",
+    "pot_noise",
+    "learned_residual",
+    "cell_drift",
+    "cell_lag",
+    "cell_quantisation",
+    "cell_saturation",
+)
 
 
 @dataclass
@@ -62,7 +97,18 @@ class Trajectory:
 def available(plant: Plant) -> bool:
     """Whether the kernel can step this plant: its force laws are `Plant`'s own and the sensor-side
     effects (which the kernel does not model) are off."""
-    laws = ("step", "spring_force", "_spring_slope", "structure_force", "friction_limits", "_move_shaft")
+    laws = (
+        "step",
+        "spring_force",
+        "_spring_slope",
+        "structure_force",
+        "friction_limits",
+        "_move_shaft",
+        "_move_nut",
+        "_terms",
+        "_lead",
+        "_drift",
+    )
     if any(getattr(type(plant), m) is not getattr(Plant, m) for m in laws):
         return False
     return not any(plant.cfg.on(e) for e in SENSOR_SIDE if e != "pot_noise")
@@ -121,6 +167,42 @@ def _spring_slope(d, k_spring, k_stop, nl, k3):
     return s
 
 
+def _spring_x(d, k_spring, k_stop, nl, k3, pre, f0, tx):
+    """Plant.spring_force of one element with the term library's spring terms: tx = (drift flag, drift
+    factor now, poly flag, k2, k3, hysteresis flag, k_h, w, h)."""
+    f = k_spring * d if d >= 0 else k_stop * d
+    if tx[0] and d >= 0:
+        f = f + k_spring * tx[1] * d
+    if tx[2]:
+        dp = d if d > 0.0 else 0.0
+        f = f + (tx[3] + tx[4] * dp) * (dp * dp)
+    if tx[5]:
+        h = min(max(tx[8], d - tx[7]), d + tx[7])
+        f = f + tx[6] * (d - h)
+    if nl:
+        x = d if d > 0.0 else 0.0
+        f = f + k3 * (x * x * x)
+    if pre:
+        f = f + f0
+    return f
+
+
+def _spring_slope_x(d, k_spring, k_stop, nl, k3, tx):
+    """Plant._spring_slope of one element with the term library's spring terms (tx as in _spring_x)."""
+    s = k_spring if d >= 0 else k_stop
+    if tx[0] and d >= 0:
+        s = s + k_spring * tx[1]
+    if tx[2]:
+        dp = d if d > 0.0 else 0.0
+        s = s + (2 * tx[3] + 3 * tx[4] * dp) * dp
+    if tx[5] and abs(d - tx[8]) > tx[7]:
+        s = s + tx[6]
+    if nl:
+        x = d if d > 0.0 else 0.0
+        s = s + 3.0 * k3 * (x * x)
+    return s
+
+
 def _structure(y, yc, sc, k_rigid, a, beta):
     """Plant.structure_force of one element: (force, slope); a = 1 / k of the compliance."""
     d = y - yc
@@ -157,6 +239,16 @@ def _loop(volts, y_contact, par, flags, consts, out):
         flags[6],
         flags[7],
     )
+    lead, cog, drift, rate, bristle, hyst, poly = (
+        flags[8],
+        flags[9],
+        flags[10],
+        flags[11],
+        flags[12],
+        flags[13],
+        flags[14],
+    )
+    terms = lead or cog or drift or rate or bristle or hyst or poly
     rad2deg = 180.0 / math.pi
     n, k_max = volts.shape
     n_sig = out.shape[0]
@@ -164,6 +256,20 @@ def _loop(volts, y_contact, par, flags, consts, out):
         fc, rr, c0, c1, c2 = par[0, i], par[1, i], par[2, i], par[3, i], par[4, i]
         bv, s_extra, s_vs, kc, beta = par[5, i], par[6, i], par[7, i], par[8, i], par[9, i]
         half, f0, k3 = par[10, i], par[11, i], par[12, i]
+        la, lp, lph, ca, cp, cph = par[13, i], par[14, i], par[15, i], par[16, i], par[17, i], par[18, i]
+        ds, dtau, ra, rvc, rtau, ba, bx0 = (
+            par[19, i],
+            par[20, i],
+            par[21, i],
+            par[22, i],
+            par[23, i],
+            par[24, i],
+            par[25, i],
+        )
+        hk, hw, pk2, pk3 = par[26, i], par[27, i], par[28, i], par[29, i]
+        hstate = wstate = travel = vsign = t = 0.0
+        ralpha = min(dt / rtau, 1.0) if rate else 0.0
+        tx = (drift, 0.0, poly, pk2, pk3, hyst, hk, hw, hstate)
         yc = y_contact[i]
         a = 1.0 / kc if sc else 0.0
         b = bv / dt if visc else 0.0
@@ -175,12 +281,20 @@ def _loop(volts, y_contact, par, flags, consts, out):
         for k in range(k_max):
             v = volts[i, k]
             v = min(max(v, -supply), supply)
-            load = _spring(nut - shaft, k_spring, k_stop, nl, k3, pre, f0)
+            if terms:
+                dfac = ds * (1.0 - math.exp(-t / dtau)) if drift else 0.0
+                tx = (drift, dfac, poly, pk2, pk3, hyst, hk, hw, hstate)
+                load = _spring_x(nut - shaft, k_spring, k_stop, nl, k3, pre, f0, tx)
+                if cog:
+                    load = load + ca * math.cos(2 * math.pi * motor / cp + cph)
+            else:
+                load = _spring(nut - shaft, k_spring, k_stop, nl, k3, pre, f0)
             v_target = v_max * (v / supply - load / stall)
             v_motor = v_motor + (v_target - v_motor) * alpha
             current = v / supply - v_motor / v_max
             motor = motor + v_motor * dt
-            nut = min(max(nut, motor - half), motor + half) if bl else motor
+            mlead = motor + la * math.cos(2 * math.pi * motor / lp + lph) if lead else motor
+            nut = min(max(nut, mlead - half), mlead + half) if bl else mlead
             # the shaft: stick inside the friction band, else slide to its edge
             y0 = shaft
             fwd = fc if act else 0.0
@@ -199,10 +313,20 @@ def _loop(volts, y_contact, par, flags, consts, out):
                 boost = s_extra * math.exp(-(q * q))
                 fwd = fwd + boost
                 rev = rev + boost * (1.0 if rev > 0 else 0.0)
+            if rate:
+                boost = ra * math.exp(-wstate / rvc)
+                fwd, rev = fwd + boost, rev + boost
+            if bristle:
+                band = ba * (1.0 - math.exp(-travel / bx0))
+                fwd, rev = fwd + band, rev + band
             d0 = nut - y0
             fl, sl = _structure(y0, yc, sc, k_rigid, a, beta)
-            n0 = _spring(d0, k_spring, k_stop, nl, k3, pre, f0) - fl
-            s0 = -_spring_slope(d0, k_spring, k_stop, nl, k3) - sl
+            if terms:
+                n0 = _spring_x(d0, k_spring, k_stop, nl, k3, pre, f0, tx) - fl
+                s0 = -_spring_slope_x(d0, k_spring, k_stop, nl, k3, tx) - sl
+            else:
+                n0 = _spring(d0, k_spring, k_stop, nl, k3, pre, f0) - fl
+                s0 = -_spring_slope(d0, k_spring, k_stop, nl, k3) - sl
             target = fwd if n0 > fwd else (-rev if n0 < -rev else n0)
             y = y0
             if target != n0:  # safeguarded Newton (Plant._solve)
@@ -232,11 +356,27 @@ def _loop(volts, y_contact, par, flags, consts, out):
                         break
                     d = nut - ya
                     fl, sl = _structure(ya, yc, sc, k_rigid, a, beta)
-                    f = _spring(d, k_spring, k_stop, nl, k3, pre, f0) - fl
-                    s = -_spring_slope(d, k_spring, k_stop, nl, k3) - sl
+                    if terms:
+                        f = _spring_x(d, k_spring, k_stop, nl, k3, pre, f0, tx) - fl
+                        s = -_spring_slope_x(d, k_spring, k_stop, nl, k3, tx) - sl
+                    else:
+                        f = _spring(d, k_spring, k_stop, nl, k3, pre, f0) - fl
+                        s = -_spring_slope(d, k_spring, k_stop, nl, k3) - sl
                 y = ya
             v_shaft = (y - y0) / dt
             shaft = y
+            if hyst:  # the states of the term library's effects (Plant._terms)
+                dd = nut - shaft
+                hstate = min(max(hstate, dd - hw), dd + hw)
+            if rate:
+                wstate = wstate + (abs(v_shaft) - wstate) * ralpha
+            if bristle:
+                dy = shaft - y0
+                sg = 1.0 if dy > 0 else (-1.0 if dy < 0 else 0.0)
+                travel = 0.0 if sg != 0 and sg != vsign and vsign != 0 else travel + abs(dy)
+                if sg != 0:
+                    vsign = sg
+            t = t + dt
             force = _structure(shaft, yc, sc, k_rigid, a, beta)[0]
             out[0, i, k + 1] = motor
             out[1, i, k + 1] = shaft
@@ -269,5 +409,7 @@ def pot_drop(current: np.ndarray, of_set: np.ndarray, kappa: np.ndarray, alpha: 
 _drop_all = numba.njit(_drop, cache=True, error_model="numpy")
 _spring = numba.njit(_spring, cache=True, error_model="numpy")
 _spring_slope = numba.njit(_spring_slope, cache=True, error_model="numpy")
+_spring_x = numba.njit(_spring_x, cache=True, error_model="numpy")
+_spring_slope_x = numba.njit(_spring_slope_x, cache=True, error_model="numpy")
 _structure = numba.njit(_structure, cache=True, error_model="numpy")
 _step_all = numba.njit(_loop, cache=True, error_model="numpy")

@@ -58,6 +58,21 @@ def learned_correction(eff, values: dict[str, np.ndarray]) -> np.ndarray:
     return learned_basis(eff.inputs, eff.scales, values) @ np.asarray(eff.coef, float)
 
 
+def cell_terms(e, load_cell: np.ndarray, t) -> np.ndarray:
+    """The term library's load-cell distortions at time t (s into the trial): drift, saturation, then
+    quantisation (each only when on; e: the config's effects, parameters scalars or arrays like load_cell)."""
+    if e.cell_drift.enabled:
+        cd = e.cell_drift
+        load_cell = load_cell + cd.offset_n * (1.0 - fmath.exp(-t / np.asarray(cd.time_constant_s, float)))
+    if e.cell_saturation.enabled:
+        lim = e.cell_saturation.limit_n
+        load_cell = np.minimum(np.maximum(load_cell, -lim), lim)
+    if e.cell_quantisation.enabled:
+        q = e.cell_quantisation.step_n
+        load_cell = q * np.rint(load_cell / q)
+    return load_cell
+
+
 class Plant:
     """A batch of simulated SEAs, one per contact angle, stepped at cfg.dt_s; deterministic for a seed.
     Every actuator number comes from cfg.actuator (its Geometry is `self.geo`)."""
@@ -86,6 +101,9 @@ class Plant:
         td = cfg.effects.transport_delay
         self._delay_n = int(round(td.delay_s / cfg.dt_s)) if td.enabled else 0
         self._history = np.zeros((self._delay_n + 1, n))
+        # states of the term library's effects (config.TERMS): hysteresis play, speed state, travel since
+        # the shaft's last reversal and its direction, the lagged load cell
+        self._h, self._w, self._travel, self._vsign, self._cell = (np.zeros(n) for _ in range(5))
 
     # --- force laws -------------------------------------------------------------------------------
     def spring_force(self, d: np.ndarray, idx: np.ndarray | None = None) -> np.ndarray:
@@ -93,6 +111,15 @@ class Plant:
         batch elements idx (all when None), per-element parameters are taken at idx."""
         e = self.cfg.effects
         f = np.where(d >= 0, self.k_spring * d, self.k_stop * d)
+        if e.spring_drift.enabled:
+            f = f + np.where(d >= 0, self.k_spring * self._drift(idx) * d, 0.0)
+        if e.spring_poly.enabled:
+            sp, dp = e.spring_poly, np.maximum(d, 0.0)
+            f = f + (pick(sp.k2_n_per_mm2, idx) + pick(sp.k3_n_per_mm3, idx) * dp) * (dp * dp)
+        if e.spring_hysteresis.enabled:
+            sh = e.spring_hysteresis
+            w, h = pick(sh.half_width_mm, idx), pick(self._h, idx)
+            f = f + pick(sh.k_n_per_mm, idx) * (d - np.minimum(np.maximum(h, d - w), d + w))
         if e.spring_nonlinearity.enabled:
             dp = np.maximum(d, 0.0)
             f = f + pick(e.spring_nonlinearity.k3_n_per_mm3, idx) * (dp * dp * dp)
@@ -104,10 +131,25 @@ class Plant:
         """dF/dd of spring_force at compression d over the batch elements idx (all when None)."""
         e = self.cfg.effects
         s = np.where(d >= 0, self.k_spring, self.k_stop)
+        if e.spring_drift.enabled:
+            s = s + np.where(d >= 0, self.k_spring * self._drift(idx), 0.0)
+        if e.spring_poly.enabled:
+            sp, dp = e.spring_poly, np.maximum(d, 0.0)
+            s = s + (2 * pick(sp.k2_n_per_mm2, idx) + 3 * pick(sp.k3_n_per_mm3, idx) * dp) * dp
+        if e.spring_hysteresis.enabled:
+            sh = e.spring_hysteresis
+            w, h = pick(sh.half_width_mm, idx), pick(self._h, idx)
+            s = s + np.where(np.abs(d - h) > w, pick(sh.k_n_per_mm, idx), 0.0)
         if e.spring_nonlinearity.enabled:
             dp = np.maximum(d, 0.0)
             s = s + 3 * pick(e.spring_nonlinearity.k3_n_per_mm3, idx) * (dp * dp)
         return s
+
+    def _drift(self, idx: np.ndarray | None = None):
+        """spring_drift's share of the stiffness gained by now: share (1 - exp(-t / tau))."""
+        sd = self.cfg.effects.spring_drift
+        tau = np.asarray(pick(sd.time_constant_s, idx), float)
+        return pick(sd.share, idx) * (1.0 - fmath.exp(-self.t / tau))
 
     def structure_force(self, y: np.ndarray, idx: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Force the loaded linkage pushes back with, and its slope, for shaft advance y of the batch
@@ -163,12 +205,17 @@ class Plant:
         if volts.shape != self.nut_mm.shape:
             volts = np.broadcast_to(volts, self.nut_mm.shape)
         load = self.spring_force(self.nut_mm - self.shaft_mm)
+        if cfg.effects.cogging.enabled:
+            cg = cfg.effects.cogging
+            load = load + cg.force_n * fmath.cos(2 * np.pi * self.motor_mm / cg.period_mm + cg.phase_rad)
         v_target = self.v_max * (volts / m.supply_v - load / m.stall_force_n)
         self.v_motor = self.v_motor + (v_target - self.v_motor) * min(dt / m.time_constant_s, 1.0)
         self.current = m.current(volts, self.v_motor)
         self.motor_mm = self.motor_mm + self.v_motor * dt
         self._move_nut()
+        y0 = self.shaft_mm
         self._move_shaft(dt)
+        self._terms(y0, dt)
         pvd = cfg.effects.pot_voltage_drop
         if pvd.enabled:
             target = pvd.counts_per_unit_current * np.abs(self.current)
@@ -176,7 +223,26 @@ class Plant:
         # a fresh array each step (a caller may hold the last shaft_force); no roll without a delay
         self._history = np.roll(self._history, 1, axis=0) if self._delay_n else np.empty_like(self._history)
         self._history[0] = self.structure_force(self.shaft_mm)[0]
+        if cfg.effects.cell_lag.enabled:
+            a = np.minimum(dt / np.asarray(cfg.effects.cell_lag.time_constant_s, float), 1.0)
+            self._cell = self._cell + (self._history[self._delay_n] - self._cell) * a
         self.t += dt
+
+    def _terms(self, y0: np.ndarray, dt: float) -> None:
+        """After the shaft moved from y0: the states of the term library's effects (config.TERMS)."""
+        e = self.cfg.effects
+        if e.spring_hysteresis.enabled:
+            d, w = self.nut_mm - self.shaft_mm, e.spring_hysteresis.half_width_mm
+            self._h = np.minimum(np.maximum(self._h, d - w), d + w)
+        if e.rate_friction.enabled:
+            a = np.minimum(dt / np.asarray(e.rate_friction.time_constant_s, float), 1.0)
+            self._w = self._w + (np.abs(self.v_shaft) - self._w) * a
+        if e.bristle_friction.enabled:
+            dy = self.shaft_mm - y0
+            sign = np.sign(dy)
+            flip = (sign != 0) & (sign != self._vsign) & (self._vsign != 0)
+            self._travel = np.where(flip, 0.0, self._travel + np.abs(dy))
+            self._vsign = np.where(sign != 0, sign, self._vsign)
 
     @property
     def shaft_force(self) -> np.ndarray:
@@ -187,10 +253,20 @@ class Plant:
         """Backlash: the nut follows the motor with a dead band of +-b."""
         bl = self.cfg.effects.backlash
         if not bl.enabled:
-            self.nut_mm = self.motor_mm.copy()
+            self.nut_mm = self._lead().copy()
             return
         b = bl.half_width_mm
-        self.nut_mm = np.minimum(np.maximum(self.nut_mm, self.motor_mm - b), self.motor_mm + b)  # clip
+        m = self._lead()
+        self.nut_mm = np.minimum(np.maximum(self.nut_mm, m - b), m + b)  # clip
+
+    def _lead(self) -> np.ndarray:
+        """Where the nut would be without backlash: the motor, plus lead_error's periodic part when on."""
+        le = self.cfg.effects.lead_error
+        if not le.enabled:
+            return self.motor_mm
+        return self.motor_mm + le.amplitude_mm * fmath.cos(
+            2 * np.pi * self.motor_mm / le.period_mm + le.phase_rad
+        )
 
     def _net_force(self, y: np.ndarray, idx: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Spring push minus structure reaction on the massless shaft, and its (negative) slope, for shaft
@@ -215,6 +291,14 @@ class Plant:
             q = self.v_shaft / sf.v_s_mm_s
             boost = sf.extra_static_n * fmath.exp(-(q * q))
             fwd, rev = fwd + boost, rev + boost * (rev > 0)
+        if e.rate_friction.enabled:
+            rf = e.rate_friction
+            boost = rf.extra_n * fmath.exp(-self._w / rf.v_c_mm_s)
+            fwd, rev = fwd + boost, rev + boost
+        if e.bristle_friction.enabled:
+            bf = e.bristle_friction
+            band = bf.force_n * (1.0 - fmath.exp(-self._travel / bf.x0_mm))
+            fwd, rev = fwd + band, rev + band
         n0, s0 = self._net_force(y0)
         b = self.viscous_n_s_per_mm() / dt
         target = np.where(n0 > fwd, fwd, np.where(n0 < -rev, -rev, n0))
@@ -300,7 +384,7 @@ class Plant:
         if lr.enabled and lr.channel == "pot":
             pot = pot + extra
         pot_i = np.clip(np.rint(pot), 0, self.geo.adc_max).astype(np.int64)
-        shaft_force = self._history[self._delay_n]
+        shaft_force = self._cell if e.cell_lag.enabled else self._history[self._delay_n]
         tip = shaft_force * self.ratio
         sigma = np.where(
             self.contact_deg <= self.geo.split_deg,
@@ -312,6 +396,7 @@ class Plant:
             load_cell = load_cell + e.load_cell_offset.offset_n
         if lr.enabled and lr.channel == "load_cell_n":
             load_cell = load_cell + extra
+        load_cell = cell_terms(e, load_cell, self.t)
         true_force = self.structure_force(self.shaft_mm)[0]
         return Sensors(
             enc=enc,
