@@ -17,6 +17,7 @@ from seagen.frontends.chain import Item, to_layers
 from seagen.ir import FloatLayer
 
 TRACE_BATCH = 3  # example batch for tracing (not 0 or 1, which torch.export would specialise)
+LOW_FLOATS = ("float16", "bfloat16")  # originals whose margin is measured against their float32 twin
 
 
 @dataclass
@@ -29,6 +30,10 @@ class Network:
     runtime: str  # e.g. "torch forward (float32)"
     dtype: str = "float32"  # the narrowest float type the original computes in (its rounding sets the margin)
     notes: list[str] = field(default_factory=list)  # one line each: how the file was read, when not literally
+    # a float16/bfloat16 original run with its tensors widened to float32 (its own rounding is measured
+    # against it: seagen.frontends.margin.rounding_margin); None for float32/float64 originals
+    wide: Callable[[np.ndarray], np.ndarray] | None = None
+    wide_whole: bool = False  # the twin widens every tensor and cast (ONNX): equal outputs are float32's
 
 
 def read_onnx(p: Path) -> Network:
@@ -40,7 +45,13 @@ def read_onnx(p: Path) -> Network:
     items, n_in, feed = onnx_items(p, model)
     dtype = onnx_dtype(model)
     run = _ort_runner(model, str(p), feed)
-    return Network(to_layers(items, n_in, str(p)), n_in, run, f"onnxruntime ({dtype})", dtype)
+    net = Network(to_layers(items, n_in, str(p)), n_in, run, f"onnxruntime ({dtype})", dtype)
+    if dtype in LOW_FLOATS:
+        from seagen.frontends.onnx_file import widened_to_float32
+
+        net.wide = _ort_runner(widened_to_float32(model), str(p), feed)
+        net.wide_whole = True
+    return net
 
 
 def onnx_dtype(model: Any) -> str:
@@ -141,7 +152,9 @@ def read_module(obj: Any, p: Path, n_in: int) -> Network:
         if seq is not None:
             d = _dn(_dtype(obj))
             run = _torch_runner(obj, None, _in_dtype(obj), str(p))
-            return Network(to_layers(seq, n_in, str(p)), n_in, run, f"torch forward ({d})", d, notes)
+            net = Network(to_layers(seq, n_in, str(p)), n_in, run, f"torch forward ({d})", d, notes)
+            net.wide = _wide_torch(obj, None, d, str(p))
+            return net
         net = _read_exported(_export(obj, p, n_in), obj, p, None)
         net.notes = notes
         return net
@@ -157,7 +170,9 @@ def _read_script(sm: Any, p: Path, n_in: int) -> Network:
     items, width, _feed = onnx_items(p, _script_to_onnx(sm, p, n_in))
     d = _dn(_dtype(sm))
     run = _torch_runner(sm, None, _in_dtype(sm), str(p))
-    return Network(to_layers(items, width, str(p)), width, run, f"TorchScript ({d})", d, notes)
+    net = Network(to_layers(items, width, str(p)), width, run, f"TorchScript ({d})", d, notes)
+    net.wide = _wide_torch(sm, None, d, str(p))
+    return net
 
 
 def _eval_mode(m: Any, p: Path) -> list[str]:
@@ -184,7 +199,27 @@ def _read_exported(ep: Any, runner: Any, p: Path, fixed: int | None) -> Network:
     d = narrowest([_dn(d_in), *weights])
     joined = joined_inputs(ep, str(p))
     run = _torch_runner(runner, fixed, d_in, str(p), joined[1] if joined else None)
-    return Network(to_layers(items, width, str(p)), width, run, f"torch forward ({d})", d)
+    net = Network(to_layers(items, width, str(p)), width, run, f"torch forward ({d})", d)
+    net.wide = _wide_torch(runner, fixed, d, str(p), joined[1] if joined else None)
+    return net
+
+
+def _wide_torch(
+    m: Any, fixed: int | None, dtype: str, where: str, parts: Any = None
+) -> Callable[[np.ndarray], np.ndarray] | None:
+    """A float16/bfloat16 module's float32 twin (a copy with its parameters and buffers widened), run like
+    the original; None for a wider module or one that cannot be copied."""
+    import copy
+
+    import torch
+
+    if dtype not in LOW_FLOATS:
+        return None
+    try:
+        twin = copy.deepcopy(m).float()
+    except Exception:  # a module that cannot be copied: the margin falls back to the analytic bound
+        return None
+    return _torch_runner(twin, fixed, torch.float32, where, parts)
 
 
 def _dtype(m: Any) -> Any:

@@ -18,7 +18,7 @@ from seagen.errors import UserError, not_a_file
 from seagen.filekind import ONNX, UNKNOWN, file_kind
 from seagen.frontends import Network, read_module, read_onnx
 from seagen.frontends import modeldict as D
-from seagen.frontends.margin import forward_margin
+from seagen.frontends.margin import forward_margin, rounding_margin
 from seagen.frontends.torch_files import load_torch
 from seagen.ir import FloatLayer, FloatMLP, FloatModel, FloatSF, Signal, poly2
 from seagen.modelfile import FORMAT, FeatureSpec, model_actuator
@@ -124,7 +124,15 @@ def _mlp_model(
     xmax = np.max(np.abs((box - mean) / std * w), axis=0)
     _deterministic(net, xmax, where)
     margin = forward_margin(net.layers, xmax, net.dtype, where) * spec.output_std
-    return Loaded(model, original, net.runtime, margin, net.dtype, list(net.notes))
+    notes = list(net.notes)
+    if net.wide is not None:  # float16/bfloat16: the margin from the original's own rounding on the box
+        ends = (box - mean) / std * w
+        lo, hi = ends.min(axis=0), ends.max(axis=0)
+        got = rounding_margin(net.run, net.wide, lo, hi, net.layers, net.wide_whole)
+        if got is not None:
+            margin = got.margin * abs(spec.output_std)
+            notes.append(got.note(net.dtype, abs(spec.output_std), out.unit))
+    return Loaded(model, original, net.runtime, margin, net.dtype, notes)
 
 
 def _deterministic(net: Network, xmax: np.ndarray, where: str) -> None:

@@ -1,6 +1,11 @@
-"""A stated margin for the original's own rounding: a forward-error bound of its layers in its float type."""
+"""A stated margin for the original's own rounding: a forward-error bound of its layers in its float type, or
+for a float16/bfloat16 original its rounding measured against its float32 twin on the calibrated box."""
 
 from __future__ import annotations
+
+import itertools
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -10,6 +15,9 @@ from seagen.ir import FloatLayer
 UNIT_ROUNDOFF = {"float64": 2.0**-53, "float32": 2.0**-24, "float16": 2.0**-11, "bfloat16": 2.0**-8}
 U32 = UNIT_ROUNDOFF["float32"]
 SAFETY = 4.0  # covers the folded elementwise ops (BatchNorm, constant Add/Mul, casts) each rounding once
+MEASURED_SAFETY = 3.0  # margin = this x the largest float16-vs-float32 difference seen on the box sample
+N_SAMPLE = 4096  # uniform points of the box (besides its corners) the rounding is measured on
+MAX_CORNERS = 1024
 
 
 def float32_margin(layers: list[FloatLayer], xmax: np.ndarray) -> float:
@@ -51,3 +59,59 @@ def _act_mag(lay: FloatLayer, z: np.ndarray) -> np.ndarray:
         lim = max(abs(lay.lo), abs(lay.hi))
         return np.minimum(z, lim) if np.isfinite(lim) else z
     return z
+
+
+@dataclass(frozen=True)
+class Measured:
+    """A low-precision original's rounding measured on the box: the margin and what it rests on."""
+
+    margin: float  # in the network's own output units
+    measured: float  # max |original - float32 twin| over the sample
+    points: int
+
+    def note(self, dtype: str, scale: float, unit: str) -> str:
+        """One line: the margin beside the rounding it was derived from."""
+        return (
+            f"note: {dtype} original: oracle margin {self.margin * scale:.3g} {unit} = "
+            f"{MEASURED_SAFETY:g} x its largest rounding {self.measured * scale:.3g} {unit} (the graph in "
+            f"{dtype} against it in float32 on {self.points} box points: corners and a uniform sample) + "
+            "the float32 twin's own bound"
+        )
+
+
+def box_sample(lo: np.ndarray, hi: np.ndarray, n: int = N_SAMPLE, seed: int = 0) -> np.ndarray:
+    """The box's corners (all up to MAX_CORNERS, else random ones), its centre and n uniform points."""
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    k = len(lo)
+    rng = np.random.default_rng(seed)
+    if 2**k <= MAX_CORNERS:
+        corners = np.array(list(itertools.product((0.0, 1.0), repeat=k)))
+    else:
+        corners = rng.integers(0, 2, (MAX_CORNERS, k)).astype(float)
+    unit = np.vstack([corners, np.full((1, k), 0.5), rng.random((n, k))])
+    return lo + unit * (hi - lo)
+
+
+def rounding_margin(
+    run: Callable[[np.ndarray], np.ndarray],
+    wide: Callable[[np.ndarray], np.ndarray],
+    lo: np.ndarray,
+    hi: np.ndarray,
+    layers: list[FloatLayer],
+    whole: bool = False,
+) -> Measured | None:
+    """The margin for a float16/bfloat16 original from its own rounding on the box lo..hi (its own inputs):
+    MEASURED_SAFETY x max |run(x) - wide(x)| over box_sample, plus the float32 twin's forward bound.
+
+    Equal outputs everywhere: with `whole` (the twin widens every tensor and cast, as for an ONNX graph;
+    onnxruntime runs float16 ops on the CPU in float32) the original computes as its twin and the margin is
+    the twin's; otherwise (a module whose float16 casts may sit in its code, not in its tensors) None, and
+    the caller keeps the analytic forward_margin.
+    """
+    x = box_sample(lo, hi)
+    d = np.abs(np.asarray(run(x), dtype=float) - np.asarray(wide(x), dtype=float))
+    measured = float(np.max(d)) if np.all(np.isfinite(d)) else np.inf
+    if not (0.0 < measured < np.inf or (whole and measured == 0.0)):
+        return None
+    xmax = np.maximum(np.abs(lo), np.abs(hi))
+    return Measured(MEASURED_SAFETY * measured + float32_margin(layers, xmax), measured, len(x))

@@ -57,3 +57,32 @@ def _check_external(path: Path, folder: Path, tensor: str, loc: str) -> None:
         )
     if not target.is_file():
         raise UserError(f"{path}: tensor '{tensor}' has its data in '{loc}', which is not a file")
+
+
+def widened_to_float32(model: Any) -> Any:
+    """A copy of a float16/bfloat16 graph computing in float32: its low-precision initializers, constants,
+    Cast targets and declared types widened (what its own rounding is measured against)."""
+    import onnx
+    from onnx import TensorProto, numpy_helper
+
+    low = (TensorProto.FLOAT16, TensorProto.BFLOAT16)
+    wide = onnx.ModelProto()
+    wide.CopyFrom(model)
+    g = wide.graph
+
+    def widen(t: Any) -> None:
+        if t.data_type in low:
+            t.CopyFrom(numpy_helper.from_array(numpy_helper.to_array(t).astype("float32"), t.name))
+
+    for t in g.initializer:
+        widen(t)
+    for n in g.node:
+        for a in n.attribute:
+            if a.name == "to" and n.op_type == "Cast" and a.i in low:
+                a.i = TensorProto.FLOAT
+            if a.type == onnx.AttributeProto.TENSOR:
+                widen(a.t)
+    for v in [*g.input, *g.output, *g.value_info]:
+        if v.type.tensor_type.elem_type in low:
+            v.type.tensor_type.elem_type = TensorProto.FLOAT
+    return wide
