@@ -21,8 +21,10 @@
 
 /* SEA_OPAQUE(p): makes the compiler forget what pointer p holds (an empty asm on gcc/clang), so loads
  * through it are not hoisted out of a loop: on the M0+ the hoisted inputs would live in high registers,
- * which Thumb-1 arithmetic cannot use directly. No effect on the results. */
-#if defined(__GNUC__)
+ * which Thumb-1 arithmetic cannot use directly. No effect on the results.
+ * Its contract, for Frama-C (__FRAMAC__, docs/prove.md), where it is an empty statement: assigns nothing,
+ * ensures p == \old(p) (the asm is empty; "+r" only hides p from the optimiser). */
+#if defined(__GNUC__) && !defined(__FRAMAC__)
 #define SEA_OPAQUE(p) __asm__("" : "+r"(p))
 #else
 #define SEA_OPAQUE(p) ((void)0)
@@ -55,10 +57,15 @@ static inline int32_t sea_pack_nonneg16x2(int32_t lo, int32_t hi)
 
 /* v0 = p[0], v1 = p[1]; with gcc on a core with the DSP extension as two LDRs back to back in one asm
  * statement: the compiler would interleave the loads with the SMLADs that use them, and the Cortex-M4
- * pipelines a load only behind another load (2 cycles for the first, 1 for each next). */
+ * pipelines a load only behind another load (2 cycles for the first, 1 for each next). The asm's contract
+ * is the portable branch (Frama-C analyses that, __FRAMAC__): requires \valid_read(p + (0 .. 1));
+ * assigns *v0, *v1; ensures *v0 == p[0] && *v1 == p[1] (backed by tests/test_cortexm.py, bit for bit). */
+/*@ requires \valid_read(p + (0 .. 1)) && \valid(v0) && \valid(v1);
+    assigns *v0, *v1;
+    ensures *v0 == p[0] && *v1 == p[1]; */
 static inline void sea_ld2(const int32_t *p, int32_t *v0, int32_t *v1)
 {
-#if defined(__ARM_FEATURE_SIMD32) && defined(__GNUC__)
+#if defined(__ARM_FEATURE_SIMD32) && defined(__GNUC__) && !defined(__FRAMAC__)
     int32_t a;
     int32_t b;
     __asm__("ldr %0, %2\n\tldr %1, %3" : "=&r"(a), "=r"(b) : "m"(p[0]), "m"(p[1]));
@@ -70,10 +77,13 @@ static inline void sea_ld2(const int32_t *p, int32_t *v0, int32_t *v1)
 #endif
 }
 
-/* v0..v3 = p[0..3], four LDRs back to back (see sea_ld2). */
+/* v0..v3 = p[0..3], four LDRs back to back (see sea_ld2; the same contract on four words). */
+/*@ requires \valid_read(p + (0 .. 3)) && \valid(v0) && \valid(v1) && \valid(v2) && \valid(v3);
+    assigns *v0, *v1, *v2, *v3;
+    ensures *v0 == p[0] && *v1 == p[1] && *v2 == p[2] && *v3 == p[3]; */
 static inline void sea_ld4(const int32_t *p, int32_t *v0, int32_t *v1, int32_t *v2, int32_t *v3)
 {
-#if defined(__ARM_FEATURE_SIMD32) && defined(__GNUC__)
+#if defined(__ARM_FEATURE_SIMD32) && defined(__GNUC__) && !defined(__FRAMAC__)
     int32_t a;
     int32_t b;
     int32_t c;
