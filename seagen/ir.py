@@ -6,7 +6,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-ACTIVATIONS = ("linear", "relu", "leaky_relu", "hardtanh", "tanh", "sigmoid")
+ACTIVATIONS = (
+    *("linear", "relu", "leaky_relu", "hardtanh", "tanh", "sigmoid"),
+    *("elu", "selu", "softplus", "gelu", "gelu_tanh", "mish", "silu", "hardsigmoid", "hardswish", "prelu"),
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -29,6 +32,9 @@ class FloatLayer:
     alpha: float = 0.01  # leaky_relu slope
     lo: float = -1.0  # hardtanh limits
     hi: float = 1.0
+    # elu (alpha,), selu (alpha, scale), softplus (beta, threshold), hardsigmoid (alpha, beta), prelu: the
+    # per-channel slopes (seagen/runtime/activations.py act_float)
+    params: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,7 +107,9 @@ class QLayer:
     shift: int
     acc_bits: int  # 32 or 64, proven by interval analysis
     activation: str
-    act_params: tuple[int, ...] = ()  # leaky: (alpha_q15,); hardtanh: (lo_q, hi_q)
+    # leaky: (alpha_q15,); hardtanh: (lo_q, hi_q); smooth: (s_q14,); hardsigmoid and hardswish: (alpha_q,
+    # beta_q30); prelu: alpha_q15 per channel
+    act_params: tuple[int, ...] = ()
     pre_frac: int = 0  # format of the shifted accumulator before the activation (= out_frac but for tables)
     y_lo: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # proven output interval
     y_hi: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # per neuron, int16 units

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from seagen.ir import QMLP, FloatMLP
+from seagen.quant.activation import ADDED, act_error
 from seagen.quant.qformat import widened
 from seagen.runtime.activations import table_error
 
@@ -27,7 +28,10 @@ def mlp_error_bound(model: FloatMLP, qm: QMLP) -> float:
         half = 2.0 ** -(q.pre_frac + 1)
         ez = np.abs(fl.weight - w_hat) @ xmax + np.abs(w_hat) @ e + np.abs(fl.bias - b_hat) + half
         zmax = np.abs(w_hat) @ (xmax + e) + np.abs(b_hat)
-        e = _through_activation(fl.activation, q, ez, zmax, fl.alpha, half, tables, k)
+        if fl.activation in ADDED:  # smooth and piecewise-linear ones: seagen/quant/activation.py
+            e = act_error(fl, q, tables.get(f"l{k}_{fl.activation}"), ez, zmax)
+        else:
+            e = _through_activation(fl.activation, q, ez, zmax, fl.alpha, half, tables, k)
         out_max = np.maximum(np.abs(q.y_lo), np.abs(q.y_hi)) * 2.0**-q.out_frac
         xmax = out_max + e
     return float(np.max(e))

@@ -8,6 +8,7 @@ import numpy as np
 
 from seagen.errors import UserError
 from seagen.ir import QMLP, FloatLayer, FloatMLP, QInput, QLayer, QTable
+from seagen.quant.activation import ADDED, format_magnitude, quantize_act
 from seagen.quant.bound import mlp_error_bound
 from seagen.quant.interval import acc_interval
 from seagen.quant.qformat import frac_for, quantize, widened
@@ -34,9 +35,12 @@ def quantize_inputs(model: FloatMLP) -> tuple[QInput, ...]:
     return tuple(out)
 
 
-def _out_frac(mn: np.ndarray, mx: np.ndarray, acc_frac: int, activation: str) -> int:
+def _out_frac(mn: np.ndarray, mx: np.ndarray, acc_frac: int, layer: FloatLayer) -> int:
     """Largest output format with no saturation over the box (acc_frac >= result >= acc_frac - 62)."""
+    activation = layer.activation
     hi = max(max(mx), 0) if activation == "relu" else max(max(abs(mn)), max(abs(mx)))
+    if activation in ADDED:
+        hi = format_magnitude(layer, int(hi), acc_frac)
     if activation in ("tanh", "sigmoid"):
         hi = min(hi, 8 << acc_frac)  # beyond +-8 the table saturates anyway
     f = acc_frac
@@ -65,19 +69,23 @@ def quantize_layer(
             f"layer {index}: accumulator bound 2^{int(worst).bit_length()} exceeds int64 (weights and bias "
             "too large for the input box, with the normalisation folded in)"
         )
-    out_frac = _out_frac(mn, mx, acc_frac, layer.activation)
+    out_frac = _out_frac(mn, mx, acc_frac, layer)
     shift = acc_frac - out_frac
     # the interval end points fit int64 (|acc| < 2^62 was checked above)
     y_lo = np.maximum(rshift_rne(mn.astype(np.int64), shift), -(2**15))
     y_hi = np.minimum(rshift_rne(mx.astype(np.int64), shift), INT16_MAX)
-    params, table = _activation(layer, out_frac, index)
-    y_lo, y_hi = _act_bounds(layer.activation, params, table, y_lo, y_hi)
+    if layer.activation in ADDED:  # seagen/quant/activation.py: its own output format and exact interval
+        params, table, act_frac, y_lo, y_hi = quantize_act(layer, out_frac, y_lo, y_hi, index)
+    else:
+        params, table = _activation(layer, out_frac, index)
+        y_lo, y_hi = _act_bounds(layer.activation, params, table, y_lo, y_hi)
+        act_frac = out_frac if table is None else TABLE_OUT_FRAC
     q = QLayer(
         w_q,
         b_q,
         w_frac,
         in_frac,
-        out_frac if table is None else TABLE_OUT_FRAC,
+        act_frac,
         shift,
         32 if worst <= ACC32_LIMIT else 64,
         layer.activation,

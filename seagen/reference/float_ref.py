@@ -5,7 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from seagen.ir import FloatMLP, FloatModel, FloatSF
+from seagen.quant.activation import ADDED, params_of
 from seagen.quant.sf import float_sf
+from seagen.runtime.activations import act_float
 
 
 def _act(name: str, z: np.ndarray, alpha: float, lo: float, hi: float) -> np.ndarray:
@@ -29,7 +31,11 @@ def predict(model: FloatModel, x: np.ndarray) -> np.ndarray:
         return float_sf(model, x)
     assert isinstance(model, FloatMLP)
     for layer in model.layers:
-        x = _act(layer.activation, x @ layer.weight.T + layer.bias, layer.alpha, layer.lo, layer.hi)
+        z = x @ layer.weight.T + layer.bias
+        if layer.activation in ADDED:
+            x = act_float(layer.activation, params_of(layer), z)
+        else:
+            x = _act(layer.activation, z, layer.alpha, layer.lo, layer.hi)
     return x[:, 0]
 
 

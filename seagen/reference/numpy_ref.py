@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from seagen.ir import QSF, QLayer, QModel, QTable
+from seagen.quant.activation import ADDED, apply
 from seagen.runtime import nn as K
 
 
@@ -23,6 +24,8 @@ def activate(q: QLayer, table: QTable | None, y: np.ndarray) -> np.ndarray:
         return K.leaky_s16(y, q.act_params[0])
     if q.activation == "hardtanh":
         return K.hardtanh_s16(y, q.act_params[0], q.act_params[1])
+    if q.activation in ADDED:
+        return apply(q, table, y)
     if table is not None:
         return K.table_s16(y, table.values, table.in_shift, table.offset)
     return y

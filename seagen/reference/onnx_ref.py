@@ -14,7 +14,9 @@ import onnx
 from onnx import TensorProto, helper, numpy_helper
 
 from seagen import __version__
-from seagen.ir import QMLP, QSF, QModel
+from seagen.ir import QMLP, QSF, QLayer, QModel, QTable
+from seagen.quant.activation import ADDED
+from seagen.runtime import activations as A
 
 OPSET = 17
 
@@ -77,12 +79,36 @@ def _layers(g: _Graph, qm: QMLP, x: str) -> str:
             y = g.op("Where", g.op("GreaterOrEqual", y, g.const(0, "zero")), y, neg)
         elif q.activation == "hardtanh":
             y = g.clip(y, q.act_params[0], q.act_params[1])
+        elif q.activation in ADDED:
+            y = _added(g, q, tables.get(f"l{k}_{q.activation}"), y)
         elif q.activation in ("tanh", "sigmoid"):
             t = tables[f"l{k}_{q.activation}"]
             idx = g.op("Add", g.rshift_rne(y, t.in_shift), g.const(t.offset, "off"))
             y = g.op("Gather", g.const(t.values, t.name), g.clip(idx, 0, len(t.values) - 1))
         x = y
     return g.op("Gather", x, g.const(0, "col"), axis=1)
+
+
+def _added(g: _Graph, q: QLayer, t: QTable | None, y: str) -> str:
+    """The smooth and piecewise-linear activations (seagen/runtime/activations.py), on int64."""
+    i16 = (-(2**15), 2**15 - 1)
+    if q.activation in A.SMOOTH:
+        assert t is not None
+        idx = g.clip(g.op("Add", g.rshift_rne(y, t.in_shift), g.const(t.offset, "off")), 0, len(t.values) - 1)
+        pos = g.op("Mul", g.op("Max", y, g.const(0, "zero")), g.const(q.act_params[0], "slope"))
+        return g.clip(
+            g.op("Add", g.rshift_rne(pos, A.SLOPE_FRAC), g.op("Gather", g.const(t.values, t.name), idx)), *i16
+        )
+    if q.activation in ("hardsigmoid", "hardswish"):
+        v = g.op("Add", g.op("Mul", y, g.const(q.act_params[0], "alpha")), g.const(q.act_params[1], "beta"))
+        h = g.clip(g.rshift_rne(v, A.HSIG_FRAC - A.TABLE_OUT_FRAC), 0, 1 << A.TABLE_OUT_FRAC)
+        return (
+            h
+            if q.activation == "hardsigmoid"
+            else g.clip(g.rshift_rne(g.op("Mul", y, h), A.TABLE_OUT_FRAC), *i16)
+        )
+    neg = g.clip(g.rshift_rne(g.op("Mul", y, g.const(np.array(q.act_params), "alpha")), A.PRELU_FRAC), *i16)
+    return g.op("Where", g.op("GreaterOrEqual", y, g.const(0, "zero")), y, neg)
 
 
 def _sf(g: _Graph, qm: QSF, x: str) -> str:

@@ -6,6 +6,7 @@ import numpy as np
 import torch
 
 from seagen.ir import QSF, QModel
+from seagen.runtime.activations import HSIG_FRAC, PRELU_FRAC, SLOPE_FRAC, SMOOTH, TABLE_OUT_FRAC
 
 I16_MIN, I16_MAX = -(2**15), 2**15 - 1
 I32_MIN, I32_MAX = -(2**31), 2**31 - 1
@@ -30,6 +31,16 @@ def _activate(
         return torch.where(y >= 0, y, rshift_rne(y * params[0], 15))
     if act == "hardtanh":
         return y.clamp(params[0], params[1])
+    if act in SMOOTH:  # s relu(y) + g[idx] (seagen/runtime/activations.py smooth_s16)
+        assert table is not None
+        idx = (rshift_rne(y, shift_off[0]) + shift_off[1]).clamp(0, table.numel() - 1)
+        return (rshift_rne(y.clamp(min=0) * params[0], SLOPE_FRAC) + table[idx]).clamp(I16_MIN, I16_MAX)
+    if act in ("hardsigmoid", "hardswish"):
+        h = rshift_rne(y * params[0] + params[1], HSIG_FRAC - TABLE_OUT_FRAC).clamp(0, 1 << TABLE_OUT_FRAC)
+        return h if act == "hardsigmoid" else rshift_rne(y * h, TABLE_OUT_FRAC).clamp(I16_MIN, I16_MAX)
+    if act == "prelu":
+        a = torch.tensor(params, dtype=torch.int64)[None, :]
+        return torch.where(y >= 0, y, rshift_rne(y * a, PRELU_FRAC).clamp(I16_MIN, I16_MAX))
     if table is not None:
         idx = (rshift_rne(y, shift_off[0]) + shift_off[1]).clamp(0, table.numel() - 1)
         return table[idx]
