@@ -33,6 +33,57 @@ void sea_hardtanh_s16(int16_t *y, int n, int16_t lo, int16_t hi);
 /* y = table[clamp(rshift_rne(y, in_shift) + offset, 0, len - 1)] (tanh / sigmoid, Q14 outputs). */
 void sea_table_s16(int16_t *y, int n, const int16_t *table, int32_t len, int in_shift, int32_t offset);
 
+/* The smooth and piecewise-linear activations (twins: seagen/runtime/activations.py; formats: the defines).
+ * smooth (ELU, SELU, Softplus, GELU, Mish, SiLU): f = s relu(y) + g(y), g a nearest-sample table in y's format:
+ *   sat16(rshift_rne(max(y, 0) * slope, SEA_ACT_SLOPE_FRAC) + g[clamp(rshift_rne(y, in_shift) + offset)]);
+ * hardsigmoid: clamp(rshift_rne(y * alpha + beta, SEA_ACT_HSIG_FRAC - SEA_ACT_OUT_FRAC), 0, 1.0), Q14 out;
+ * hardswish: sat16(rshift_rne(y * hardsigmoid(y), SEA_ACT_OUT_FRAC)), y's format;
+ * prelu: y < 0 -> sat16(rshift_rne(y * alpha[j], SEA_ACT_PRELU_FRAC)), a slope per channel j. */
+#define SEA_ACT_OUT_FRAC 14   /* table and hardsigmoid outputs: Q14 */
+#define SEA_ACT_SLOPE_FRAC 14 /* a smooth function's relu slope s (< 2): Q14 */
+#define SEA_ACT_HSIG_FRAC 30  /* hardsigmoid: alpha y + beta summed in Q30 (int64) */
+#define SEA_ACT_PRELU_FRAC 15 /* PReLU slopes (|a| <= 1): Q15 */
+
+/* One value each (static inline: the Cortex-M kernels apply them to each result as it is made). */
+static inline int16_t sea_table1(int16_t y, const int16_t *table, int32_t len, int in_shift, int32_t offset)
+{
+    int32_t k = sea_rshift_rne_s32((int32_t)y, in_shift) + offset;
+    k = (k < 0) ? 0 : ((k > (len - 1)) ? (len - 1) : k);
+    return table[k];
+}
+
+static inline int16_t sea_smooth1(int16_t y, const int16_t *g, int32_t len, int in_shift, int32_t offset,
+                                  int32_t slope)
+{
+    /* 0 <= y * slope < 2^15 * 2^15: int32 */
+    const int32_t r = (y > 0) ? sea_rshift_rne_s32((int32_t)y * slope, SEA_ACT_SLOPE_FRAC) : 0;
+    return sea_sat16((int64_t)r + sea_table1(y, g, len, in_shift, offset));
+}
+
+static inline int16_t sea_hsig1(int16_t y, int32_t alpha, int64_t beta)
+{
+    const int64_t h = sea_rshift_rne_s64((int64_t)y * alpha + beta, SEA_ACT_HSIG_FRAC - SEA_ACT_OUT_FRAC);
+    return (int16_t)((h < 0) ? 0 : ((h > (1 << SEA_ACT_OUT_FRAC)) ? (1 << SEA_ACT_OUT_FRAC) : h));
+}
+
+static inline int16_t sea_hswish1(int16_t y, int32_t alpha, int64_t beta)
+{
+    /* |y| <= 2^15, 0 <= h <= 2^14: int32 */
+    return sea_sat16(sea_rshift_rne_s32((int32_t)y * sea_hsig1(y, alpha, beta), SEA_ACT_OUT_FRAC));
+}
+
+static inline int16_t sea_prelu1(int16_t y, int32_t alpha)
+{
+    /* |alpha| <= 2^15: int32 */
+    return (y < 0) ? sea_sat16(sea_rshift_rne_s32((int32_t)y * alpha, SEA_ACT_PRELU_FRAC)) : y;
+}
+
+void sea_smooth_s16(int16_t *y, int n, const int16_t *g, int32_t len, int in_shift, int32_t offset,
+                    int32_t slope);
+void sea_hsig_s16(int16_t *y, int n, int32_t alpha, int64_t beta);
+void sea_hswish_s16(int16_t *y, int n, int32_t alpha, int64_t beta);
+void sea_prelu_s16(int16_t *y, int n, const int32_t *alpha);
+
 /* One Horner step: sat32(floor(x * t / 2^shift) + A), A = add * 2^align (align >= 0) or floor(add / 2^-align);
  * floor shifts (c_runtime/README.md, item 7). The generator proved |x * t| / 2^shift and the result < 2^30
  * over the box, so the saturation never acts and the Cortex-M kernels compute it in int32. */

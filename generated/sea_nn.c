@@ -79,9 +79,40 @@ void sea_table_s16(int16_t *y, int n, const int16_t *table, int32_t len, int in_
 {
     int i;
     for (i = 0; i < n; ++i) {
-        int32_t k = sea_rshift_rne_s32(y[i], in_shift) + offset;
-        k = (k < 0) ? 0 : ((k > (len - 1)) ? (len - 1) : k);
-        y[i] = table[k];
+        y[i] = sea_table1(y[i], table, len, in_shift, offset);
+    }
+}
+
+void sea_smooth_s16(int16_t *y, int n, const int16_t *g, int32_t len, int in_shift, int32_t offset,
+                    int32_t slope)
+{
+    int i;
+    for (i = 0; i < n; ++i) {
+        y[i] = sea_smooth1(y[i], g, len, in_shift, offset, slope);
+    }
+}
+
+void sea_hsig_s16(int16_t *y, int n, int32_t alpha, int64_t beta)
+{
+    int i;
+    for (i = 0; i < n; ++i) {
+        y[i] = sea_hsig1(y[i], alpha, beta);
+    }
+}
+
+void sea_hswish_s16(int16_t *y, int n, int32_t alpha, int64_t beta)
+{
+    int i;
+    for (i = 0; i < n; ++i) {
+        y[i] = sea_hswish1(y[i], alpha, beta);
+    }
+}
+
+void sea_prelu_s16(int16_t *y, int n, const int32_t *alpha)
+{
+    int i;
+    for (i = 0; i < n; ++i) {
+        y[i] = sea_prelu1(y[i], alpha[i]);
     }
 }
 

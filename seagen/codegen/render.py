@@ -16,6 +16,7 @@ from seagen.codegen.quant_summary import buffer_width, summary_lines
 from seagen.codegen.targets import kernel_context
 from seagen.ir import QMLP, QSF, QLayer, QModel
 from seagen.runtime import features as F
+from seagen.runtime.activations import SMOOTH
 from seagen.runtime.actq import ActQ, act_q_of
 
 RUNTIME = ("sea_fixed.h", "sea_fixed.c", "sea_nn.h", "sea_nn.c", "sea_features.h", "sea_features.c")
@@ -52,7 +53,7 @@ def model_hash(qm: QModel) -> str:
     return h.hexdigest()[:16]
 
 
-def _activation(q: QLayer, table: dict[str, Any] | None) -> dict[str, Any] | None:
+def _activation(q: QLayer, table: dict[str, Any] | None, slopes: str = "") -> dict[str, Any] | None:
     """The sea_nn activation call of a layer: function and the arguments after (y, n); None if linear."""
     if q.activation == "relu":
         return {"fn": "sea_relu_s16", "args": []}
@@ -60,6 +61,14 @@ def _activation(q: QLayer, table: dict[str, Any] | None) -> dict[str, Any] | Non
         return {"fn": "sea_leaky_s16", "args": [q.act_params[0]]}
     if q.activation == "hardtanh":
         return {"fn": "sea_hardtanh_s16", "args": [q.act_params[0], q.act_params[1]]}
+    if q.activation in SMOOTH and table is not None:
+        args = [table["name"], table["len"], table["in_shift"], table["offset"], q.act_params[0]]
+        return {"fn": "sea_smooth_s16", "args": args}
+    if q.activation in ("hardsigmoid", "hardswish"):
+        fn = "sea_hsig_s16" if q.activation == "hardsigmoid" else "sea_hswish_s16"
+        return {"fn": fn, "args": [c_int(q.act_params[0]), c_int(q.act_params[1], 64)]}
+    if q.activation == "prelu":
+        return {"fn": "sea_prelu_s16", "args": [slopes]}
     if table is not None:
         return {
             "fn": "sea_table_s16",
@@ -90,7 +99,10 @@ def _layers(qm: QMLP, prefix: str) -> list[dict[str, Any]]:
                 "dense": f"sea_dense_w{qm.weight_bits}_a{q.acc_bits}",
                 "shift": q.shift,
                 "act_name": q.activation,
-                "act": _activation(q, table),
+                "act": _activation(q, table, f"{prefix}_l{k}_prelu"),
+                "slopes": {"name": f"{prefix}_l{k}_prelu", "data": q.act_params}
+                if q.activation == "prelu"
+                else None,
                 "src": f"buf{k % 2}",
                 "dst": f"buf{(k + 1) % 2}",
                 "table": table,

@@ -20,16 +20,18 @@ from functools import lru_cache
 import numpy as np
 
 from seagen import fmath
+from seagen.c_runtime import defines
 from seagen.ir import QTable
 from seagen.runtime.fixed import rshift_rne, sat16
 
-TABLE_OUT_FRAC = 14  # tanh/sigmoid/hardsigmoid outputs are Q14 (1.0 = 16384)
+_H = defines("sea_nn.h")  # the formats' one definition
+TABLE_OUT_FRAC = _H["SEA_ACT_OUT_FRAC"]  # tanh/sigmoid/hardsigmoid outputs are Q14 (1.0 = 16384)
 TABLE_STEP_FRAC = 8  # tables sampled every 2^-8 of the input (every input LSB when coarser)
 TABLE_RANGE = {"tanh": 4.0, "sigmoid": 8.0}  # beyond +-R the function is taken as saturated
 SMOOTH = ("elu", "selu", "softplus", "gelu", "gelu_tanh", "mish", "silu")  # s * relu(x) + table of g
-SLOPE_FRAC = 14  # s in Q14 (s = 1 exactly: 16384)
-HSIG_FRAC = 30  # hardsigmoid's alpha x + beta summed in Q30 (int64), then rounded to Q14
-PRELU_FRAC = 15  # PReLU / LeakyReLU slopes in Q15
+SLOPE_FRAC = _H["SEA_ACT_SLOPE_FRAC"]  # s in Q14 (s = 1 exactly: 16384)
+HSIG_FRAC = _H["SEA_ACT_HSIG_FRAC"]  # hardsigmoid's alpha x + beta summed in Q30 (int64), then rounded to Q14
+PRELU_FRAC = _H["SEA_ACT_PRELU_FRAC"]  # PReLU slopes in Q15
 GRID_FRAC = 10  # the grid (2^-10) on which sup |g'| and sup |f'| are measured
 SELU = (1.6732632423543772, 1.0507009873554805)  # torch's and ONNX's alpha, scale
 HARDSWISH = (1.0 / 6.0, 0.5)  # HardSwish(x) = x * HardSigmoid(x; 1/6, 1/2) (torch and ONNX)
