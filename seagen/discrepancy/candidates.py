@@ -13,6 +13,7 @@ from scipy.optimize import least_squares
 from seagen.discrepancy.rendezvous import Rendezvous
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS, chi2_per_trial, zscores
+from seagen.discrepancy.terms import TERM_SPACE
 from seagen.plant import PlantConfig
 from seagen.plant.config import CATALOGUE, counts_range, pot_full_scale
 
@@ -33,6 +34,7 @@ SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
     },
     "load_cell_offset": {"offset_n": (-4.0, 4.0, False)},
     "transport_delay": {"delay_s": (0.001, 0.12, True)},
+    **TERM_SPACE,  # the term library's (searched only when the catalogue runs out: discover.py)
 }
 # Boxes of parameters in pot counts are shares of the pot ADC's full scale (counts_range): in counts they
 # follow the description's pot.adc_bits (5 to 600 counts per unit current on the paper's 12-bit ADC).

@@ -13,12 +13,20 @@ import pandas as pd
 from seagen.actuator import Actuator
 from seagen.data.logimport import clock_resolution
 from seagen.plant import Plant, PlantConfig, kernel
-from seagen.plant.config import CATALOGUE
-from seagen.plant.sim import RIGID_PER_SPRING, learned_correction
+from seagen.plant.config import CATALOGUE, TERMS
+from seagen.plant.sim import RIGID_PER_SPRING, cell_distort, learned_correction
 
 CHANNELS = ("enc", "pot", "load_cell_n", "force_n")
 # Sensor-side effects: they do not change the motion, so the replay loop applies them per element.
-POST_HOC = ("pot_voltage_drop", "transport_delay", "load_cell_offset")
+POST_HOC = (
+    "pot_voltage_drop",
+    "transport_delay",
+    "load_cell_offset",
+    "cell_drift",
+    "cell_lag",
+    "cell_quantisation",
+    "cell_saturation",
+)
 # Parameter values that make an enabled effect do nothing (exactly: same numbers as the effect off); the
 # series compliance's stiffness is the plant's rigid structure, relative to the actuator's spring (`neutral`).
 NEUTRAL: dict[str, dict[str, float]] = {
@@ -33,6 +41,18 @@ NEUTRAL: dict[str, dict[str, float]] = {
     "pot_voltage_drop": {"counts_per_unit_current": 0.0, "time_constant_s": 0.1},
     "load_cell_offset": {"offset_n": 0.0},
     "transport_delay": {"delay_s": 0.0},
+    # the term library (config.TERMS)
+    "lead_error": {"amplitude_mm": 0.0, "period_mm": 1.0, "phase_rad": 0.0},
+    "cogging": {"force_n": 0.0, "period_mm": 1.0, "phase_rad": 0.0},
+    "spring_drift": {"share": 0.0, "time_constant_s": 1.0},
+    "cell_drift": {"offset_n": 0.0, "time_constant_s": 1.0},
+    "rate_friction": {"extra_n": 0.0, "v_c_mm_s": 1.0, "time_constant_s": 0.01},
+    "bristle_friction": {"force_n": 0.0, "x0_mm": 1.0},
+    "spring_hysteresis": {"k_n_per_mm": 0.0, "half_width_mm": 1.0},
+    "spring_poly": {"k2_n_per_mm2": 0.0, "k3_n_per_mm3": 0.0},
+    "cell_lag": {"time_constant_s": 0.0},
+    "cell_quantisation": {"step_n": 0.0},
+    "cell_saturation": {"limit_n": 1e12},
 }
 ParamSet = dict[str, dict[str, float]]
 SWITCH_V = 0.5  # a command change this large is a switch (its instant's uncertainty moves the encoder)
@@ -254,7 +274,7 @@ def union_config(base: PlantConfig, sets: list[ParamSet], n: int) -> tuple[Plant
     used = {e for s in sets for e in s}
     cfg = base.with_effect("pot_noise", False).with_effect("learned_residual", False)
     post: dict[str, dict[str, Any]] = {}
-    for e in CATALOGUE:
+    for e in CATALOGUE + TERMS:
         if e not in used and not base.on(e):
             continue
         params = [f.name for f in dataclasses.fields(base.effect(e)) if f.name != "enabled"]
@@ -324,15 +344,18 @@ def simulate(
     # the plant states each read needs (the reads of step k see the states after k steps)
     ks = np.repeat(np.arange(k_max + 1), np.diff(bounds))[:, None]
     motor_mm, shaft_mm = traj.motor_mm[mrows, ks], traj.shaft_mm[mrows, ks]
+    # the force the load cell sees, per motion element (fm) or, behind a lag, per set element
+    fm, frows = traj.force_n, mrows
+    if "cell_lag" in post:
+        lag_a = np.minimum(dt / np.maximum(zero + post["cell_lag"]["time_constant_s"], 1e-300), 1.0)
+        fm, frows = kernel.lagged(traj.force_n, of_set, lag_a), rows
     if delay.any():  # the force i0 and i0 + 1 steps back (zero before the first step), weighted
         i0 = np.floor(delay).astype(int)
         frac = (delay - i0)[rows]
         back = ks - i0[rows]
-        force = (1 - frac) * traj.force_n[mrows, np.maximum(back, 0)] + frac * traj.force_n[
-            mrows, np.maximum(back - 1, 0)
-        ]
+        force = (1 - frac) * fm[frows, np.maximum(back, 0)] + frac * fm[frows, np.maximum(back - 1, 0)]
     else:
-        force = traj.force_n[mrows, ks]
+        force = fm[frows, ks]
     drops = None
     if pvd and traj.current is not None:  # filtered once per distinct (motion, gain, time constant)
         key = np.stack([of_set, zero + kappa, zero + alpha], axis=1)
@@ -350,7 +373,7 @@ def simulate(
     readings = {
         "enc": motor_mm / plant.geo.mm_per_count - 0.5,  # E[floored count]
         "pot": np.clip(pot, 0, plant.geo.adc_max),
-        "load_cell_n": force * plant.ratio[mrows] + offset[r],
+        "load_cell_n": _cell(force * plant.ratio[mrows] + offset[r], ks * dt, post, r, e_n),
     }
     shape = (n_sets, n, t)
     wr = w[:, None]
@@ -375,6 +398,25 @@ def simulate(
     if inputs is not None:
         inputs.update(rec)
     return out
+
+
+def _cell(reading: np.ndarray, t: np.ndarray, post: dict, r: np.ndarray, n: int) -> np.ndarray:
+    """The load-cell reads with the term library's sensor distortions of each read's set element (rows r,
+    of n) at the reads' times t (sim.cell_distort); unchanged when none is in the replay."""
+    cd, cs, cq = (post.get(e) for e in ("cell_drift", "cell_saturation", "cell_quantisation"))
+    if not (cd or cs or cq):
+        return reading
+
+    def per(x):  # a parameter (scalar or per element) at every read
+        return (np.zeros(n) + x)[r]
+
+    return cell_distort(
+        reading,
+        t,
+        (per(cd["offset_n"]), per(cd["time_constant_s"])) if cd else None,
+        per(cs["limit_n"]) if cs else None,
+        per(cq["step_n"]) if cq else None,
+    )
 
 
 def _stepped(plant: Plant, u: np.ndarray) -> kernel.Trajectory:

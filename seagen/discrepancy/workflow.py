@@ -26,6 +26,7 @@ from seagen.discrepancy.candidates import (
     start,
 )
 from seagen.discrepancy.claims import Evidence, evidence, footprints
+from seagen.discrepancy.discover import Discovery, discover, with_term
 from seagen.discrepancy.erratic import ERRATIC_SHARE, TINY, erratic
 from seagen.discrepancy.learned import Learned, fit_learned, with_learned
 from seagen.discrepancy.recalibrate import BaseCheck, base_check, plausible, plausible_range, uncertainty
@@ -105,6 +106,12 @@ class Result:
     notes: list[str] = field(default_factory=list)  # changes refused or flagged, in words (see _honest)
     check: BaseCheck | None = None  # the base's own parameters: which the data cannot pin, score test
     closest: str | None = None  # the single change fitting the data best (closest_single)
+    discovered: Discovery | None = None  # the term library's best form, when the catalogue ran out
+
+    @property
+    def found(self) -> bool:
+        """Whether a discovered term is claimed (then config carries it, on top of the claimed changes)."""
+        return self.discovered is not None and self.discovered.claimed
 
     @property
     def first(self) -> str | None:
@@ -114,8 +121,11 @@ class Result:
 
     @property
     def rms_learned(self) -> float:
-        """Held-out residual RMS with the learned remainder too (= rms_after without one)."""
-        return rms(self.learned.z) if self.learned else self.rms_after
+        """Held-out residual RMS of what plant.toml carries: with the learned remainder, or the claimed
+        discovered term (= rms_after without either)."""
+        if self.learned:
+            return rms(self.learned.z)
+        return self.discovered.rms_after if self.found and self.discovered else self.rms_after
 
     @property
     def rms_before(self) -> float:
@@ -453,9 +463,15 @@ def _erratic_note(base: PlantConfig, named: list[Named], held: Runs, sig_h, z1) 
 
 
 def identify(
-    runs: Runs, base: PlantConfig, max_rounds: int = 3, seed: int = 0, pinned: float | None = None
+    runs: Runs,
+    base: PlantConfig,
+    max_rounds: int = 3,
+    seed: int = 0,
+    pinned: float | None = None,
+    discovering: bool = True,
 ) -> Result:
-    """Name, add, re-check until the held-out residual is at the noise floor or nothing helps.
+    """Name, add, re-check until the held-out residual is at the noise floor or nothing helps; when the
+    catalogue runs out (verdict unexplained), search the term library (`discovering`, discover.py).
 
     The command timing (lag) is fitted first on the fitting trials with the base plant, unless `pinned` (by
     default the lag the log declares, Runs.declared)."""
@@ -542,7 +558,12 @@ def identify(
     res.recalibrated = [n for n in named if n.before is not None]
     res.signature, res.ranking, res.order = words, ranking, [n.name for n in named]
     res.remainder = describe(profile(z1, held, feats)) if verdict == "unexplained" else []
-    if verdict == "unexplained" and not base.on("learned_residual"):
+    if verdict == "unexplained" and discovering:  # the catalogue ran out: search the term library
+        kept = _apply(base, {n.name: n.params for n in named if n.claimed})
+        res.discovered = discover(kept, fit, held, sig_f, sig_h, floor, labels, rms(z1))
+        if res.found and res.discovered:
+            res.config = with_term(kept, res.discovered)
+    if verdict == "unexplained" and not base.on("learned_residual") and not res.found:
         res.learned = fit_learned(cfg, fit, held, sig_f, sig_h)
         res.config = with_learned(cfg, res.learned) if res.learned else cfg
     res.timing, res.notes, res.check, res.closest = tim, refits + notes, check, closest

@@ -404,9 +404,27 @@ def pot_drop(current: np.ndarray, of_set: np.ndarray, kappa: np.ndarray, alpha: 
     return out
 
 
+def _lag(x, of_set, alpha, out):
+    """A first-order lag of every set element's trajectory row (see lagged), from zero."""
+    for e in range(of_set.size):
+        m, c = of_set[e], 0.0
+        for k in range(1, x.shape[1]):
+            c = x[m, k] if alpha[e] >= 1.0 else c + (x[m, k] - c) * alpha[e]
+            out[e, k] = c
+
+
+def lagged(x: np.ndarray, of_set: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """x's rows of_set (a trajectory, (n_elements, K + 1)) behind a first-order lag each: c += (x - c) alpha
+    per step from zero (sim.lag_step: x itself when alpha >= 1), shape (of_set.size, K + 1)."""
+    out = np.zeros((of_set.size, x.shape[1]))
+    _lag_all(x, np.asarray(of_set, np.int64), np.asarray(alpha, float), out)
+    return out
+
+
 # compiled on first use, cached beside the module (or in numba's user cache when that is read-only)
 # (numpy's error model: a division by zero gives inf or nan as in Plant, never an exception)
 _drop_all = numba.njit(_drop, cache=True, error_model="numpy")
+_lag_all = numba.njit(_lag, cache=True, error_model="numpy")
 _spring = numba.njit(_spring, cache=True, error_model="numpy")
 _spring_slope = numba.njit(_spring_slope, cache=True, error_model="numpy")
 _spring_x = numba.njit(_spring_x, cache=True, error_model="numpy")

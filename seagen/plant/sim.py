@@ -59,18 +59,36 @@ def learned_correction(eff, values: dict[str, np.ndarray]) -> np.ndarray:
 
 
 def cell_terms(e, load_cell: np.ndarray, t) -> np.ndarray:
-    """The term library's load-cell distortions at time t (s into the trial): drift, saturation, then
-    quantisation (each only when on; e: the config's effects, parameters scalars or arrays like load_cell)."""
-    if e.cell_drift.enabled:
-        cd = e.cell_drift
-        load_cell = load_cell + cd.offset_n * (1.0 - fmath.exp(-t / np.asarray(cd.time_constant_s, float)))
-    if e.cell_saturation.enabled:
-        lim = e.cell_saturation.limit_n
-        load_cell = np.minimum(np.maximum(load_cell, -lim), lim)
-    if e.cell_quantisation.enabled:
-        q = e.cell_quantisation.step_n
-        load_cell = q * np.rint(load_cell / q)
+    """The term library's load-cell distortions (cell_distort) of the effects e that are on, at time t."""
+    cd, cs, cq = e.cell_drift, e.cell_saturation, e.cell_quantisation
+    return cell_distort(
+        load_cell,
+        t,
+        (cd.offset_n, cd.time_constant_s) if cd.enabled else None,
+        cs.limit_n if cs.enabled else None,
+        cq.step_n if cq.enabled else None,
+    )
+
+
+def cell_distort(load_cell: np.ndarray, t, drift=None, limit=None, step=None) -> np.ndarray:
+    """A load-cell reading at time t (s into the trial) with a drifting zero A (1 - exp(-t / tau)) (drift =
+    (A, tau)), saturated at +-limit, then read in steps (each None when off; scalars or arrays like the
+    reading; a step of 0 reads as is)."""
+    if drift is not None:
+        tau = np.asarray(drift[1], float)
+        load_cell = load_cell + drift[0] * (1.0 - fmath.exp(-np.asarray(t, float) / tau))
+    if limit is not None:
+        load_cell = np.minimum(np.maximum(load_cell, -limit), limit)
+    if step is not None:
+        q = np.asarray(step, float)
+        safe = np.where(q > 0, q, 1.0)
+        load_cell = np.where(q > 0, safe * np.rint(load_cell / safe), load_cell)
     return load_cell
+
+
+def lag_step(state: np.ndarray, x: np.ndarray, alpha) -> np.ndarray:
+    """One step of a first-order lag: x itself when alpha >= 1 (no lag), else state + (x - state) alpha."""
+    return np.where(np.asarray(alpha) >= 1.0, x, state + (x - state) * alpha)
 
 
 class Plant:
@@ -225,7 +243,7 @@ class Plant:
         self._history[0] = self.structure_force(self.shaft_mm)[0]
         if cfg.effects.cell_lag.enabled:
             a = np.minimum(dt / np.asarray(cfg.effects.cell_lag.time_constant_s, float), 1.0)
-            self._cell = self._cell + (self._history[self._delay_n] - self._cell) * a
+            self._cell = lag_step(self._cell, self._history[self._delay_n], a)
         self.t += dt
 
     def _terms(self, y0: np.ndarray, dt: float) -> None:

@@ -1,0 +1,185 @@
+"""Discovery when the catalogue runs out: search the term library, fit the best form, claim it on evidence."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from seagen.discrepancy.candidates import POLISH_NFEV, Candidate, full_scale, objective, polish, screen
+from seagen.discrepancy.claims import CUT, Evidence, evidence, footprints
+from seagen.discrepancy.recalibrate import uncertainty
+from seagen.discrepancy.replay import ParamSet, Runs, simulate
+from seagen.discrepancy.residuals import channel_rms, n_scored, region_table, rms, zscores
+from seagen.discrepancy.terms import DENSE, LIBRARY, STARTS, TERM_SPACE, form_of
+from seagen.plant import PlantConfig
+
+DBIC_MIN = 10.0  # the held-out BIC gain needed to name a term: as for a catalogue effect (workflow.DBIC_MIN)
+BEAM = 3  # start points of each term zoomed after the start grid
+EDGE = 0.01  # a parameter within this share of its box from an end is at the edge (workflow.EDGE)
+WORSE, WORSE_MIN = 1.1, 1.2  # no channel may end above WORSE x its RMS and WORSE_MIN sigmas (workflow)
+
+
+@dataclass
+class Discovery:
+    """The term a discovery found (claimed or not), its fit and the evidence."""
+
+    term: str
+    form: str  # its form class (terms.CLASSES)
+    params: dict[str, float]
+    sigma: dict[str, float]
+    claimed: bool
+    why: str  # why it is not claimed ('' when claimed)
+    rms_before: float  # held-out residual RMS (noise sigmas): the base's, the catalogue's best, the term's
+    rms_catalogue: float
+    rms_after: float
+    floor: float
+    z_after: dict[str, np.ndarray] = field(default_factory=dict)
+    evidence: Evidence | None = None
+    table: pd.DataFrame | None = None  # every term's fit and held-out BIC
+    edge: list[str] = field(default_factory=list)
+
+    @property
+    def cut(self) -> float:
+        """Share of the held-out gap to the noise floor the term closes (all channels)."""
+        return float(1 - max(self.rms_after - self.floor, 0.0) / max(self.rms_before - self.floor, 1e-12))
+
+    def formula(self) -> str:
+        """The term's formula in the plant's signals."""
+        return LIBRARY[self.term].formula
+
+    def unlike(self) -> str:
+        """The closest catalogue effect and how the term differs from it."""
+        return LIBRARY[self.term].unlike
+
+
+def _starts(c: Candidate) -> list[np.ndarray]:
+    """The start grid of a term: DENSE points along its many-valley parameters, STARTS along the others."""
+    axes = []
+    for e, p in c.keys:
+        n = DENSE.get((e, p), STARTS)
+        axes.append((np.arange(n) + 0.5) / n)
+    return [np.array(u) for u in itertools.product(*axes)]
+
+
+def search(cfg: PlantConfig, fit: Runs, sig_f: dict) -> list[Candidate]:
+    """Every term fitted alone on the plant cfg: a start grid (one batched replay), a zoom of its BEAM
+    best starts, then least squares."""
+    cands = [Candidate((t,), np.full(len(TERM_SPACE[t]), 0.5), full_scale=full_scale(cfg)) for t in LIBRARY]
+    pts = [(c, u) for c in cands for u in _starts(c)]
+    chi = objective(cfg, [c.params(u) for c, u in pts], fit, sig_f).sum(axis=1)
+    starts: list[Candidate] = []
+    for c in cands:
+        idx = sorted((i for i, (cc, _) in enumerate(pts) if cc is c), key=lambda i: chi[i])[:BEAM]
+        for i in idx:
+            starts.append(Candidate(c.names, pts[i][1].copy(), float(chi[i]), full_scale=c.full_scale))
+    screen(cfg, starts, fit, sig_f, rounds=3, half0=0.5 / 3)
+    best = {}
+    for s in starts:  # each term's best start
+        if s.names not in best or s.chi2_fit < best[s.names].chi2_fit:
+            best[s.names] = s
+    out = list(best.values())
+    polish(cfg, out, fit, sig_f, nfev=2 * POLISH_NFEV)
+    return out
+
+
+def _table(cfg: PlantConfig, cands: list[Candidate], held: Runs, sig_h: dict) -> pd.DataFrame:
+    """Held-out chi-square, BIC (k ln n) and RMS of the plant alone (row 0) and with each term."""
+    k = np.array([0] + [len(c.keys) for c in cands])
+    chi = objective(cfg, [{}] + [c.params() for c in cands], held, sig_h).sum(axis=1)
+    n = n_scored(held)
+    return pd.DataFrame(
+        {
+            "term": ["(none)"] + [c.names[0] for c in cands],
+            "form": ["-"] + [form_of(c.names[0]) for c in cands],
+            "k": k,
+            "chi2_fit": [np.nan] + [c.chi2_fit for c in cands],
+            "bic_held_out": chi + k * math.log(n),
+            "rms_held_out": np.sqrt(chi / n),
+        }
+    )
+
+
+def _edge(term: str, params: dict[str, float], scale: float) -> list[str]:
+    """Parameters fitted within EDGE of an end of their box."""
+    from seagen.discrepancy.candidates import box
+
+    out = []
+    for p, v in params.items():
+        lo, hi, log = box(term, p, scale)
+        u = math.log(v / lo) / math.log(hi / lo) if log and v > 0 else (v - lo) / (hi - lo)
+        if u <= EDGE or u >= 1 - EDGE:
+            out.append(p)
+    return out
+
+
+def _residual(cfg: PlantConfig, sets: list[ParamSet], runs: Runs, sig: dict) -> list[dict[str, np.ndarray]]:
+    """Held-out residuals (noise sigmas) of the plant cfg with each parameter set."""
+    z = zscores(runs, simulate(cfg, sets, runs), sig)
+    return [{c: v[i] for c, v in z.items()} for i in range(len(sets))]
+
+
+def discover(
+    cfg: PlantConfig,
+    fit: Runs,
+    held: Runs,
+    sig_f: dict,
+    sig_h: dict,
+    floor: float,
+    labels: dict[str, np.ndarray],
+    rms_catalogue: float,
+) -> Discovery | None:
+    """Search the term library on the plant cfg (the base with the claimed catalogue changes), select by
+    held-out BIC (the best term must beat the plant alone by DBIC_MIN), fit its parameters with their
+    1-sigma, and claim it only on the named effects' rule: no parameter at its box's edge, no channel made
+    worse, and on the channels it acts on >= CUT of the gap closed and no significant region left. None
+    when no term earns the BIC gain."""
+    cands = search(cfg, fit, sig_f)
+    table = _table(cfg, cands, held, sig_h).sort_values("bic_held_out").reset_index(drop=True)
+    top = table.iloc[0]
+    base_bic = float(table.loc[table.term == "(none)", "bic_held_out"].iloc[0])
+    if top.term == "(none)" or float(top.bic_held_out) > base_bic - DBIC_MIN:
+        return None
+    win = next(c for c in cands if c.names[0] == top.term)
+    term, params = win.names[0], win.params()[win.names[0]]
+    z0, z1 = _residual(cfg, [{}, {term: params}], held, sig_h)
+    fp, without = footprints(cfg, {term: params}, held, sig_h)
+    before, after = channel_rms(z0, held.mask), channel_rms(z1, held.mask)
+    ev = evidence(fp[term], before, after, floor, region_table(held, z1, labels), without[term])
+    sig = uncertainty(cfg, {term: params}, fit, sig_f)[term]
+    edge = _edge(term, params, win.full_scale)
+    worse = [c for c in before if after[c] > max(WORSE * before[c], WORSE_MIN)]
+    why = ""
+    if edge:
+        why = f"not claimed: {', '.join(edge)} at the edge of its search box (the fit is not a value)"
+    elif worse:
+        why = f"not claimed: it makes held-out {', '.join(worse)} worse"
+    elif not ev.ok:
+        why = f"not claimed: its fit {ev.words()} (rule: >= {CUT:.0%} of the gap, no structure left)"
+    shown = dict(params)
+    if "phase_rad" in shown:  # its box spans two turns: reported in [0, 2 pi)
+        shown["phase_rad"] = float(shown["phase_rad"] % (2 * math.pi))
+    return Discovery(
+        term,
+        form_of(term),
+        shown,
+        sig,
+        not why,
+        why,
+        rms(z0),
+        rms_catalogue,
+        rms(z1),
+        floor,
+        z1,
+        ev,
+        table,
+        edge,
+    )
+
+
+def with_term(cfg: PlantConfig, d: Discovery) -> PlantConfig:
+    """cfg with the discovered term switched on at its fitted values (what plant.toml carries)."""
+    return cfg.with_effect(d.term, True, **d.params)

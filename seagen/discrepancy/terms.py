@@ -1,0 +1,157 @@
+"""The term library: plant-side forms the catalogue lacks, with their form class, fit box and formula."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from seagen.plant.config import TERMS
+
+# The form classes a discovery names ("discovered: <class>"): exactly these.
+CLASSES = (
+    "periodic",
+    "drift",
+    "state_friction",
+    "hysteresis",
+    "nonlinear_stiffness",
+    "sensor_lag",
+    "quantisation",
+    "saturation",
+)
+
+
+@dataclass(frozen=True)
+class Term:
+    """One term: its plant effect (config.TERMS), form class, formula in the plant's signals, where it acts,
+    and how it differs from the catalogue effect closest to it."""
+
+    name: str
+    form: str  # one of CLASSES
+    formula: str
+    acts_on: str
+    unlike: str  # the catalogue effect it is closest to, and the difference
+
+
+LIBRARY: dict[str, Term] = {
+    t.name: t
+    for t in (
+        Term(
+            "lead_error",
+            "periodic",
+            "nut = motor + a cos(2 pi x / P + phi), x the motor's travel at the nut",
+            "the nut's position (screw lead error): compression, force, pot",
+            "backlash (a dead band at reversals, not a ripple along the travel)",
+        ),
+        Term(
+            "cogging",
+            "periodic",
+            "F_motor += A cos(2 pi x / P + phi), x the motor's travel at the nut",
+            "the motor's load: its speed (encoder), then compression and force",
+            "actuator_friction (a constant band, not a ripple along the travel)",
+        ),
+        Term(
+            "spring_drift",
+            "drift",
+            "k(t) = k (1 + s (1 - exp(-t / tau))), t the time into the trial",
+            "the spring's stiffness: force per compression",
+            "series_compliance (a fixed stiffness, not one that changes in time)",
+        ),
+        Term(
+            "cell_drift",
+            "drift",
+            "load_cell += A (1 - exp(-t / tau)), t the time into the trial",
+            "the load cell's zero",
+            "load_cell_offset (a constant zero, not one that settles in time)",
+        ),
+        Term(
+            "rate_friction",
+            "state_friction",
+            "F_friction += dF exp(-w / v_c), dw/dt = (|v| - w) / tau (a lagged speed state)",
+            "the shaft's friction band at low speed and after starts",
+            "stribeck_friction (Gaussian in the present speed, no state)",
+        ),
+        Term(
+            "bristle_friction",
+            "state_friction",
+            "F_friction += F_b (1 - exp(-s / x0)), s the shaft's travel since its last reversal",
+            "the shaft's friction band after reversals",
+            "actuator_friction (the full band at once, no presliding build-up)",
+        ),
+        Term(
+            "spring_hysteresis",
+            "hysteresis",
+            "F += k_h (d - h), h = clip(h, d - w, d + w) (an elastoplastic element beside the spring)",
+            "the spring force on loading versus unloading",
+            "actuator_friction (a band on the shaft's motion, not on the spring's compression)",
+        ),
+        Term(
+            "spring_poly",
+            "nonlinear_stiffness",
+            "F = k d + k2 d^2 + k3 d^3 (d >= 0, either sign)",
+            "the spring force at large compression",
+            "spring_nonlinearity (a hardening cube only)",
+        ),
+        Term(
+            "cell_lag",
+            "sensor_lag",
+            "dF_cell/dt = (F - F_cell) / tau (a first-order lag)",
+            "the load cell during force changes",
+            "transport_delay (a pure delay: the same shape later, not smoothed)",
+        ),
+        Term(
+            "cell_quantisation",
+            "quantisation",
+            "F_cell = q round(F_cell / q)",
+            "the load cell's resolution",
+            "none in the catalogue (the pot and encoder are read in their own counts)",
+        ),
+        Term(
+            "cell_saturation",
+            "saturation",
+            "F_cell = clip(F_cell, -L, L)",
+            "the load cell at large forces",
+            "spring_nonlinearity or series_compliance (a smooth curve, not a hard limit)",
+        ),
+    )
+}
+assert tuple(LIBRARY) == TERMS and all(t.form in CLASSES for t in LIBRARY.values())
+
+# Fit box per term parameter: (low, high, log-scaled), as candidates.SPACE. A phase box spans two turns so
+# that no phase is at its edge; it is reported modulo 2 pi.
+TERM_SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
+    "lead_error": {
+        "amplitude_mm": (0.002, 0.3, True),
+        "period_mm": (0.2, 10.0, True),
+        "phase_rad": (-6.5, 6.5, False),
+    },
+    "cogging": {
+        "force_n": (0.05, 5.0, True),
+        "period_mm": (0.1, 10.0, True),
+        "phase_rad": (-6.5, 6.5, False),
+    },
+    "spring_drift": {"share": (-0.5, 0.5, False), "time_constant_s": (0.1, 30.0, True)},
+    "cell_drift": {"offset_n": (-4.0, 4.0, False), "time_constant_s": (0.1, 30.0, True)},
+    "rate_friction": {
+        "extra_n": (0.1, 5.0, True),
+        "v_c_mm_s": (0.05, 5.0, True),
+        "time_constant_s": (0.001, 0.5, True),
+    },
+    "bristle_friction": {"force_n": (0.1, 6.0, True), "x0_mm": (0.002, 1.0, True)},
+    "spring_hysteresis": {"k_n_per_mm": (0.05, 10.0, True), "half_width_mm": (0.005, 1.0, True)},
+    "spring_poly": {"k2_n_per_mm2": (-0.6, 0.6, False), "k3_n_per_mm3": (-0.15, 0.15, False)},
+    "cell_lag": {"time_constant_s": (0.001, 0.3, True)},
+    "cell_quantisation": {"step_n": (0.01, 2.0, True)},
+    "cell_saturation": {"limit_n": (1.0, 60.0, True)},
+}
+# Start grids of parameters whose objective has many valleys (a period, a phase): this many points along it.
+DENSE = {
+    ("lead_error", "period_mm"): 24,
+    ("cogging", "period_mm"): 24,
+    ("lead_error", "phase_rad"): 4,
+    ("cogging", "phase_rad"): 4,
+}
+STARTS = 3  # start points along every other parameter (its box's 1/6, 1/2 and 5/6)
+
+
+def form_of(name: str) -> str:
+    """The form class of a term."""
+    return LIBRARY[name].form
