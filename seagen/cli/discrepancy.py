@@ -70,7 +70,7 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
     from seagen.cli.data import given_actuator
     from seagen.data.schema import data_actuator
     from seagen.discrepancy.replay import load_measured, load_timing, runs_from_frames
-    from seagen.discrepancy.report import summary, unpinned_words, write_report
+    from seagen.discrepancy.report import discovered_lines, summary, unpinned_words, write_report
     from seagen.discrepancy.workflow import identify
     from seagen.plant import PlantConfig, load_config
 
@@ -99,6 +99,8 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
         print(f"verdict: {s['verdict']}; added: {named}; recalibrated: {recal or 'nothing'}")
         if s["named_first"]:
             print(f"named first: {s['named_first']} (closest single change: {s['closest_single'] or '-'})")
+        for line in discovered_lines(res):  # the term library's form, when the catalogue ran out
+            print(line)
         if unpinned_words(res):
             print(f"note: {unpinned_words(res)}")
         if res.timing is not None:

@@ -77,7 +77,7 @@ def search(cfg: PlantConfig, fit: Runs, sig_f: dict) -> list[Candidate]:
         for i in idx:
             starts.append(Candidate(c.names, pts[i][1].copy(), float(chi[i]), full_scale=c.full_scale))
     screen(cfg, starts, fit, sig_f, rounds=3, half0=0.5 / 3)
-    best = {}
+    best: dict[tuple[str, ...], Candidate] = {}
     for s in starts:  # each term's best start
         if s.names not in best or s.chi2_fit < best[s.names].chi2_fit:
             best[s.names] = s

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from seagen.discrepancy.recalibrate import PIN_SHARE, PIN_SIGMAS, change_lines, json_safe, plausible
+from seagen.discrepancy.recalibrate import PIN_SHARE, PIN_SIGMAS, change_lines, json_safe, plausible, unit_of
 from seagen.discrepancy.residuals import SCORE_CHANNELS, channel_rms, region_labels, region_table, rms
 from seagen.discrepancy.workflow import DRIVE, Result, worse_channels
 from seagen.plant import save_config
@@ -44,8 +44,11 @@ def region_gap(res: Result) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["by", "region", "samples", "rms_before", "rms_after"])
 
 
-def residual_maps(res: Result, path: Path) -> None:
-    """Mean residual (noise sigmas) over measured force x contact angle, per channel, before and after."""
+def residual_maps(
+    res: Result, path: Path, after: dict[str, np.ndarray] | None = None, what: str = ""
+) -> None:
+    """Mean residual (noise sigmas) over measured force x contact angle, per channel, before and after (the
+    catalogue's fit, or `after`: the discovered term's, named `what` in the titles)."""
     import matplotlib
 
     from seagen.plotting import masked_cmap
@@ -62,7 +65,7 @@ def residual_maps(res: Result, path: Path) -> None:
     fig, axes = plt.subplots(2, len(SCORE_CHANNELS), figsize=(12, 6), constrained_layout=True)
     n, _, _ = np.histogram2d(force, angle, [fe, ae])
     means = {}
-    for title, z in (("before", res.z_before), ("after", res.z_after)):
+    for title, z in (("before", res.z_before), ("after", res.z_after if after is None else after)):
         for c in SCORE_CHANNELS:
             s, _, _ = np.histogram2d(force, angle, [fe, ae], weights=z[c][m])
             means[title, c] = np.where(n > 0, s / np.maximum(n, 1), np.nan)
@@ -72,7 +75,7 @@ def residual_maps(res: Result, path: Path) -> None:
             lim = max(3.0, *(float(np.nanmax(np.abs(means[k, c]), initial=0.0)) for k in ("before", "after")))
             cells = np.ma.masked_invalid(means[title, c].T)  # no data: grey, not the white of a zero residual
             im = axes[row, col].pcolormesh(fe, ae, cells, cmap=masked_cmap("RdBu_r"), vmin=-lim, vmax=lim)
-            axes[row, col].set_title(f"{c} residual, {title}")
+            axes[row, col].set_title(f"{c} residual, {title}{' ' + what if what and row else ''}")
             axes[row, col].set_xlabel("measured force at the shaft (N)")
             axes[row, col].set_ylabel("contact angle (deg)")
             fig.colorbar(im, ax=axes[row, col], label="mean residual (noise sigma)")
@@ -116,6 +119,7 @@ def markdown(res: Result, source: str, before: pd.DataFrame, after: pd.DataFrame
         + "\n\nCatalogue effects by likeness of their own signature (cosine, 1 = same dependences): "
         + (", ".join(f"{e} {c:.2f}" for e, c in res.ranking[:5]) or "not ranked (no structured residual)"),
         _remainder(res),
+        discovered_section(res),
         _learned(res),
         "## Parameter changes of the base (recalibrated)\n"
         + ("\n".join(f"- {line}" for n in res.recalibrated for line in _changes(n, fs)) or "none"),
@@ -213,6 +217,44 @@ def _learned(res: Result) -> str:
     )
 
 
+def discovered_lines(res: Result) -> list[str]:
+    """The discovered term in words: form class, formula, parameters with 1-sigma, gap, claim ([] if none)."""
+    d = res.discovered
+    if d is None:
+        return []
+    pars = ", ".join(
+        f"{p} = {v:.4g} ± {d.sigma.get(p, float('nan')):.2g}{' ' + unit_of(p) if unit_of(p) else ''}"
+        for p, v in d.params.items()
+    )
+    return [
+        f"discovered: {d.form} ({d.term}){'' if d.claimed else ', not claimed'}",
+        f"formula: {d.formula()}",
+        f"parameters: {pars}",
+        f"held-out residual RMS {d.rms_before:.3g} -> {d.rms_after:.3g} noise sigmas (floor {d.floor:.3g}; "
+        f"the catalogue's best: {d.rms_catalogue:.3g}); gap cut {d.cut:.0%}",
+        f"unlike the closest catalogue effect, {d.unlike()}",
+        *([d.why] if d.why else []),
+    ]
+
+
+def discovered_section(res: Result) -> str:
+    """The report's section on the term library's search ('' when it did not run or found nothing)."""
+    lines = discovered_lines(res)
+    if not lines:
+        return ""
+    d = res.discovered
+    assert d is not None and d.table is not None
+    head = "plant.toml carries it" if d.claimed else "not written to plant.toml"
+    return (
+        f"## Discovered: {d.form}\n" + "\n".join(f"- {x}" for x in lines) + f"\n\n{head}. "
+        "Every term of the library (discrepancy/terms.py) fitted alone (a start grid, a zoom, least squares) "
+        "and scored on the held-out trials by BIC; claimed on the rule for named effects (>= 80 % of the "
+        "gap closed on the channels it acts on, no significant region left there, no channel worse, no "
+        "parameter at its box's edge).\n\n![discovered term's residual maps](discovered_maps.png)\n\n"
+        + _md_table(d.table.drop(columns=["chi2_fit"]).head(6))
+    )
+
+
 def gap_cut(before: float, after: float, floor: float) -> float:
     """Share of the held-out gap (RMS above the noise floor) closed."""
     return float(1 - max(after - floor, 0.0) / max(before - floor, 1e-12))
@@ -242,6 +284,8 @@ def write_report(res: Result, out: str | os.PathLike[str], source: str) -> None:
         after.to_csv(tmp / "regions_after.csv", index=False)
         gap.to_csv(tmp / "gap_by_region.csv", index=False)
         residual_maps(res, tmp / "residual_maps.png")
+        if (d := res.discovered) is not None:
+            residual_maps(res, tmp / "discovered_maps.png", d.z_after, f"({d.term})")
         (tmp / "report.md").write_text(markdown(res, source, before, after, gap))
         if out.exists():
             shutil.rmtree(out)
@@ -339,6 +383,20 @@ def summary(res: Result) -> dict:
         "learned": None
         if res.learned is None
         else {"channel": res.learned.channel, "inputs": res.learned.inputs, "rms_after": res.rms_learned},
+        "discovered": None
+        if res.discovered is None
+        else {
+            "form": res.discovered.form,
+            "term": res.discovered.term,
+            "params": res.discovered.params,
+            "sigma": json_safe(res.discovered.sigma),
+            "claimed": res.discovered.claimed,
+            "why": res.discovered.why,
+            "formula": res.discovered.formula(),
+            "unlike": res.discovered.unlike(),
+            "rms_after": res.discovered.rms_after,
+            "gap_cut": res.discovered.cut,
+        },
         "gap_cut": gap_cut(res.rms_before, res.rms_learned, res.noise_floor),
         "rms_before": res.rms_before,
         "rms_after": res.rms_after,
