@@ -40,6 +40,7 @@ void sea_table_s16(int16_t *y, int n, const int16_t *table, int32_t len, int in_
  * hardswish: sat16(rshift_rne(y * hardsigmoid(y), SEA_ACT_OUT_FRAC)), y's format;
  * prelu: y < 0 -> sat16(rshift_rne(y * alpha[j], SEA_ACT_PRELU_FRAC)), a slope per channel j. */
 #define SEA_ACT_OUT_FRAC 14   /* table and hardsigmoid outputs: Q14 */
+#define SEA_ACT_ONE 16384     /* 1.0 in Q14 */
 #define SEA_ACT_SLOPE_FRAC 14 /* a smooth function's relu slope s (< 2): Q14 */
 #define SEA_ACT_HSIG_FRAC 30  /* hardsigmoid: alpha y + beta summed in Q30 (int64) */
 #define SEA_ACT_PRELU_FRAC 15 /* PReLU slopes (|a| <= 1): Q15 */
@@ -48,7 +49,12 @@ void sea_table_s16(int16_t *y, int n, const int16_t *table, int32_t len, int in_
 static inline int16_t sea_table1(int16_t y, const int16_t *table, int32_t len, int in_shift, int32_t offset)
 {
     int32_t k = sea_rshift_rne_s32((int32_t)y, in_shift) + offset;
-    k = (k < 0) ? 0 : ((k > (len - 1)) ? (len - 1) : k);
+    if (k < 0) {
+        k = 0;
+    }
+    if (k > (len - 1)) {
+        k = len - 1;
+    }
     return table[k];
 }
 
@@ -62,8 +68,14 @@ static inline int16_t sea_smooth1(int16_t y, const int16_t *g, int32_t len, int 
 
 static inline int16_t sea_hsig1(int16_t y, int32_t alpha, int64_t beta)
 {
-    const int64_t h = sea_rshift_rne_s64((int64_t)y * alpha + beta, SEA_ACT_HSIG_FRAC - SEA_ACT_OUT_FRAC);
-    return (int16_t)((h < 0) ? 0 : ((h > (1 << SEA_ACT_OUT_FRAC)) ? (1 << SEA_ACT_OUT_FRAC) : h));
+    int64_t h = sea_rshift_rne_s64(((int64_t)y * alpha) + beta, SEA_ACT_HSIG_FRAC - SEA_ACT_OUT_FRAC);
+    if (h < 0) {
+        h = 0;
+    }
+    if (h > SEA_ACT_ONE) {
+        h = SEA_ACT_ONE;
+    }
+    return (int16_t)h;
 }
 
 static inline int16_t sea_hswish1(int16_t y, int32_t alpha, int64_t beta)
