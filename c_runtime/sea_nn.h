@@ -84,6 +84,19 @@ static inline int16_t sea_hswish1(int16_t y, int32_t alpha, int64_t beta)
     return sea_sat16(sea_rshift_rne_s32((int32_t)y * sea_hsig1(y, alpha, beta), SEA_ACT_OUT_FRAC));
 }
 
+static inline int16_t sea_hardtanh1(int16_t y, int16_t lo, int16_t hi)
+{
+    int16_t r = y;
+    if (r < lo) {
+        r = lo;
+    }
+    if (r > hi) {
+        r = hi;
+    }
+    return r;
+}
+
+/* PReLU's and LeakyReLU's negative side (sea_leaky_s16 is this with one slope). */
 static inline int16_t sea_prelu1(int16_t y, int32_t alpha)
 {
     /* |alpha| <= 2^15: int32 */

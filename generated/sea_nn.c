@@ -61,9 +61,7 @@ void sea_leaky_s16(int16_t *y, int n, int32_t alpha_q15)
 {
     int i;
     for (i = 0; i < n; ++i) {
-        if (y[i] < 0) {
-            y[i] = sea_sat16(sea_rshift_rne_s32((int32_t)y[i] * alpha_q15, 15));
-        }
+        y[i] = sea_prelu1(y[i], alpha_q15);
     }
 }
 
@@ -71,7 +69,7 @@ void sea_hardtanh_s16(int16_t *y, int n, int16_t lo, int16_t hi)
 {
     int i;
     for (i = 0; i < n; ++i) {
-        y[i] = (y[i] < lo) ? lo : ((y[i] > hi) ? hi : y[i]);
+        y[i] = sea_hardtanh1(y[i], lo, hi);
     }
 }
 

@@ -23,6 +23,7 @@ from seagen.codegen.cfmt import c_int
 from seagen.errors import UserError
 from seagen.ir import QMLP, QSF, QHorner, QModel
 from seagen.quant.interval import acc_interval
+from seagen.runtime.activations import SMOOTH
 from seagen.runtime.fixed import rshift_rne
 
 TARGETS = ("portable", "cortex-m0plus", "cortex-m4")
@@ -55,19 +56,59 @@ def _half(shift: int) -> int:
 
 
 def _check_layers(qm: QModel, target: str) -> None:
-    """Target kernels fuse ReLU/linear only, int16 outputs, a single model output, shifts >= 1."""
+    """Target kernels: int16 outputs, a single model output, shifts >= 1 (ReLU and linear fused into the
+    saturation, every other activation applied to each result by its sea_nn.h per-value form)."""
     if not isinstance(qm, QMLP):
         return
     for k, q in enumerate(qm.layers):
-        if q.activation not in FUSED:
-            raise UserError(
-                f"--target {target}: layer {k} has {q.activation}; the target kernels fuse "
-                f"{' and '.join(FUSED)} only (use --target portable)"
-            )
         if q.shift < 1:
             raise UserError(f"--target {target}: layer {k} has no rounding shift (use --target portable)")
     if qm.layers[-1].w_q.shape[0] != 1:
         raise UserError(f"--target {target}: the last layer must have one output")
+
+
+def _elem(qm: QMLP, k: int) -> dict[str, Any] | None:
+    """The sea_nn.h per-value call a layer's results go through (None for ReLU and linear, fused): its
+    function, whether it reads the layer's table (tanh, sigmoid, the smooth ones) or per-channel slopes
+    (PReLU: indexed by the neuron), the arguments after them and the data of that table."""
+    q = qm.layers[k]
+    t = next((t for t in qm.tables if t.name == f"l{k}_{q.activation}"), None)
+    if q.activation in FUSED:
+        return None
+    if q.activation in SMOOTH and t is not None:
+        args = [str(len(t.values)), str(t.in_shift), c_int(t.offset), c_int(q.act_params[0])]
+        return {
+            "fn": "sea_smooth1",
+            "table": [int(v) for v in t.values],
+            "bits": 16,
+            "index": False,
+            "args": args,
+        }
+    if t is not None:  # tanh, sigmoid
+        args = [str(len(t.values)), str(t.in_shift), c_int(t.offset)]
+        return {
+            "fn": "sea_table1",
+            "table": [int(v) for v in t.values],
+            "bits": 16,
+            "index": False,
+            "args": args,
+        }
+    if q.activation == "prelu":
+        return {"fn": "sea_prelu1", "table": list(q.act_params), "bits": 32, "index": True, "args": []}
+    if q.activation == "leaky_relu":
+        return {"fn": "sea_prelu1", "table": None, "index": False, "args": [c_int(q.act_params[0])]}
+    if q.activation == "hardtanh":
+        return {
+            "fn": "sea_hardtanh1",
+            "table": None,
+            "index": False,
+            "args": [c_int(v) for v in q.act_params],
+        }
+    if q.activation in ("hardsigmoid", "hardswish"):
+        fn = "sea_hsig1" if q.activation == "hardsigmoid" else "sea_hswish1"
+        args = [c_int(q.act_params[0]), c_int(q.act_params[1], 64)]
+        return {"fn": fn, "table": None, "index": False, "args": args}
+    raise UserError(f"layer {k}: activation {q.activation} has no target kernel form")
 
 
 def _proven16(mn: np.ndarray, mx: np.ndarray, shift: int) -> bool:
@@ -160,6 +201,7 @@ def m4_layers(qm: QMLP) -> list[dict[str, Any]]:
                 "acc": acc,
                 "shift": q.shift,
                 "act": q.activation,
+                "elem": _elem(qm, k),
                 "table": table,
                 "bias64": bias if acc == 64 else None,
                 "last": last,
@@ -201,6 +243,7 @@ def m0plus_layers(qm: QMLP) -> list[dict[str, Any]]:
                 "acc": acc,
                 "shift": q.shift,
                 "act": q.activation,
+                "elem": _elem(qm, k),
                 "u": [v for j in order for v in u[j]],
                 "w": [int(v) for v in q.w_q.ravel()],
                 "bias": bias,
