@@ -12,6 +12,32 @@ are none of the classes cleanly (a humility test: the right answer is no named c
 
 Drifts run on a session clock: trial i of a case (the order of bench.case_moves) starts SESSION_GAP_S * i
 seconds into the session (a trial and a pause), so the same trial index means the same session time.
+
+Visibility, measured after the expectations above were committed (commit 634a10e) and unchanged since:
+`signal_change` replays the same commands and noise into the plain plant and each form's (open loop) and
+gives each channel's RMS change in noise sigmas. Every form moves its strongest channel by more than the
+noise in every seed; the sensor forms leave the channels they do not act on exactly unchanged. Weakest:
+thread_error (enc 1.7, load cell 0.7 sigma at worst) and gear_detent's and presliding_bristle's force
+channel (0.45 and 0.9 sigma at worst; their position channel carries them). Reproduce with
+`.venv/bin/python -c "from seagen.discrepancy.blindforms import visibility_table as v; print(v())"`:
+
+    full protocol (PUSH_MOVES), seeds [1, 2, 3, 4, 5]: median [min] of RMS change / noise sigma
+    form                 class                channels             enc            pot    load_cell_n
+    thread_error         periodic             both         3.36 [ 1.69]    1.33 [ 0.96]    1.13 [ 0.71]
+    gear_detent          periodic             both        49.50 [13.49]    1.12 [ 0.19]    1.73 [ 0.45]
+    spring_relaxation    drift                both        63.04 [52.89]    1.17 [ 0.98]    3.36 [ 2.83]
+    pot_zero_drift       drift                position     0.00 [ 0.00]    4.78 [ 3.80]    0.00 [ 0.00]
+    presliding_bristle   state_friction       both         3.83 [ 2.58]    2.01 [ 1.31]    1.54 [ 0.88]
+    lagged_breakaway     state_friction       both        41.43 [12.88]    5.07 [ 2.86]    6.57 [ 1.70]
+    spring_hysteresis    hysteresis           both        66.38 [39.33]    2.58 [ 1.27]    5.62 [ 3.24]
+    cell_hysteresis      hysteresis           force        0.00 [ 0.00]    0.00 [ 0.00]    5.22 [ 3.27]
+    progressive_spring   nonlinear_stiffness  both       184.49 [113.59]    3.64 [ 2.18]   12.34 [ 7.72]
+    pot_lag              sensor_lag           position     0.00 [ 0.00]    9.95 [ 5.74]    0.00 [ 0.00]
+    cell_quantised       quantisation         force        0.00 [ 0.00]    0.00 [ 0.00]    1.85 [ 1.24]
+    cell_saturation      saturation           force        0.00 [ 0.00]    0.00 [ 0.00]   21.94 [11.51]
+    pot_clamp            saturation           position     0.00 [ 0.00]   23.98 [14.71]    0.00 [ 0.00]
+    drive_crosstalk      other                force        0.00 [ 0.00]    0.00 [ 0.00]    4.35 [ 2.77]
+    angle_gain           other                force        0.00 [ 0.00]    0.00 [ 0.00]    4.35 [ 2.79]
 """
 
 from __future__ import annotations
@@ -38,6 +64,7 @@ CLASSES = (
     "saturation",
     "other",
 )
+CHANNEL_NAMES = ("enc", "pot", "load_cell_n")  # the logged channels signal_change compares
 SESSION_GAP_S = 10.0  # s between the starts of consecutive trials on the session clock
 
 
@@ -467,3 +494,78 @@ def blind_case(
         "truth": {**params, **_derived(name, params, cfg)},
     }
     return cls, cfg, cfg, expect
+
+
+def _open_loop(plant: Plant, volts: np.ndarray, every: int) -> dict[str, np.ndarray]:
+    """Logged channels (samples, elements) of `plant` driven by the command volts (samples, elements), each
+    held for `every` plant steps after its sample (run_trials' order: read, then step)."""
+    out: dict[str, list[np.ndarray]] = {c: [] for c in CHANNEL_NAMES}
+    for v in volts:
+        s = plant.read()
+        for c in out:
+            out[c].append(np.asarray(getattr(s, c), float).copy())
+        for _ in range(every):
+            plant.step(v)
+    return {c: np.array(x) for c, x in out.items()}
+
+
+def signal_change(
+    names: tuple[str, ...] = BLIND_FORMS,
+    seed: int = 1,
+    fast: bool = True,
+    act: Actuator | None = None,
+    max_s: float | None = None,
+) -> dict[str, dict[str, float]]:
+    """Per form of `names`: the RMS change it makes to each logged channel (enc, pot, load_cell_n) in units
+    of that channel's sensor noise (enc: its rounding, 1/sqrt(12) count; pot: pot_noise's sigma; load cell:
+    its mount's sigma). The bench's case trials (FAST_MOVES if `fast`; each at most max_s seconds when
+    given) run closed loop once by the plain plant; its logged commands are replayed open loop into the
+    plain plant and into each form's case `seed`, with the same seed (the same noise draws)."""
+    from seagen.data.protocol import run_trials, sample_every
+    from seagen.discrepancy.bench import FAST_MOVES, case_moves
+    from seagen.discrepancy.residuals import QUANT_SIGMA
+
+    truth = PlantConfig(actuator=act or default_actuator())
+    moves = case_moves(FAST_MOVES, truth.actuator) if fast else case_moves(act=truth.actuator)
+    frames = run_trials(truth, moves, seed=seed, max_s=max_s)
+    n = max(len(f) for f in frames)
+    volts = np.zeros((n, len(moves)))
+    alive = np.zeros((n, len(moves)), dtype=bool)
+    for i, f in enumerate(frames):
+        volts[: len(f), i], alive[: len(f), i] = f["motor_v"].to_numpy(float), True
+    angles = np.array([m.angle_deg for m in moves])
+    every = sample_every(truth)
+    plain = _open_loop(Plant(truth, angles, seed=seed), volts, every)
+    lc = truth.load_cells
+    split = geometry(truth.actuator).split_deg
+    sigma = {
+        "enc": np.full(angles.size, QUANT_SIGMA),
+        "pot": np.full(angles.size, truth.effects.pot_noise.sigma_counts),
+        "load_cell_n": np.where(angles <= split, lc.horizontal_sigma_n, lc.vertical_sigma_n),
+    }
+    out = {}
+    for name in names:
+        cls, cfg, _, _ = blind_case(name, seed, act)
+        formed = _open_loop(cls(cfg, angles, seed=seed), volts, every)
+        out[name] = {
+            c: float(np.sqrt(np.mean(((formed[c] - plain[c]) / sigma[c])[alive] ** 2))) for c in plain
+        }
+    return out
+
+
+def visibility_table(seeds: range | tuple[int, ...] = range(1, 6), fast: bool = False) -> str:
+    """signal_change over `seeds` as text: per form and channel, the median [min] over the seeds."""
+    res = [signal_change(seed=s, fast=fast) for s in seeds]
+    head = "full protocol (PUSH_MOVES)" if not fast else "fast protocol (FAST_MOVES)"
+    lines = [
+        f"{head}, seeds {list(seeds)}: median [min] of RMS change / noise sigma",
+        f"{'form':20s} {'class':20s} {'channels':9s} " + " ".join(f"{c:>14s}" for c in CHANNEL_NAMES),
+    ]
+    for name in BLIND_FORMS:
+        cells = []
+        for c in CHANNEL_NAMES:
+            v = np.array([r[name][c] for r in res])
+            cells.append(f"{np.median(v):7.2f} [{v.min():5.2f}]")
+        form = FORMS[name]
+        lines.append(f"{name:20s} {form.expected_class:20s} {form.channels:9s} " + " ".join(cells))
+    return "\n".join(lines)
