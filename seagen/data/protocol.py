@@ -28,7 +28,9 @@ PUSH_MOVES = ((2.5, 17.0, -5.0), (4.0, 12.0, -7.0), (3.0, 19.0, -6.0), (5.0, 9.0
 # the loading side, where the force controller ends up.
 TRAIN_MOVES = tuple(m + (0.5,) if i == 2 else m for i, m in enumerate(PUSH_MOVES))
 TEST_MOVES = TRAIN_MOVES  # same protocol, other trials and noise
-VALIDATION_MOVES = ((3.2, 16.0, -6.0),)
+# validation: one 1.4 s trial (the paper's 140 rows); 4.2 V reaches its 16 N (80 % of the range) within it at
+# every angle (3.2 V, the first choice, stopped at 59 % at the top angle: the 75 % coverage rule failed)
+VALIDATION_MOVES = ((4.2, 16.0, -6.0),)
 
 
 @dataclass(frozen=True)

@@ -139,13 +139,44 @@ class Result:
 
 
 def split_trials(runs: Runs, per_split: int = PER_SPLIT) -> tuple[np.ndarray, np.ndarray]:
-    """Fitting and held-out trials: alternate within each contact angle, spread over the angles."""
+    """Fitting and held-out trials: alternate within each contact angle, spread over the angles; where the
+    two sides' top forces differ (split_balance below BALANCE), alternate in order of peak force instead."""
     if len(runs.angle) < 2:
         raise UserError("need at least two measured trials (one to fit, one to hold out)")
+    fit, held = _alternate(runs, per_split, None)
+    if split_balance(runs, fit, held) < BALANCE:
+        fit, held = _alternate(runs, per_split, trial_peaks(runs))
+    return fit, held
+
+
+BALANCE = 0.8  # each side's top load-cell force at least this share of the other's
+
+
+def trial_peaks(runs: Runs) -> np.ndarray:
+    """Each trial's peak load-cell force (N; 0 for a trial without one)."""
+    f = np.where(runs.mask, runs.meas["load_cell_n"], -np.inf)
+    return np.nan_to_num(np.nanmax(np.maximum(f, 0.0), axis=1), nan=0.0)
+
+
+def split_balance(runs: Runs, fit: np.ndarray, held: np.ndarray) -> float:
+    """The lower of the two sides' top peak forces over the higher (1: they reach the same force)."""
+    peaks = trial_peaks(runs)
+    top = sorted(float(peaks[i].max()) if i.size else 0.0 for i in (fit, held))
+    return top[0] / top[1] if top[1] > 0 else 1.0
+
+
+def _alternate(runs: Runs, per_split: int, peaks: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Alternate the trials of each angle between the sides: in log order, or by descending `peaks` (the
+    strongest trial to the fitting side at every other angle, to the held-out side at the others)."""
     angles = np.unique(runs.angle)
     queues = [np.flatnonzero(runs.angle == a) for a in angles]
+    if peaks is not None:
+        queues = [q[np.argsort(-peaks[q], kind="stable")] for q in queues]
     fit_q = [list(q[0::2]) for q in queues]
     held_q = [list(q[1::2]) for q in queues]
+    if peaks is not None:
+        for j in range(1, len(queues), 2):
+            fit_q[j], held_q[j] = held_q[j], fit_q[j]
     if not any(held_q):  # one trial per angle: alternate over the angles instead
         flat = [int(q[0]) for q in queues]
         fit_q, held_q = [[i] for i in flat[0::2]], [[i] for i in flat[1::2]]
