@@ -61,6 +61,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         "deviation record fail; suppressions in the files are refused; skipped without cppcheck 2.10)",
     )
     p.add_argument(
+        "--prove",
+        action="store_true",
+        help="also prove the folder's C free of run-time errors over its contracts' domain with Frama-C Eva "
+        "(one check per public function; any alarm fails; docs/prove.md; exit 2 without frama-c)",
+    )
+    p.add_argument(
         "--junit",
         metavar="FILE",
         help="also write a JUnit XML report (one test case per check; bad input: one errored case)",
@@ -91,6 +97,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
             args.allow_pickle,
             misra=args.misra,
             actuator=proven_actuator(args.actuator),
+            prove=args.prove,
         )
     except UserError as e:
         failed = Verdict(args.prefix or "?", args.dir, error=str(e))

@@ -12,6 +12,7 @@ import numpy as np
 from seagen import __version__
 from seagen.cnames import assert_valid_prefix, check_input_macros, input_macro
 from seagen.codegen.cfmt import c_array, c_comment, c_ident, c_int
+from seagen.codegen.domain import domain_macros
 from seagen.codegen.quant_summary import buffer_width, summary_lines
 from seagen.codegen.targets import kernel_context
 from seagen.ir import QMLP, QSF, QLayer, QModel
@@ -185,6 +186,8 @@ def context(qm: QModel, prefix: str, act: ActQ | None = None) -> dict[str, Any]:
         "externals": F.external_inputs(qm),
         "act": a.cid,
         "act_key": a.key,
+        # the proven domain: header macros, ACSL contracts and the Eva harness (docs/prove.md)
+        "domain": domain_macros(prefix.upper(), a.pot_max, F.is_predictor(qm)),
         "predictor": {"force_input": "force_n"} if F.is_predictor(qm) else None,
         **_kind_context(qm, prefix),
     }

@@ -214,6 +214,7 @@ def verify(
     allow_pickle: bool = False,
     misra: bool = False,
     actuator=None,
+    prove: bool = False,
 ) -> Verdict:
     """Every check of `seagen verify`, in order: drift first (model, files, manifest, quantization), then
     numbers (header constants, NAME_infer, the oracle, NAME_step, the controller); checks after a failure
@@ -234,6 +235,10 @@ def verify(
         from seagen.verify.misra import check_folder
 
         check_folder(v, root, man.data["options"].get("target", "portable"))
+    if prove:  # Frama-C Eva over the contracts' domain (docs/prove.md); missing frama-c: exit 2
+        from seagen.verify.prove import check_prove
+
+        check_prove(v, root, man)
     changed = changed_files(root, man)
     later = numbers_names(root, man, core, data)
     if not matches or "missing" in changed.values():
