@@ -35,9 +35,11 @@ toolchain:
 	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq cppcheck >/dev/null; \
 	  else echo "warning: cppcheck missing and not root; the MISRA checks will be skipped"; fi; \
 	fi
-	@# cmake and ninja for tests/test_cmake_package.py (the export folder built as a CMake package).
-	@for tool in cmake:cmake ninja:ninja-build; do \
-	  cmd=$${tool%%:*}; pkg=$${tool#*:}; \
+	@# cmake and ninja for tests/test_cmake_package.py (the export folder built as a CMake package);
+	@# arduino-builder with its AVR core for tests/test_packages.py (the package's Arduino example for an Uno).
+	@# frama-c-base (Debian 12's Frama-C 25.0 Manganese) for verify --prove and tests/test_prove.py (docs/prove.md).
+	@for tool in cmake:cmake ninja:ninja-build arduino-builder:arduino-builder+arduino-core-avr frama-c:frama-c-base; do \
+	  cmd=$${tool%%:*}; pkg=$$(echo $${tool#*:} | tr + ' '); \
 	  if ! command -v $$cmd >/dev/null 2>&1; then \
 	    if [ "$$(id -u)" = "0" ]; then \
 	      echo "installing $$pkg"; \

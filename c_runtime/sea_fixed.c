@@ -66,11 +66,11 @@ int32_t sea_sat32(int64_t v)
 
 int32_t sea_linkage_q16(const sea_act *a, int32_t pot)
 {
-    const int32_t s = a->link_shift;
+    const int s = (int)a->link_shift; /* 0..8: an int shift count (16 bits on an AVR) */
     const int32_t *t = a->link_q16;
     int32_t p = (pot < 0) ? 0 : ((pot > a->pot_max) ? a->pot_max : pot);
     int32_t i = p >> s;
-    int32_t f = p & ((1 << s) - 1); /* p - (i << s), 0 <= f < 2^s (p >= 0) */
+    int32_t f = (int32_t)((uint32_t)p & (((uint32_t)1 << s) - 1u)); /* p - (i << s): 0 <= f < 2^s (p >= 0) */
     const int32_t lo32 = t[i]; /* read once: the guard below narrows these locals */
     const int32_t hi32 = t[i + 1];
     int32_t r;
@@ -90,9 +90,9 @@ int32_t sea_compression_q16(const sea_act *a, int32_t enc, int32_t pot)
 {
     int64_t travel;
     if (SEA_ABS_BELOW(enc, a->enc_i32_bits)) { /* the same integers in int32 (no 64-bit multiply) */
-        travel = sea_rshift_rne_s32(enc * a->travel_q, a->travel_shift);
+        travel = sea_rshift_rne_s32(enc * a->travel_q, (int)a->travel_shift);
     } else {
-        travel = sea_rshift_rne_s64((int64_t)enc * a->travel_q, a->travel_shift); /* < 2^62 */
+        travel = sea_rshift_rne_s64((int64_t)enc * a->travel_q, (int)a->travel_shift); /* < 2^62 */
     }
     return sea_sat32((int64_t)sea_linkage_q16(a, pot) + travel);
 }

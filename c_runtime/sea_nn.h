@@ -131,7 +131,7 @@ static inline int16_t sea_to_s16(int64_t v, int from_frac, int to_frac)
         if (v < -(32768 >> k)) {
             return INT16_MIN;
         }
-        return (int16_t)((int32_t)v * (1 << k));
+        return (int16_t)((int32_t)v * ((int32_t)1 << k)); /* k <= 15: 1 << 15 overflows a 16-bit int */
     }
     return sea_sat16(sea_rshift_rne_s64(v, from_frac - to_frac));
 }

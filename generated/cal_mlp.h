@@ -51,18 +51,39 @@ typedef sea_features_state cal_mlp_state_t;
 #define CAL_MLP_ACT (&sea_act_iglhmlcd)
 #define CAL_MLP_ACT_KEY 0x86b7cb23u
 
+/* The domain of the raw arguments of cal_mlp_step, stated by the ACSL contracts below
+ * and proven free of run-time errors over it (with every int16 input of cal_mlp_infer) by `seagen verify --prove`
+ * (Frama-C Eva, docs/prove.md). */
+#define CAL_MLP_ENC_MIN (-2147483647 - 1)  /* encoder counts: any int32 */
+#define CAL_MLP_ENC_MAX 2147483647
+#define CAL_MLP_POT_MIN 0  /* pot counts: the ADC's range */
+#define CAL_MLP_POT_MAX 4095
+
 /* The stateless model on already-quantized features. */
+/*@ requires \valid_read(in + (0 .. CAL_MLP_N_IN - 1)) && \valid(out + (0 .. CAL_MLP_N_OUT - 1));
+    requires \separated(in + (0 .. CAL_MLP_N_IN - 1), out + (0 .. CAL_MLP_N_OUT - 1));
+    assigns out[0 .. CAL_MLP_N_OUT - 1]; */
 void cal_mlp_infer(const int16_t in[CAL_MLP_N_IN], int16_t out[CAL_MLP_N_OUT]);
 
 /* Start a new run of samples (the next cal_mlp_step has no history: its differences are 0). */
+/*@ requires \valid(s);
+    assigns *s;
+    ensures s->primed == 0; */
 void cal_mlp_reset(cal_mlp_state_t *s);
 
 /* One control-loop sample from raw sensor counts:
  * the feature pipeline, then cal_mlp_infer. Returns force_n in Q7. */
+/*@ requires \valid(s) && \initialized(&s->primed);
+    requires \initialized(&s->p1[0 .. SEA_FEAT_N_BASE - 1]) && \initialized(&s->p2[0 .. SEA_FEAT_N_BASE - 1]);
+    requires CAL_MLP_ENC_MIN <= enc <= CAL_MLP_ENC_MAX && CAL_MLP_POT_MIN <= pot <= CAL_MLP_POT_MAX;
+    assigns *s;
+    ensures s->primed == 1; */
 int16_t cal_mlp_step(cal_mlp_state_t *s, int32_t enc, int32_t pot);
 
 /* cal_mlp_infer on one sample's features already computed by sea_features_step(s, CAL_MLP_ACT, enc, pot, f):
  * the actuator's pipeline run once per tick and shared by its models (cal_mlp_step is that call and this). */
+/*@ requires \valid_read(f);
+    assigns \nothing; */
 int16_t cal_mlp_step_features(const sea_features_out *f);
 
 #endif /* CAL_MLP_H */

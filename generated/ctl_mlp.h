@@ -47,18 +47,41 @@ typedef sea_features_state ctl_mlp_state_t;
 #define CTL_MLP_ACT (&sea_act_iglhmlcd)
 #define CTL_MLP_ACT_KEY 0x86b7cb23u
 
+/* The domain of the raw arguments of ctl_mlp_step and the controller tick, stated by the ACSL contracts below
+ * and proven free of run-time errors over it (with every int16 input of ctl_mlp_infer) by `seagen verify --prove`
+ * (Frama-C Eva, docs/prove.md). */
+#define CTL_MLP_ENC_MIN (-2147483647 - 1)  /* encoder counts: any int32 */
+#define CTL_MLP_ENC_MAX 2147483647
+#define CTL_MLP_POT_MIN 0  /* pot counts: the ADC's range */
+#define CTL_MLP_POT_MAX 4095
+#define CTL_MLP_FORCE_MIN (-2147483647 - 1)  /* desired force, Q16 N (controller): any int32 */
+#define CTL_MLP_FORCE_MAX 2147483647
+
 /* The stateless model on already-quantized features. */
+/*@ requires \valid_read(in + (0 .. CTL_MLP_N_IN - 1)) && \valid(out + (0 .. CTL_MLP_N_OUT - 1));
+    requires \separated(in + (0 .. CTL_MLP_N_IN - 1), out + (0 .. CTL_MLP_N_OUT - 1));
+    assigns out[0 .. CTL_MLP_N_OUT - 1]; */
 void ctl_mlp_infer(const int16_t in[CTL_MLP_N_IN], int16_t out[CTL_MLP_N_OUT]);
 
 /* Start a new run of samples (the next ctl_mlp_step has no history: its differences are 0). */
+/*@ requires \valid(s);
+    assigns *s;
+    ensures s->primed == 0; */
 void ctl_mlp_reset(ctl_mlp_state_t *s);
 
 /* One control-loop sample from raw sensor counts and force_n (quantized as above):
  * the feature pipeline, then ctl_mlp_infer. Returns compression_mm in Q10. */
+/*@ requires \valid(s) && \initialized(&s->primed);
+    requires \initialized(&s->p1[0 .. SEA_FEAT_N_BASE - 1]) && \initialized(&s->p2[0 .. SEA_FEAT_N_BASE - 1]);
+    requires CTL_MLP_ENC_MIN <= enc <= CTL_MLP_ENC_MAX && CTL_MLP_POT_MIN <= pot <= CTL_MLP_POT_MAX;
+    assigns *s;
+    ensures s->primed == 1; */
 int16_t ctl_mlp_step(ctl_mlp_state_t *s, int32_t enc, int32_t pot, int16_t force_n_q);
 
 /* ctl_mlp_infer on one sample's features already computed by sea_features_step(s, CTL_MLP_ACT, enc, pot, f):
  * the actuator's pipeline run once per tick and shared by its models (ctl_mlp_step is that call and this). */
+/*@ requires \valid_read(f);
+    assigns \nothing; */
 int16_t ctl_mlp_step_features(const sea_features_out *f, int16_t force_n_q);
 
 /* Predictor callback for sea_control_step (c_runtime/sea_control.h): desired compression (Q16 mm) for a

@@ -35,18 +35,41 @@ typedef sea_features_state ctl_sf_state_t;
 #define CTL_SF_ACT (&sea_act_iglhmlcd)
 #define CTL_SF_ACT_KEY 0x86b7cb23u
 
+/* The domain of the raw arguments of ctl_sf_step and the controller tick, stated by the ACSL contracts below
+ * and proven free of run-time errors over it (with every int16 input of ctl_sf_infer) by `seagen verify --prove`
+ * (Frama-C Eva, docs/prove.md). */
+#define CTL_SF_ENC_MIN (-2147483647 - 1)  /* encoder counts: any int32 */
+#define CTL_SF_ENC_MAX 2147483647
+#define CTL_SF_POT_MIN 0  /* pot counts: the ADC's range */
+#define CTL_SF_POT_MAX 4095
+#define CTL_SF_FORCE_MIN (-2147483647 - 1)  /* desired force, Q16 N (controller): any int32 */
+#define CTL_SF_FORCE_MAX 2147483647
+
 /* The stateless model on already-quantized features. */
+/*@ requires \valid_read(in + (0 .. CTL_SF_N_IN - 1)) && \valid(out + (0 .. CTL_SF_N_OUT - 1));
+    requires \separated(in + (0 .. CTL_SF_N_IN - 1), out + (0 .. CTL_SF_N_OUT - 1));
+    assigns out[0 .. CTL_SF_N_OUT - 1]; */
 void ctl_sf_infer(const int16_t in[CTL_SF_N_IN], int16_t out[CTL_SF_N_OUT]);
 
 /* Start a new run of samples (the next ctl_sf_step has no history: its differences are 0). */
+/*@ requires \valid(s);
+    assigns *s;
+    ensures s->primed == 0; */
 void ctl_sf_reset(ctl_sf_state_t *s);
 
 /* One control-loop sample from raw sensor counts and force_n (quantized as above):
  * the feature pipeline, then ctl_sf_infer. Returns compression_mm in Q11. */
+/*@ requires \valid(s) && \initialized(&s->primed);
+    requires \initialized(&s->p1[0 .. SEA_FEAT_N_BASE - 1]) && \initialized(&s->p2[0 .. SEA_FEAT_N_BASE - 1]);
+    requires CTL_SF_ENC_MIN <= enc <= CTL_SF_ENC_MAX && CTL_SF_POT_MIN <= pot <= CTL_SF_POT_MAX;
+    assigns *s;
+    ensures s->primed == 1; */
 int16_t ctl_sf_step(ctl_sf_state_t *s, int32_t enc, int32_t pot, int16_t force_n_q);
 
 /* ctl_sf_infer on one sample's features already computed by sea_features_step(s, CTL_SF_ACT, enc, pot, f):
  * the actuator's pipeline run once per tick and shared by its models (ctl_sf_step is that call and this). */
+/*@ requires \valid_read(f);
+    assigns \nothing; */
 int16_t ctl_sf_step_features(const sea_features_out *f, int16_t force_n_q);
 
 /* Predictor callback for sea_control_step (c_runtime/sea_control.h): desired compression (Q16 mm) for a

@@ -10,12 +10,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from seagen.actuator import Actuator
 from seagen.atomic import locked_folder, writable_place
 from seagen.cnames import assert_valid_prefix, identifier_from
 from seagen.codegen.actfile import export_actuator
 from seagen.codegen.cmake import DEFAULT_PACKAGE, check_folder_package, cmake_files
 from seagen.codegen.manifest import SUFFIX, manifest_text
+from seagen.codegen.packaging import SKETCH_VECTORS, shared_files, sketch
 from seagen.codegen.quant_summary import summary_lines
 from seagen.codegen.render import RUNTIME, model_hash, render
 from seagen.codegen.runtime import runtime_sources
@@ -43,6 +46,9 @@ class Export:
     act: ActQ | None = None  # the actuator's proven constants (its sea_act_<id> file)
     actuator: Actuator | None = None  # its description
     package: str = DEFAULT_PACKAGE  # the CMake package of its folder (seagen::NAME)
+    # the package's files in sub-folders (zephyr/module.yml, examples/NAME/NAME.ino): written and hashed with
+    # the export, kept apart from `files`, the flat folder the C builds compile
+    tree: dict[str, str] = field(default_factory=dict)
 
     @property
     def float_model(self) -> FloatModel:
@@ -122,6 +128,9 @@ def prepare(
 
         files.update(controller_files(prefix, qm, act=aq))
     files.update(cmake_files(prefix, files, package))
+    package_part = package_files(qm, prefix, package)
+    files.update({n: t for n, t in package_part.items() if "/" not in n})
+    tree = {n: t for n, t in package_part.items() if "/" in n}
     onnx_bytes = None
     if with_onnx:
         from seagen.reference.onnx_ref import build_onnx
@@ -133,10 +142,22 @@ def prepare(
         options["allow_pickle"] = True
     original = {"runtime": loaded.runtime, "dtype": loaded.dtype, "margin": float(f"{loaded.margin:.6g}")}
     files[f"{prefix}{SUFFIX}"] = export_manifest(
-        qm, prefix, model_path, options, spec, files, onnx_bytes, original, aq
+        qm, prefix, model_path, options, spec, {**files, **tree}, onnx_bytes, original, aq
     )
     lines = [*loaded.notes, *summary_lines(qm), f"actuator '{act.name}' (sha256 {aq.digest[:12]}): {aq.cid}"]
-    return Export(loaded, qm, prefix, files, rep, onnx_bytes, lines, aq, act, package)
+    return Export(loaded, qm, prefix, files, rep, onnx_bytes, lines, aq, act, package, tree)
+
+
+def package_files(qm: QModel, prefix: str, package: str) -> dict[str, str]:
+    """The Zephyr, ESP-IDF, PlatformIO and Arduino files of the folder's package (codegen/packaging.py) and
+    the Arduino example of this export: NAME_infer on recorded rows (in and around the calibrated box) with
+    the integer reference's outputs."""
+    from seagen.reference import numpy_ref
+    from seagen.toolchain.equivalence import random_inputs
+
+    rows = random_inputs(qm, SKETCH_VECTORS, seed=37).astype(np.int64)
+    outs = numpy_ref.infer(qm, rows).reshape(len(rows), -1)
+    return {**shared_files(package), **sketch(prefix, rows.tolist(), outs.tolist())}
 
 
 def export_manifest(
@@ -193,16 +214,19 @@ def write(ex: Export, out_dir: str | os.PathLike[str]) -> list[Path]:
     except OSError as e:
         raise UserError(f"{out}: cannot write the export: {e.strerror or e}") from None
     try:
-        for name, text in ex.files.items():
+        for name, text in {**ex.files, **ex.tree}.items():
+            (stage / name).parent.mkdir(parents=True, exist_ok=True)
             (stage / name).write_text(text)
         if ex.onnx_bytes is not None:
             (stage / f"{ex.prefix}.onnx").write_bytes(ex.onnx_bytes)
         manifest = f"{ex.prefix}{SUFFIX}"
-        names = sorted(f.name for f in stage.iterdir() if f.name != manifest) + [manifest]
+        staged = (f.relative_to(stage).as_posix() for f in stage.rglob("*") if f.is_file())
+        names = sorted(n for n in staged if n != manifest) + [manifest]
         own = (f"{ex.prefix}.onnx", f"{ex.prefix}_controller.h", f"{ex.prefix}_controller.c")
         with locked_folder(out):  # the folder's package checked under the lock another export waits on
             check_folder_package(out, ex.prefix, ex.package)
             for name in names[:-1]:
+                (out / name).parent.mkdir(parents=True, exist_ok=True)
                 os.replace(stage / name, out / name)
             for name in set(own) - set(names):  # left by an earlier export of NAME
                 (out / name).unlink(missing_ok=True)

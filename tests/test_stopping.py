@@ -243,4 +243,6 @@ def test_sigterm_during_the_renames_lets_the_export_finish_first(tmp_path, monke
     )
     assert capsys.readouterr().err.splitlines() == ["seagen: stopped (SIGTERM)"]
     files = json.loads((tmp_path / "k.seagen.json").read_text())["files"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([*files, "k.seagen.json"])
+    on_disk = sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*") if p.is_file())
+    assert on_disk == sorted([*files, "k.seagen.json"])  # the package's zephyr/, examples/k/ included
+    assert not list(tmp_path.glob(".export.*"))

@@ -24,6 +24,7 @@ def one_export(tmp_path: Path) -> Path:
     out.mkdir()
     manifest = GENERATED / "cal_mlp.seagen.json"
     for name in [*json.loads(manifest.read_text())["files"], manifest.name]:
+        (out / name).parent.mkdir(parents=True, exist_ok=True)  # the package's zephyr/, examples/NAME/
         shutil.copy(GENERATED / name, out / name)
     return out
 

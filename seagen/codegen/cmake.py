@@ -1,5 +1,6 @@
-"""The export folder as a CMake package: CMakeLists.txt (one static library of every export in the folder),
-NAME.seagen.cmake (an export's C sources) and a toolchain file for arm-none-eabi-gcc."""
+"""The export folder as a CMake package: CMakeLists.txt (one static library of every export in the folder, and
+the branches Zephyr and ESP-IDF take), NAME.seagen.cmake (an export's C sources) and a toolchain file for
+arm-none-eabi-gcc."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from pathlib import Path
 
 from seagen import __version__
 from seagen.codegen.manifest import SUFFIX, read_manifest
+from seagen.codegen.packaging import kconfig_symbol, library_name
 from seagen.codegen.render import environment
 from seagen.errors import UserError
 
@@ -30,6 +32,7 @@ def check_package(name: str) -> str:
 def cmake_files(prefix: str, files: dict[str, str], package: str) -> dict[str, str]:
     """{filename: text} of the CMake files of an export whose other files are `files`."""
     env, ctx = environment(), {"version": __version__, "package": check_package(package), "prefix": prefix}
+    ctx |= {"name": library_name(package), "kconfig": kconfig_symbol(package)}  # the Zephyr branch's names
     sources = sorted(n for n in files if n.endswith(".c"))
     return {
         "CMakeLists.txt": env.get_template("CMakeLists.txt.j2").render(ctx),

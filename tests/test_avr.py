@@ -1,0 +1,165 @@
+"""The portable C on an 8-bit AVR (ATmega328P, an Arduino Uno's part; int is 16 bits there): built with
+Debian's avr-gcc and avr-libc at the strict flags, run under simavr on recorded input vectors, and every
+output equal to the integer reference bit for bit; flash and RAM from avr-size, cycles per NAME_infer from
+the part's own 16-bit timer."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from seagen.defaults import GENERATED
+from seagen.export import prepare
+from seagen.reference import numpy_ref
+from seagen.toolchain.equivalence import edge_inputs, random_inputs
+
+MCU = "atmega328p"
+F_CPU = 16_000_000
+UNO_RAM = 2048
+# the strict flags of seagen's own builds (no -O: -Os, as firmware for a small part is built)
+AVR_FLAGS = ("-std=c99", "-Os", "-Wall", "-Wextra", "-Wpedantic", "-Wconversion", "-Werror")
+TOOLS = ("avr-gcc", "avr-size", "simavr")
+MISSING = [t for t in TOOLS if shutil.which(t) is None]
+pytestmark = pytest.mark.skipif(
+    bool(MISSING), reason=f"{', '.join(MISSING)} not found (make installs Debian's gcc-avr avr-libc simavr)"
+)
+MODELS = {"cal_sf": "sf_calibration", "ctl_sf": "sf_control", "cal_mlp": "mlp_calibration"}
+
+
+def harness(prefix: str, n_in: int, n_out: int, rows: np.ndarray) -> str:
+    """main.c: NAME_infer on each row (kept in program memory), its outputs and the cycles it took (Timer1
+    at the CPU clock, overflows counted) printed over the UART, one row a line; then sleep with interrupts
+    off, which ends simavr."""
+    table = ",\n".join("    {" + ", ".join(str(int(v)) for v in row) + "}" for row in rows)
+    return f"""#include <avr/interrupt.h>
+#include <avr/io.h>
+#include <avr/pgmspace.h>
+#include <avr/sleep.h>
+#include <stdint.h>
+#include "{prefix}.h"
+
+static const int16_t rows[{len(rows)}][{n_in}] PROGMEM = {{
+{table}
+}};
+static volatile uint16_t overflows;
+
+ISR(TIMER1_OVF_vect) {{ overflows++; }}
+
+static void put(char c)
+{{
+    while ((UCSR0A & (1u << UDRE0)) == 0u) {{
+    }}
+    UDR0 = (uint8_t)c;
+}}
+
+static void put_int(int32_t v)
+{{
+    char buf[12];
+    uint8_t n = 0u;
+    uint32_t u = (v < 0) ? (uint32_t)0 - (uint32_t)v : (uint32_t)v;
+    if (v < 0) {{
+        put('-');
+    }}
+    do {{
+        buf[n++] = (char)('0' + (char)(u % 10u));
+        u /= 10u;
+    }} while (u != 0u);
+    while (n > 0u) {{
+        put(buf[--n]);
+    }}
+    put(' ');
+}}
+
+int main(void)
+{{
+    uint16_t i;
+    uint8_t j;
+    UCSR0B = (uint8_t)(1u << TXEN0);
+    TIMSK1 = (uint8_t)(1u << TOIE1);
+    sei();
+    for (i = 0u; i < {len(rows)}u; i++) {{
+        int16_t x[{n_in}];
+        int16_t y[{n_out}];
+        uint32_t cycles;
+        for (j = 0u; j < {n_in}u; j++) {{
+            x[j] = (int16_t)pgm_read_word(&rows[i][j]);
+        }}
+        overflows = 0u;
+        TCNT1 = 0u;
+        TCCR1B = (uint8_t)(1u << CS10);
+        {prefix}_infer(x, y);
+        TCCR1B = 0u;
+        cycles = ((uint32_t)overflows << 16) | TCNT1;
+        for (j = 0u; j < {n_out}u; j++) {{
+            put_int(y[j]);
+        }}
+        put_int((int32_t)cycles);
+        put('\\n');
+    }}
+    cli();
+    sleep_cpu();
+    return 0;
+}}
+"""
+
+
+def _build(work: Path, files: dict[str, str], main_c: str) -> Path:
+    """The export's C and main.c compiled and linked for the ATmega328P at the strict flags (-Werror)."""
+    src = work / "src"
+    src.mkdir(parents=True)
+    for name, text in {**files, "main.c": main_c}.items():
+        (src / name).write_text(text)
+    sources = sorted(str(src / n) for n in (*files, "main.c") if n.endswith(".c"))
+    elf = work / "fw.elf"
+    cmd = ["avr-gcc", f"-mmcu={MCU}", f"-DF_CPU={F_CPU}UL", *AVR_FLAGS, "-ffunction-sections"]
+    cmd += ["-fdata-sections", "-Wl,--gc-sections", "-I", str(src), *sources, "-o", str(elf)]
+    res = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr[-4000:]
+    return elf
+
+
+def avr_size(elf: Path) -> tuple[int, int]:
+    """(flash, RAM) of an image in bytes: .text + .data, .data + .bss (avr-size's Berkeley columns)."""
+    out = subprocess.run(["avr-size", str(elf)], capture_output=True, text=True, check=True).stdout
+    text, data, bss = (int(v) for v in out.splitlines()[1].split()[:3])
+    return text + data, data + bss
+
+
+def run_simavr(elf: Path) -> list[list[int]]:
+    """The integers each line the firmware printed over the UART (simavr echoes UART0 on stderr)."""
+    res = subprocess.run(
+        ["simavr", "-m", MCU, "-f", str(F_CPU), str(elf)], capture_output=True, text=True, timeout=300
+    )
+    text = re.sub(r"\x1b\[[0-9;]*m", "", res.stderr)
+    lines = [ln.strip().rstrip(".").strip() for ln in text.splitlines()]
+    return [[int(v) for v in ln.split()] for ln in lines if re.fullmatch(r"-?\d+( -?\d+)*", ln)]
+
+
+def _rows(qm) -> np.ndarray:
+    """Recorded input rows: random in and around the calibrated box and across int16, and the edges."""
+    return np.vstack([random_inputs(qm, 24, seed=5), edge_inputs(len(qm.inputs))]).astype(np.int64)
+
+
+@pytest.mark.parametrize("prefix", sorted(MODELS))
+def test_portable_c_on_avr_equals_the_reference(prefix, tmp_path):
+    """NAME_infer built for the ATmega328P (16-bit int) under simavr == numpy_ref on every recorded row,
+    warning-free at -Wall -Wextra -Wpedantic -Wconversion -Werror; its image fits the Uno's flash, and the
+    RAM it needs (const tables included: avr-gcc keeps them in RAM) is printed with the cycles."""
+    ex = prepare(str(GENERATED / "models" / f"{MODELS[prefix]}.pt"), prefix=prefix)
+    qm = ex.qmodel
+    rows = _rows(qm)
+    n_out = int(numpy_ref.infer(qm, rows[:1]).reshape(1, -1).shape[1])
+    elf = _build(tmp_path, ex.files, harness(prefix, len(qm.inputs), n_out, rows))
+    got = run_simavr(elf)
+    assert len(got) == len(rows), got[:3]
+    outs = np.array([g[:n_out] for g in got], dtype=np.int64)
+    np.testing.assert_array_equal(outs, numpy_ref.infer(qm, rows).reshape(len(rows), -1))
+    flash, ram = avr_size(elf)
+    cycles = [g[n_out] for g in got]
+    print(f"{prefix}: flash {flash} B, RAM {ram} B, {min(cycles)}-{max(cycles)} cycles per {prefix}_infer")
+    assert flash <= 32 * 1024 - 512  # the Uno's flash less its boot loader
