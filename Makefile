@@ -36,9 +36,10 @@ toolchain:
 	  else echo "warning: cppcheck missing and not root; the MISRA checks will be skipped"; fi; \
 	fi
 	@# cmake and ninja for tests/test_cmake_package.py (the export folder built as a CMake package);
-	@# arduino-builder with its AVR core for tests/test_packages.py (the package's Arduino example for an Uno).
+	@# arduino-builder with its AVR core for tests/test_packages.py (the package's Arduino example for an Uno);
+	@# gcc-avr, avr-libc and simavr for tests/test_avr.py (the portable C on an ATmega328P, 16-bit int).
 	@# frama-c-base (Debian 12's Frama-C 25.0 Manganese) for verify --prove and tests/test_prove.py (docs/prove.md).
-	@for tool in cmake:cmake ninja:ninja-build arduino-builder:arduino-builder+arduino-core-avr frama-c:frama-c-base; do \
+	@for tool in cmake:cmake ninja:ninja-build arduino-builder:arduino-builder+arduino-core-avr frama-c:frama-c-base avr-gcc:gcc-avr+avr-libc simavr:simavr; do \
 	  cmd=$${tool%%:*}; pkg=$$(echo $${tool#*:} | tr + ' '); \
 	  if ! command -v $$cmd >/dev/null 2>&1; then \
 	    if [ "$$(id -u)" = "0" ]; then \
