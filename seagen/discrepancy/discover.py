@@ -19,6 +19,7 @@ from seagen.plant import PlantConfig
 
 DBIC_MIN = 10.0  # the held-out BIC gain needed to name a term: as for a catalogue effect (workflow.DBIC_MIN)
 BEAM = 3  # start points of each term zoomed after the start grid
+ZOOM, REFINE_NFEV = 0.05, 40  # the selected term's final zoom (unit-box half-width) and polish
 EDGE = 0.01  # a parameter within this share of its box from an end is at the edge (workflow.EDGE)
 WORSE, WORSE_MIN = 1.1, 1.2  # no channel may end above WORSE x its RMS and WORSE_MIN sigmas (workflow)
 
@@ -86,6 +87,13 @@ def search(cfg: PlantConfig, fit: Runs, sig_f: dict) -> list[Candidate]:
     return out
 
 
+def refine(cfg: PlantConfig, c: Candidate, fit: Runs, sig_f: dict) -> None:
+    """The selected term fitted to convergence: a local zoom (derivative-free: stick-slip and quantisation
+    are not smooth), then REFINE_NFEV more least-squares evaluations."""
+    screen(cfg, [c], fit, sig_f, rounds=3, half0=ZOOM)
+    polish(cfg, [c], fit, sig_f, nfev=REFINE_NFEV)
+
+
 def _table(cfg: PlantConfig, cands: list[Candidate], held: Runs, sig_h: dict) -> pd.DataFrame:
     """Held-out chi-square, BIC (k ln n) and RMS of the plant alone (row 0) and with each term."""
     k = np.array([0] + [len(c.keys) for c in cands])
@@ -144,6 +152,7 @@ def discover(
     if top.term == "(none)" or float(top.bic_held_out) > base_bic - DBIC_MIN:
         return None
     win = next(c for c in cands if c.names[0] == top.term)
+    refine(cfg, win, fit, sig_f)
     term, params = win.names[0], win.params()[win.names[0]]
     z0, z1 = _residual(cfg, [{}, {term: params}], held, sig_h)
     fp, without = footprints(cfg, {term: params}, held, sig_h)

@@ -26,6 +26,9 @@ POST_HOC = (
     "cell_lag",
     "cell_quantisation",
     "cell_saturation",
+    "pot_lag",
+    "pot_hysteresis",
+    "pot_quantisation",
 )
 # Parameter values that make an enabled effect do nothing (exactly: same numbers as the effect off); the
 # series compliance's stiffness is the plant's rigid structure, relative to the actuator's spring (`neutral`).
@@ -53,6 +56,10 @@ NEUTRAL: dict[str, dict[str, float]] = {
     "cell_lag": {"time_constant_s": 0.0},
     "cell_quantisation": {"step_n": 0.0},
     "cell_saturation": {"limit_n": 1e12},
+    "drive_saturation": {"limit_v": 1e12},
+    "pot_lag": {"time_constant_s": 0.0},
+    "pot_hysteresis": {"half_width_counts": 0.0},
+    "pot_quantisation": {"step_counts": 0.0},
 }
 ParamSet = dict[str, dict[str, float]]
 SWITCH_V = 0.5  # a command change this large is a switch (its instant's uncertainty moves the encoder)
@@ -368,8 +375,16 @@ def simulate(
         rec = {key: v[mrows, ks] for key, v in signals.items() if v is not None}
         rec["contact_deg"] = np.broadcast_to(plant.contact_deg[mrows], rows.shape).copy()
     r = rows
-    angle = plant.geo.angle_from_shaft(np.minimum(shaft_mm, plant.y_contact[mrows]))
-    pot = plant.geo.pot_from_angle(angle) + (drops if drops is not None else zero[r])
+    if "pot_lag" in post:  # the pot's angle reading after every step, behind each set element's lag
+        seen = np.minimum(traj.shaft_mm, plant.y_contact[:, None])
+        pot_a = plant.geo.pot_from_angle(plant.geo.angle_from_shaft(seen))
+        lag_p = np.minimum(dt / np.maximum(zero + post["pot_lag"]["time_constant_s"], 1e-300), 1.0)
+        pot0 = kernel.lagged(pot_a, of_set, lag_p)[rows, ks]
+    else:
+        pot0 = plant.geo.pot_from_angle(
+            plant.geo.angle_from_shaft(np.minimum(shaft_mm, plant.y_contact[mrows]))
+        )
+    pot = pot0 + (drops if drops is not None else zero[r])
     readings = {
         "enc": motor_mm / plant.geo.mm_per_count - 0.5,  # E[floored count]
         "pot": np.clip(pot, 0, plant.geo.adc_max),
@@ -394,6 +409,7 @@ def simulate(
     if lr.enabled:
         flat = {k: v.reshape(e_n, t) for k, v in rec.items()}
         out[lr.channel] += learned_correction(lr, flat).reshape(shape)
+    out["pot"] = _pot(out["pot"], post, n_sets, n)
     out["force_n"] = out["load_cell_n"] / ratio
     if inputs is not None:
         inputs.update(rec)
@@ -417,6 +433,26 @@ def _cell(reading: np.ndarray, t: np.ndarray, post: dict, r: np.ndarray, n: int)
         per(cs["limit_n"]) if cs else None,
         per(cq["step_n"]) if cq else None,
     )
+
+
+def _pot(pot: np.ndarray, post: dict, n_sets: int, n: int) -> np.ndarray:
+    """The pot's reads (sets, trials, samples) through each set element's play (from its first reading) and
+    in its steps (sim.Plant.read); unchanged when neither is in the replay."""
+    ph, pq = post.get("pot_hysteresis"), post.get("pot_quantisation")
+    if ph:
+        w = (np.zeros(n_sets * n) + ph["half_width_counts"]).reshape(n_sets, n)
+        out = np.empty_like(pot)
+        h = pot[:, :, 0]
+        out[:, :, 0] = h
+        for j in range(1, pot.shape[2]):
+            h = np.minimum(np.maximum(h, pot[:, :, j] - w), pot[:, :, j] + w)
+            out[:, :, j] = h
+        pot = out
+    if pq:
+        q = (np.zeros(n_sets * n) + pq["step_counts"]).reshape(n_sets, n, 1)
+        safe = np.where(q > 0, q, 1.0)
+        pot = np.where(q > 0, safe * np.rint(pot / safe), pot)
+    return pot
 
 
 def _stepped(plant: Plant, u: np.ndarray) -> kernel.Trajectory:

@@ -37,9 +37,18 @@ def noise_sigma(runs: Runs) -> dict[str, np.ndarray]:
         d2 = x[:, 2:] - 2 * x[:, 1:-1] + x[:, :-2]
         mad = np.nanmedian(np.abs(d2 - np.nanmedian(d2, axis=1, keepdims=True)), axis=1)
         sig = 1.4826 * mad / np.sqrt(6.0)
-        floor = QUANT_SIGMA if c in ("enc", "pot") else 1e-3
+        floor = QUANT_SIGMA if c in ("enc", "pot") else np.maximum(1e-3, resolution(x) * QUANT_SIGMA)
         out[c] = np.full(len(sig), QUANT_SIGMA) if c == "enc" else np.maximum(sig, floor)
     return out
+
+
+def resolution(x: np.ndarray) -> np.ndarray:
+    """Per trial, the smallest step between successive readings (0 when none): a channel read in steps
+    of q (a quantised load cell) is uncertain by at least q / sqrt(12) even where its second differences
+    vanish (for a float reading with noise the step is tiny and changes nothing)."""
+    d = np.abs(np.diff(x, axis=1))
+    d = np.where(np.isfinite(d) & (d > 0), d, np.inf).min(axis=1)
+    return np.where(np.isfinite(d), d, 0.0)
 
 
 def zscores(runs: Runs, sim: dict[str, np.ndarray], sigma: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

@@ -105,6 +105,34 @@ LIBRARY: dict[str, Term] = {
             "none in the catalogue (the pot and encoder are read in their own counts)",
         ),
         Term(
+            "pot_lag",
+            "sensor_lag",
+            "dpot/dt = (pot_angle - pot) / tau (a first-order lag of the pot's angle reading)",
+            "the pot during moves",
+            "pot_voltage_drop (a reading offset while current flows, not a lag of the angle)",
+        ),
+        Term(
+            "pot_hysteresis",
+            "hysteresis",
+            "pot = h, h = clip(h, pot_in - w, pot_in + w) (a play in the pot's reading)",
+            "the pot on reversals",
+            "backlash (a play between motor and nut: it moves the force, not only the pot)",
+        ),
+        Term(
+            "pot_quantisation",
+            "quantisation",
+            "pot = q round(pot / q) (a coarser converter)",
+            "the pot's resolution",
+            "pot_noise (a random error, not a staircase)",
+        ),
+        Term(
+            "drive_saturation",
+            "saturation",
+            "V_motor = clip(V, -V_sat, V_sat)",
+            "the motor's speed at large commands (encoder), then force",
+            "viscous_friction or actuator_friction (a drag, not a limit on the drive)",
+        ),
+        Term(
             "cell_saturation",
             "saturation",
             "F_cell = clip(F_cell, -L, L)",
@@ -113,7 +141,7 @@ LIBRARY: dict[str, Term] = {
         ),
     )
 }
-assert tuple(LIBRARY) == TERMS and all(t.form in CLASSES for t in LIBRARY.values())
+assert set(LIBRARY) == set(TERMS) and all(t.form in CLASSES for t in LIBRARY.values())
 
 # Fit box per term parameter: (low, high, log-scaled), as candidates.SPACE. A phase box spans two turns so
 # that no phase is at its edge; it is reported modulo 2 pi.
@@ -141,6 +169,10 @@ TERM_SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
     "cell_lag": {"time_constant_s": (0.001, 0.3, True)},
     "cell_quantisation": {"step_n": (0.01, 2.0, True)},
     "cell_saturation": {"limit_n": (1.0, 60.0, True)},
+    "pot_lag": {"time_constant_s": (0.001, 0.3, True)},
+    "pot_hysteresis": {"half_width_counts": (0.5, 60.0, True)},
+    "pot_quantisation": {"step_counts": (1.5, 128.0, True)},
+    "drive_saturation": {"limit_v": (0.5, 12.0, True)},
 }
 # Start grids of parameters whose objective has many valleys (a period, a phase): this many points along it.
 DENSE = {

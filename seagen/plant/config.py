@@ -325,6 +325,34 @@ class CellSaturation(Effect):
 
 
 @dataclass
+class DriveSaturation(Effect):
+    """A drive that saturates: the motor's command clipped at +-limit volts (below the supply)."""
+
+    limit_v: float = 8.0
+
+
+@dataclass
+class PotLag(Effect):
+    """A pot behind a first-order lag of time constant tau (its angle reading, from the first reading on)."""
+
+    time_constant_s: float = 0.02
+
+
+@dataclass
+class PotHysteresis(Effect):
+    """A pot reading through a play of +-w counts (from its first reading): h = clip(h, pot - w, pot + w)."""
+
+    half_width_counts: float = 8.0
+
+
+@dataclass
+class PotQuantisation(Effect):
+    """A pot read in steps of q counts (a coarser converter, after its noise)."""
+
+    step_counts: float = 16.0
+
+
+@dataclass
 class Effects:
     """The catalogue of DESIGN.md §3 (EFFECT_NAMES: exactly these names), then the term library (TERMS)."""
 
@@ -352,6 +380,10 @@ class Effects:
     cell_lag: CellLag = field(default_factory=CellLag)
     cell_quantisation: CellQuantisation = field(default_factory=CellQuantisation)
     cell_saturation: CellSaturation = field(default_factory=CellSaturation)
+    drive_saturation: DriveSaturation = field(default_factory=DriveSaturation)
+    pot_lag: PotLag = field(default_factory=PotLag)
+    pot_hysteresis: PotHysteresis = field(default_factory=PotHysteresis)
+    pot_quantisation: PotQuantisation = field(default_factory=PotQuantisation)
 
     @classmethod
     def of(cls, act: Actuator) -> Effects:
@@ -378,6 +410,10 @@ TERMS: tuple[str, ...] = (
     "cell_lag",
     "cell_quantisation",
     "cell_saturation",
+    "drive_saturation",
+    "pot_lag",
+    "pot_hysteresis",
+    "pot_quantisation",
 )
 ALL_EFFECTS: tuple[str, ...] = tuple(f.name for f in fields(Effects))
 EFFECT_NAMES: tuple[str, ...] = tuple(e for e in ALL_EFFECTS if e not in TERMS)

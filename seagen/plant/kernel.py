@@ -52,6 +52,7 @@ PARAMS = (
     ("spring_hysteresis", "half_width_mm"),
     ("spring_poly", "k2_n_per_mm2"),
     ("spring_poly", "k3_n_per_mm3"),
+    ("drive_saturation", "limit_v"),
 )
 FLAGS = (
     "actuator_friction",
@@ -69,6 +70,7 @@ FLAGS = (
     "bristle_friction",
     "spring_hysteresis",
     "spring_poly",
+    "drive_saturation",
 )
 SENSOR_SIDE = (
     "pot_voltage_drop",
@@ -80,6 +82,9 @@ SENSOR_SIDE = (
     "cell_lag",
     "cell_quantisation",
     "cell_saturation",
+    "pot_lag",
+    "pot_hysteresis",
+    "pot_quantisation",
 )
 
 
@@ -266,7 +271,8 @@ def _loop(volts, y_contact, par, flags, consts, out):
             par[24, i],
             par[25, i],
         )
-        hk, hw, pk2, pk3 = par[26, i], par[27, i], par[28, i], par[29, i]
+        hk, hw, pk2, pk3, vsat = par[26, i], par[27, i], par[28, i], par[29, i], par[30, i]
+        sat = flags[15]
         hstate = wstate = travel = vsign = t = 0.0
         ralpha = min(dt / rtau, 1.0) if rate else 0.0
         tx = (drift, 0.0, poly, pk2, pk3, hyst, hk, hw, hstate)
@@ -281,6 +287,8 @@ def _loop(volts, y_contact, par, flags, consts, out):
         for k in range(k_max):
             v = volts[i, k]
             v = min(max(v, -supply), supply)
+            if sat:
+                v = min(max(v, -vsat), vsat)
             if terms:
                 dfac = ds * (1.0 - math.exp(-t / dtau)) if drift else 0.0
                 tx = (drift, dfac, poly, pk2, pk3, hyst, hk, hw, hstate)
@@ -405,9 +413,11 @@ def pot_drop(current: np.ndarray, of_set: np.ndarray, kappa: np.ndarray, alpha: 
 
 
 def _lag(x, of_set, alpha, out):
-    """A first-order lag of every set element's trajectory row (see lagged), from zero."""
+    """A first-order lag of every set element's trajectory row (see lagged), from the row's first value."""
     for e in range(of_set.size):
-        m, c = of_set[e], 0.0
+        m = of_set[e]
+        c = x[m, 0]
+        out[e, 0] = c
         for k in range(1, x.shape[1]):
             c = x[m, k] if alpha[e] >= 1.0 else c + (x[m, k] - c) * alpha[e]
             out[e, k] = c
@@ -415,7 +425,7 @@ def _lag(x, of_set, alpha, out):
 
 def lagged(x: np.ndarray, of_set: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     """x's rows of_set (a trajectory, (n_elements, K + 1)) behind a first-order lag each: c += (x - c) alpha
-    per step from zero (sim.lag_step: x itself when alpha >= 1), shape (of_set.size, K + 1)."""
+    per step from the row's first value (sim.lag_step: x itself when alpha >= 1); (of_set.size, K + 1)."""
     out = np.zeros((of_set.size, x.shape[1]))
     _lag_all(x, np.asarray(of_set, np.int64), np.asarray(alpha, float), out)
     return out

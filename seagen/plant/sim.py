@@ -122,6 +122,8 @@ class Plant:
         # states of the term library's effects (config.TERMS): hysteresis play, speed state, travel since
         # the shaft's last reversal and its direction, the lagged load cell
         self._h, self._w, self._travel, self._vsign, self._cell = (np.zeros(n) for _ in range(5))
+        self._pot_h: np.ndarray | None = None  # the pot's play state, from its first reading
+        self._pot_l = self._pot_angle() if cfg.on("pot_lag") else np.zeros(n)
 
     # --- force laws -------------------------------------------------------------------------------
     def spring_force(self, d: np.ndarray, idx: np.ndarray | None = None) -> np.ndarray:
@@ -222,6 +224,9 @@ class Plant:
         volts = np.minimum(np.maximum(np.asarray(motor_v, dtype=float), -m.supply_v), m.supply_v)
         if volts.shape != self.nut_mm.shape:
             volts = np.broadcast_to(volts, self.nut_mm.shape)
+        if cfg.effects.drive_saturation.enabled:
+            lim = cfg.effects.drive_saturation.limit_v
+            volts = np.minimum(np.maximum(volts, -lim), lim)
         load = self.spring_force(self.nut_mm - self.shaft_mm)
         if cfg.effects.cogging.enabled:
             cg = cfg.effects.cogging
@@ -244,6 +249,9 @@ class Plant:
         if cfg.effects.cell_lag.enabled:
             a = np.minimum(dt / np.asarray(cfg.effects.cell_lag.time_constant_s, float), 1.0)
             self._cell = lag_step(self._cell, self._history[self._delay_n], a)
+        if cfg.effects.pot_lag.enabled:
+            a = np.minimum(dt / np.asarray(cfg.effects.pot_lag.time_constant_s, float), 1.0)
+            self._pot_l = lag_step(self._pot_l, self._pot_angle(), a)
         self.t += dt
 
     def _terms(self, y0: np.ndarray, dt: float) -> None:
@@ -386,21 +394,32 @@ class Plant:
             "contact_deg": self.contact_deg,
         }
 
+    def _pot_angle(self) -> np.ndarray:
+        """The pot's reading of the linkage angle now (counts, before its drop, noise and rounding)."""
+        y_seen = np.minimum(self.shaft_mm, self.y_contact)  # the structure deforms beyond the pot
+        return self.geo.pot_from_angle(self.geo.angle_from_shaft(y_seen))
+
     def read(self) -> Sensors:
         """Sample every sensor now (draws the noise of this sample)."""
         cfg, e, n = self.cfg, self.cfg.effects, self.nut_mm.size
         enc = np.floor(self.motor_mm / self.geo.mm_per_count + 1e-9).astype(np.int64)
-        y_seen = np.minimum(self.shaft_mm, self.y_contact)  # the structure deforms beyond the pot
-        angle = self.geo.angle_from_shaft(y_seen)
-        pot = self.geo.pot_from_angle(angle)
+        pot = self._pot_l if e.pot_lag.enabled else self._pot_angle()
         if e.pot_voltage_drop.enabled:
             pot = pot + self.pot_drop
+        if e.pot_hysteresis.enabled:
+            w = e.pot_hysteresis.half_width_counts
+            self._pot_h = (
+                pot if self._pot_h is None else np.minimum(np.maximum(self._pot_h, pot - w), pot + w)
+            )
+            pot = self._pot_h
         if e.pot_noise.enabled:
             pot = pot + e.pot_noise.sigma_counts * self.rng.standard_normal(n)
         lr = e.learned_residual
         extra = learned_correction(lr, self.learned_inputs()) if lr.enabled else 0.0
         if lr.enabled and lr.channel == "pot":
             pot = pot + extra
+        if e.pot_quantisation.enabled:
+            pot = e.pot_quantisation.step_counts * np.rint(pot / e.pot_quantisation.step_counts)
         pot_i = np.clip(np.rint(pot), 0, self.geo.adc_max).astype(np.int64)
         shaft_force = self._cell if e.cell_lag.enabled else self._history[self._delay_n]
         tip = shaft_force * self.ratio
