@@ -181,3 +181,103 @@ def test_package_name_and_folder_conflicts_are_one_line_exit_2(exports, tmp_path
     code, _out, err = run_cli("export", _model("cal_mlp"), "--prefix", "cal2", "--out", str(fw))
     assert code == 2 and "package 'sea'" in err and len(err.strip().splitlines()) == 1, err
     assert not (fw / "cal2.c").exists()
+
+
+def _check_c(prefix: str, x: np.ndarray, want: np.ndarray) -> str:
+    """A test program: NAME_infer on the recorded rows `x`; exit 1 (naming the row) at the first output that
+    differs from `want` (the integer reference's), else 0."""
+    rows = ",\n".join("    {" + ", ".join(str(int(v)) for v in row) + "}" for row in x)
+    outs = ",\n".join("    {" + ", ".join(str(int(v)) for v in row) + "}" for row in want)
+    up = prefix.upper()
+    return f"""#include <stdio.h>
+#include "{prefix}.h"
+
+static const int16_t x[{len(x)}][{up}_N_IN] = {{
+{rows}
+}};
+static const int16_t want[{len(x)}][{up}_N_OUT] = {{
+{outs}
+}};
+
+int main(void)
+{{
+    unsigned i, j;
+    for (i = 0; i < {len(x)}u; i++) {{
+        int16_t y[{up}_N_OUT];
+        {prefix}_infer(x[i], y);
+        for (j = 0; j < {up}_N_OUT; j++) {{
+            if (y[j] != want[i][j]) {{
+                printf("{prefix}: row %u out %u: %d, the reference %d\\n", i, j, (int)y[j], (int)want[i][j]);
+                return 1;
+            }}
+        }}
+    }}
+    printf("{prefix}: %u rows equal the reference\\n", {len(x)}u);
+    return 0;
+}}
+"""
+
+
+@needs_cmake
+def test_ctest_runs_each_model_on_recorded_vectors_against_the_twins(exports, tmp_path):
+    """A firmware project's host build with one ctest per export (add_subdirectory + seagen::sea): each runs
+    NAME_infer on recorded rows and checks every output against numpy_ref; ctest passes, and a test whose
+    recorded output is off by one fails (the check is not a no-op)."""
+    fw, done = exports
+    src = tmp_path / "app"
+    src.mkdir()
+    lines = ["cmake_minimum_required(VERSION 3.13)", "project(app C)", "enable_testing()"]
+    lines.append(f'add_subdirectory("{fw.as_posix()}" seagen)')
+    for p, ex in done.items():
+        x = _inputs(ex.qmodel)
+        want = numpy_ref.infer(ex.qmodel, x).reshape(len(x), -1)
+        (src / f"check_{p}.c").write_text(_check_c(p, x, want))
+        (src / f"wrong_{p}.c").write_text(_check_c(p, x[:3], want[:3] + 1))
+        for name in (f"check_{p}", f"wrong_{p}"):
+            lines += [
+                f"add_executable({name} {name}.c)",
+                f"target_link_libraries({name} PRIVATE seagen::sea)",
+            ]
+            lines.append(f"add_test(NAME {name} COMMAND {name})")
+    (src / "CMakeLists.txt").write_text("\n".join(lines) + "\n")
+    _build(src, tmp_path / "build")
+    ctest = [
+        str(Path(CMAKE).with_name("ctest")),
+        "--test-dir",
+        str(tmp_path / "build"),
+        "--output-on-failure",
+    ]
+    res = subprocess.run([*ctest, "-R", "^check_"], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0 and "100% tests passed" in res.stdout, res.stdout[-3000:]
+    res = subprocess.run([*ctest, "-R", "^wrong_"], capture_output=True, text=True, timeout=120)
+    assert res.returncode != 0 and "0% tests passed, 2 tests failed" in res.stdout, res.stdout[-3000:]
+
+
+@needs_cmake
+@pytest.mark.parametrize("core", ["cortex-m0plus", pytest.param("cortex-m4", marks=pytest.mark.slow)])
+def test_cmake_built_firmware_closes_the_pil_loop_bit_for_bit(core, tmp_path):
+    """The processor-in-the-loop firmware built by CMake from an export folder (add_subdirectory, seagen::sea,
+    the folder's arm-none-eabi.cmake for the board's core) runs seagen pil's closed loop on the QEMU board:
+    every tick's command, controller state and calibrated force equal the twins'."""
+    from seagen.pil.controller import PilController
+    from seagen.pil.link import qemu_missing
+    from seagen.toolchain.cortexm import toolchain_missing
+    from seagen.verify.pil import closed_loop
+    from tests.test_pil import ANGLES, twin_cfg
+
+    if msg := toolchain_missing() or qemu_missing("qemu-system-arm"):
+        pytest.skip(msg)
+    fw = tmp_path / "fw"
+    write(
+        prepare(str(GENERATED / "models" / "sf_control.pt"), prefix="ctl_sf", controller=True, package="sea"),
+        fw,
+    )
+    cal = prepare(str(GENERATED / "models" / "mlp_calibration.pt"), prefix="cal_mlp", package="sea")
+    write(cal, fw)
+    board = PilController({}, "ctl_sf", core, "cal_mlp", package=(fw, "sea"))
+    try:
+        problem, done = closed_loop(board, twin_cfg(), cal.qmodel, ANGLES, 10.0, 60, seed=1)
+    finally:
+        board.close()
+    assert problem is None, problem
+    assert done == 60 and len(board.instructions) == 60

@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import contextlib
 import struct
+from pathlib import Path
 
 import numpy as np
 
 from seagen.errors import UserError
-from seagen.pil.firmware import board, build_firmware, model_header
+from seagen.pil.firmware import board, build_firmware, cmake_firmware, model_header
 from seagen.pil.link import Link
 
 REPLY_FIELDS = ("out", "force_est", "desired", "comp", "pot_avg", "fault")
@@ -28,9 +29,13 @@ class PilController:
         cal: str | None = None,
         onboard: bool = True,
         shared: bool = True,
+        package: tuple[Path, str] | None = None,
     ) -> None:
-        """`shared`: the two models of an actuator read one feature pipeline (pil_model.h's PIL_SHARED)."""
+        """`shared`: the two models of an actuator read one feature pipeline (pil_model.h's PIL_SHARED);
+        `package`: (export folder, PACKAGE): the firmware is built by CMake from the folder, linking
+        seagen::PACKAGE (firmware.cmake_firmware), instead of by seagen's compile line from `files`."""
         self.files, self.ctl, self.cal, self.core, self.onboard = files, ctl, cal, core, onboard
+        self.package = package
         self.shared = shared
         self.board = board(core)
         self.link: Link | None = None
@@ -44,7 +49,10 @@ class PilController:
         if not 1 <= n <= MAX_ACTUATORS:
             raise UserError(f"the firmware serves 1..{MAX_ACTUATORS} actuators, not {n}")
         header = model_header(self.ctl, self.cal, n, self.onboard, self.shared)
-        elf = build_firmware(self.files, header, self.core)
+        if self.package is None:
+            elf = build_firmware(self.files, header, self.core)
+        else:
+            elf = cmake_firmware(self.package[0], header, self.core, self.package[1])
         self.link = Link(elf, self.board, self.timeout_s)
         empty, loop = struct.unpack("<II", self.link.exchange("C", 0, b"", 8, "calibration"))
         if loop <= empty:

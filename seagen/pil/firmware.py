@@ -1,10 +1,12 @@
 """The processor-in-the-loop firmware of an export: the fw/ sources, the export's C and pil_model.h, linked
-for one QEMU board (start-up with .data/.bss, the board's UART driver, the frame loop of fw/pil_main.c)."""
+for one QEMU board (start-up with .data/.bss, the board's UART driver, the frame loop of fw/pil_main.c); built
+by seagen's own compile line, or by CMake from the export folder as a package (cmake_firmware)."""
 
 from __future__ import annotations
 
 import os
 import shutil
+import subprocess
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -124,6 +126,65 @@ def build_firmware(files: dict[str, str], model_h: str, core: str) -> Path:
         (work / "link.ld").write_text(script)
         elf = cm.link(work, objs, flags, (), "pil")
         os.replace(elf, out)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    return out
+
+
+def cmake_project(folder: Path, package: str, b: Board) -> str:
+    """The firmware's CMakeLists.txt: the export folder added as a package and linked as seagen::PACKAGE
+    (three lines), with the fw/ sources and the board's memory map."""
+    own = " ".join(sorted(n for n in fw_sources(b) if n.endswith(".c")))
+    return "\n".join(
+        [
+            "cmake_minimum_required(VERSION 3.13)",
+            "project(pil C)",
+            f'add_subdirectory("{folder.resolve().as_posix()}" seagen)',
+            f"add_executable(pil {own})",
+            f"target_link_libraries(pil PRIVATE seagen::{package} gcc)",
+            "target_include_directories(pil PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})",
+            f"target_compile_definitions(pil PRIVATE PIL_UART_IRQ={b.uart_irq})",
+            "target_link_options(pil PRIVATE -nostdlib -T${CMAKE_CURRENT_SOURCE_DIR}/pil.ld)",
+            "",
+        ]
+    )
+
+
+def cmake_firmware(folder: Path, model_h: str, core: str, package: str) -> Path:
+    """The firmware for the board of `core` built by CMake from an export folder: the project of
+    cmake_project cross-built with the folder's own toolchain file (arm-none-eabi.cmake, SEAGEN_CPU) at
+    seagen's strict flags; the ELF (cached by the folder's files and the project)."""
+    if msg := cm.toolchain_missing():
+        raise UserError(msg)
+    cmake = shutil.which("cmake")
+    if cmake is None:
+        raise UserError("cmake not found (Debian: apt-get install cmake)")
+    b = board(core)
+    script = (FW / "pil.ld").read_text().replace("@FLASH_LEN@", str(b.flash)).replace("@RAM_LEN@", str(b.ram))
+    project = {**fw_sources(b), "pil_model.h": model_h, "pil.ld": script}
+    project["CMakeLists.txt"] = cmake_project(folder, package, b)
+    exported = sorted(
+        (p.relative_to(folder).as_posix(), p.read_bytes()) for p in folder.rglob("*") if p.is_file()
+    )
+    out = CACHE / f"pil_cmake_{b.machine}_{_key(sorted(project.items()), exported, STRICT_CFLAGS)}.elf"
+    if out.exists():
+        return out
+    CACHE.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(dir=CACHE, prefix=".pilcmake."))
+    try:
+        for name, text in project.items():
+            (work / name).write_text(text)
+        flags = " ".join(f for f in (*STRICT_CFLAGS, "-ffreestanding") if not f.startswith("-std"))
+        gen = ["-G", "Ninja"] if shutil.which("ninja") else []
+        cfg = [cmake, "-S", str(work), "-B", str(work / "build"), *gen, f"-DCMAKE_C_FLAGS={flags}"]
+        cfg += [f"-DCMAKE_TOOLCHAIN_FILE={folder.resolve() / 'arm-none-eabi.cmake'}", f"-DSEAGEN_CPU={b.cpu}"]
+        for cmd in (cfg, [cmake, "--build", str(work / "build")]):
+            res = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+            if res.returncode != 0:
+                raise UserError(
+                    f"{folder}: the CMake firmware build failed: {(res.stdout + res.stderr)[-2000:]}"
+                )
+        os.replace(work / "build" / "pil", out)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return out
