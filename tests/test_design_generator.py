@@ -149,3 +149,36 @@ def test_accepted_designs_get_data_a_model_and_a_loop_that_settles(d, tmp_path_f
     assert len(rows) == 3
     for target, row in rows.items():
         assert row["settling_final_s"] is not None, (target, row)
+
+
+@pytest.mark.slow
+@settings(derandomize=True, max_examples=4, deadline=None, suppress_health_check=list(HealthCheck))
+@given(d=designs())
+def test_discrepancy_on_accepted_drawn_designs(d):
+    """On each accepted drawn design (quick protocol data of the design's own simulated plant): nothing
+    hidden is left alone (verdict none), a hidden backlash is named first and claimed, and a structure
+    stiffness mis-set x0.7 in the base is recalibrated within 5 % of the truth."""
+    from seagen.discrepancy.bench import make_case, measure
+    from seagen.discrepancy.workflow import identify
+    from seagen.plant import PlantConfig
+
+    act, why = judged(d)
+    if act is None:
+        assert why
+        return
+    truth = PlantConfig(actuator=act)
+    res = identify(measure(truth, seed=5, fast=True), truth)
+    assert res.verdict == "none" and not res.effects and not res.recalibrated, (act.to_dict(), res.verdict)
+
+    case = make_case(("backlash",), 5, fast=True, act=act)
+    res = identify(case.runs, case.base)
+    names = [n.name for n in res.effects]
+    assert names[:1] == ["backlash"] and res.effects[0].confidence >= 0.9, (act.to_dict(), case.hidden, names)
+
+    k = float(truth.effect("series_compliance").k_n_per_mm)
+    base = truth.with_effect("series_compliance", True, k_n_per_mm=0.7 * k)
+    res = identify(measure(truth, seed=6, fast=True), base)
+    fitted = {n.name: n.params for n in res.recalibrated}
+    got = fitted.get("series_compliance", {}).get("k_n_per_mm", 0.7 * k)
+    added = [n.name for n in res.effects]
+    assert abs(got - k) <= 0.05 * k and not added, (act.to_dict(), got, k, added)
