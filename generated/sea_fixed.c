@@ -70,7 +70,7 @@ int32_t sea_linkage_q16(const sea_act *a, int32_t pot)
     const int32_t *t = a->link_q16;
     int32_t p = (pot < 0) ? 0 : ((pot > a->pot_max) ? a->pot_max : pot);
     int32_t i = p >> s;
-    int32_t f = p & ((1 << s) - 1); /* p - (i << s), 0 <= f < 2^s (p >= 0) */
+    int32_t f = (int32_t)((uint32_t)p & (((uint32_t)1 << s) - 1u)); /* p - (i << s): 0 <= f < 2^s (p >= 0) */
     const int32_t lo32 = t[i]; /* read once: the guard below narrows these locals */
     const int32_t hi32 = t[i + 1];
     int32_t r;
