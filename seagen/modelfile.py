@@ -137,6 +137,8 @@ def nn_allowlist() -> list[Any]:
     return [
         nn.Sequential, nn.Linear, nn.ReLU, nn.ReLU6, nn.LeakyReLU, nn.Hardtanh, nn.Tanh, nn.Sigmoid,
         nn.Identity, nn.Dropout, nn.BatchNorm1d, nn.Flatten,
+        # the smooth and piecewise-linear activations: float (GELU: a str) attributes, PReLU a weight tensor
+        nn.ELU, nn.SELU, nn.Softplus, nn.GELU, nn.Mish, nn.SiLU, nn.Hardsigmoid, nn.Hardswish, nn.PReLU,
         np.float64(0).__reduce__()[0], np.dtype, *(type(np.dtype(t)) for t in numeric),
     ]  # fmt: skip
 
@@ -210,7 +212,8 @@ def refusal(p: Path) -> str:
 
 SUPPORTED = (
     "Linear", "ReLU", "LeakyReLU", "Hardtanh", "ReLU6", "Tanh", "Sigmoid", "BatchNorm1d", "Dropout",
-    "Identity", "Flatten",
+    "Identity", "Flatten", "ELU", "SELU", "Softplus", "GELU", "Mish", "SiLU", "Hardsigmoid", "Hardswish",
+    "PReLU",
 )  # fmt: skip
 
 

@@ -350,6 +350,9 @@ SCRIPT_ATEN = {
     "__isnot__", "__not__", "__and__", "__or__", "floordiv", "remainder", "format", "list", "slice",
     "select", "__getitem__", "append", "cat", "stack", "identity", "numel", "is_floating_point", "floor",
     "tensor",  # torch.tensor([...]) in forward: a tensor built from a list of numbers (pure, no I/O)
+    # the smooth and piecewise-linear activations seagen reads (pure elementwise math)
+    "elu", "elu_", "selu", "selu_", "softplus", "gelu", "mish", "silu", "silu_", "hardsigmoid",
+    "hardsigmoid_", "hardswish", "hardswish_", "prelu",
 }  # fmt: skip
 SCRIPT_PRIM = {
     "Constant", "GetAttr", "ListConstruct", "ListUnpack", "TupleConstruct", "TupleUnpack", "TupleIndex",

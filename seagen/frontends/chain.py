@@ -17,7 +17,9 @@ from seagen.ir import FloatLayer
 
 SUPPORTED = (
     "supported: a chain of distinct dense layers (Linear, Gemm, MatMul+Add), each followed by at most one "
-    "of ReLU, LeakyReLU, Hardtanh, ReLU6, Clip (ONNX: or Max/Min by a number), Tanh, Sigmoid; constant "
+    "of ReLU, LeakyReLU, PReLU, Hardtanh, ReLU6, Clip (ONNX: or Max/Min by a number), Tanh, Sigmoid, ELU, "
+    "SELU, Softplus, GELU (erf or tanh; ONNX: or its erf pattern), Mish, SiLU (or x*sigmoid(x)), "
+    "HardSigmoid, HardSwish; constant "
     "Add/Sub/Mul/Div, BatchNorm (eval), Dropout, Identity, Flatten, casts to float; at the input and output, "
     "Unsqueeze/Squeeze/Reshape/Flatten that keep whole rows"
 )
@@ -41,12 +43,15 @@ class Dense(Item):
 
 @dataclass(frozen=True, eq=False)
 class Act(Item):
-    """An elementwise activation of the IR: relu, leaky_relu (alpha), hardtanh (lo, hi), tanh, sigmoid."""
+    """An elementwise activation of the IR: relu, leaky_relu (alpha), hardtanh (lo, hi), tanh, sigmoid, and
+    those with params (FloatLayer.params: elu, selu, softplus, hardsigmoid, prelu slopes; gelu, gelu_tanh,
+    mish, silu, hardswish take none)."""
 
     kind: str
     alpha: float = 0.01
     lo: float = -1.0
     hi: float = 1.0
+    params: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -207,9 +212,28 @@ def to_layers(items: list[Item], n_in: int, where: str) -> list[FloatLayer]:
                 raise refuse(
                     where, it, f"LeakyReLU slope {it.alpha} (seagen reads slopes between -1 and 1 exactly)"
                 )
-            layers[-1] = FloatLayer(last.weight, last.bias, it.kind, it.alpha, it.lo, it.hi)
+            params = _act_params(it, last.weight.shape[0], where)
+            layers[-1] = FloatLayer(last.weight, last.bias, it.kind, it.alpha, it.lo, it.hi, params)
         else:
             raise refuse(where, it, "not a supported op")
     if not layers:
         raise UserError(f"{where}: no dense layer found; {SUPPORTED}")
     return layers
+
+
+def _act_params(it: Act, width: int, where: str) -> tuple[float, ...]:
+    """The activation's float parameters, checked (finite; Softplus beta > 0; PReLU slopes, broadcast over
+    the layer's width, in -1..1 as LeakyReLU's)."""
+    p = np.asarray(it.params, dtype=float).reshape(-1)
+    finite = p if it.kind != "softplus" else p[:1]  # Softplus's threshold may be infinite (none)
+    if not np.all(np.isfinite(finite)) or np.any(np.isnan(p)):
+        raise refuse(where, it, f"parameters {tuple(p.tolist())} are not finite numbers")
+    if it.kind == "softplus" and not p[0] > 0:
+        raise refuse(where, it, f"Softplus beta {p[0]} (seagen reads beta > 0)")
+    if it.kind == "prelu":
+        if p.size not in (1, width):
+            raise refuse(where, it, f"{p.size} PReLU slopes for {width} channels")
+        p = np.broadcast_to(p, (width,))
+        if not np.all(np.abs(p) <= 1.0):
+            raise refuse(where, it, f"PReLU slopes up to {np.max(np.abs(p))} (seagen reads slopes in -1..1)")
+    return tuple(float(v) for v in p)

@@ -44,7 +44,7 @@ def fold_normalization(layers: list[FloatLayer], spec: FeatureSpec, where: str =
         )
     w1 = first.weight * scale[None, :]
     b1 = first.bias - first.weight @ (np.array(spec.mean) * scale)
-    out = [FloatLayer(w1, b1, first.activation, first.alpha, first.lo, first.hi), *layers[1:]]
+    out = [dataclasses.replace(first, weight=w1, bias=b1), *layers[1:]]
     last = out[-1]
     if last.activation == "linear":
         out[-1] = FloatLayer(last.weight * spec.output_std, last.bias * spec.output_std + spec.output_mean)

@@ -12,6 +12,7 @@ from seagen.errors import UserError
 from seagen.frontends.chain import Act, Affine, Dense, Item, Reshape, batchnorm_affine, clip_act, refuse
 from seagen.frontends.graph import Node, chain_nodes
 from seagen.frontends.onnx_batch import batch_reshapes
+from seagen.frontends.onnx_patterns import FUSED_OP, fuse_regions
 from seagen.frontends.onnx_shapes import (
     SHAPE_OPS,
     B,
@@ -26,6 +27,8 @@ from seagen.frontends.onnx_shapes import (
 
 _ACTS = {"Relu": "relu", "Tanh": "tanh", "Sigmoid": "sigmoid"}
 _NOOPS = ("Identity", "Dropout")
+_SMOOTH_OPS = ("Elu", "Selu", "Softplus", "Gelu", "Mish", "HardSigmoid", "HardSwish", "PRelu")
+_SELU = (1.67326319217681884765625, 1.05070102214813232421875)  # ONNX Selu's default alpha, gamma
 # TensorProto FLOAT, DOUBLE, FLOAT16, BFLOAT16: a Cast to one is read as the identity (the original's margin
 # is that of the narrowest float type in the graph: seagen.frontends.onnx_dtype)
 _FLOAT = (1, 11, 10, 16)
@@ -85,6 +88,7 @@ def onnx_items(path: Path, model: Any) -> tuple[list[Item], int, Feed]:
         for n in g.node
     ]
     consts = _fold_constants(model, nodes, where)
+    nodes = fuse_regions(model, nodes, consts)  # GELU's erf form, x * sigmoid(x), ... as one activation
     inputs = [i for i in g.input if i.name not in consts]
     cat = concat_inputs(nodes, inputs, where) if len(inputs) > 1 else None  # inputs joined into one vector
     if (len(inputs) != 1 and cat is None) or len(g.output) != 1:
@@ -174,6 +178,8 @@ def _item(n: Node, consts: dict, where: str, batch: int = -1) -> list[Item]:
         return [Act(op, p, _ACTS[op])]
     if op == "LeakyRelu":
         return [Act(op, p, "leaky_relu", alpha=float(a.get("alpha", 0.01)))]
+    if op in _SMOOTH_OPS or op == FUSED_OP:
+        return [_smooth(n, consts, where)]
     if op == "Clip":
         return [clip_act(op, p, _bound(n, consts, 1, "min", where), _bound(n, consts, 2, "max", where))]
     if op in ("Max", "Min"):
@@ -186,6 +192,35 @@ def _item(n: Node, consts: dict, where: str, batch: int = -1) -> list[Item]:
     if op == "BatchNormalization":
         raise refuse(where, Item(op, p), "BatchNormalization in training mode")
     return _passing(n, consts, where, batch)
+
+
+def _smooth(n: Node, consts: dict, where: str) -> Act:
+    """The smooth and piecewise-linear activation ops with ONNX's defaults, PRelu's constant slopes, and the
+    regions onnx_patterns recognised."""
+    op, p, a = n.op, n.path, n.attrs
+    if op == FUSED_OP:
+        return Act(f"{a['form']}", p, a["kind"], params=tuple(a["params"]))
+    if op == "Elu":
+        return Act(op, p, "elu", params=(float(a.get("alpha", 1.0)),))
+    if op == "Selu":
+        return Act(op, p, "selu", params=(float(a.get("alpha", _SELU[0])), float(a.get("gamma", _SELU[1]))))
+    if op == "Softplus":
+        return Act(op, p, "softplus", params=(1.0, float("inf")))
+    if op == "Gelu":
+        approx = a.get("approximate", "none")
+        approx = approx.decode() if isinstance(approx, bytes) else approx
+        if approx not in ("none", "tanh"):
+            raise refuse(where, Item(op, p), f"approximate={approx!r} (ONNX defines none and tanh)")
+        return Act(op, p, "gelu" if approx == "none" else "gelu_tanh")
+    if op == "HardSigmoid":
+        return Act(op, p, "hardsigmoid", params=(float(a.get("alpha", 0.2)), float(a.get("beta", 0.5))))
+    if op == "PRelu":
+        slope = _c(n, consts, 1, where)
+        assert slope is not None
+        if slope.size > 1 and slope.shape[-1] != slope.size:
+            raise refuse(where, Item(op, p), f"slope of shape {slope.shape} (one per feature, or one)")
+        return Act(op, p, "prelu", params=tuple(float(v) for v in slope.reshape(-1)))
+    return Act(op, p, {"Mish": "mish", "HardSwish": "hardswish"}[op])
 
 
 def _passing(n: Node, consts: dict, where: str, batch: int) -> list[Item]:

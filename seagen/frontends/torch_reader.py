@@ -10,6 +10,7 @@ from seagen.errors import UserError
 from seagen.frontends.chain import Act, Affine, Dense, Item, Reshape, batchnorm_affine, clip_act, refuse
 from seagen.frontends.graph import Node, chain_nodes
 from seagen.frontends.joined import joined_inputs
+from seagen.runtime.activations import SELU
 
 _ACTS = {"aten.relu.default": "relu", "aten.tanh.default": "tanh", "aten.sigmoid.default": "sigmoid"}
 _NOOPS = (
@@ -22,6 +23,18 @@ _NOOPS = (
 )
 _FLOATS = ("torch.float32", "torch.float64")
 _DENSE = ("aten.linear.default", "aten.addmm.default", "aten.mm.default", "aten.matmul.default")
+_SMOOTH = {
+    "aten.elu.default": "elu",
+    "aten.selu.default": "selu",
+    "aten.softplus.default": "softplus",
+    "aten.gelu.default": "gelu",
+    "aten.mish.default": "mish",
+    "aten.silu.default": "silu",
+    "aten.hardsigmoid.default": "hardsigmoid",
+    "aten.hardswish.default": "hardswish",
+    "aten.prelu.default": "prelu",
+    "aten._prelu_kernel.default": "prelu",
+}
 _CLAMPS = ("aten.hardtanh.default", "aten.clamp.default", "aten.clamp_min.default", "aten.clamp_max.default")
 _BATCHNORM = ("aten.batch_norm.default", "aten._native_batch_norm_legit_no_training.default")
 _CASTS = ("aten.to.dtype", "aten._to_copy.default", "aten.to.dtype_layout")
@@ -39,6 +52,9 @@ _READ_OPS = {
     *_CASTS,
     *_VIEWS,
     "aten.leaky_relu.default",
+    *("aten.elu.default", "aten.selu.default", "aten.softplus.default", "aten.gelu.default"),
+    *("aten.mish.default", "aten.silu.default", "aten.hardsigmoid.default", "aten.hardswish.default"),
+    *("aten.prelu.default", "aten._prelu_kernel.default"),
     "aten.clamp.Tensor",  # reached only to be refused by name (a computed bound)
     "aten.relu6.default",
     "aten.dropout.default",
@@ -194,6 +210,8 @@ def _item(n: Any, consts: dict, fx: dict, where: str) -> list[Item]:
         return [Act(t, p, _ACTS[t])]
     if t == "aten.leaky_relu.default":
         return [Act(t, p, "leaky_relu", alpha=float(_arg(n, 1, "negative_slope", 0.01, consts)))]
+    if t in _SMOOTH:
+        return [_smooth(n, t, p, consts, where)]
     if t in _CLAMPS:
         return [_clamp(n, t, p, consts, where)]
     if t == "aten.relu6.default":
@@ -297,6 +315,34 @@ def _arith(n: Any, t: str, p: str, consts: dict, where: str) -> Affine:
     raise refuse(where, Item(t, p), "division by a computed value, by zero or with rounding")
 
 
+def _smooth(n: Any, t: str, p: str, consts: dict, where: str) -> Act:
+    """elu(alpha, scale, input_scale), selu, softplus(beta, threshold), gelu(approximate), mish, silu,
+    hardsigmoid, hardswish, prelu(weight): the IR activation with torch's parameters."""
+    if t == "aten.elu.default":
+        alpha, scale = (float(_arg(n, k, key, 1.0, consts)) for k, key in ((1, "alpha"), (2, "scale")))
+        if scale != 1.0 or float(_arg(n, 3, "input_scale", 1.0, consts)) != 1.0:
+            if (alpha, scale) != (SELU[0], SELU[1]):
+                raise refuse(where, Item(t, p), "elu with a scale or input_scale other than SELU's")
+            return Act(t, p, "selu", params=SELU)
+        return Act(t, p, "elu", params=(alpha,))
+    if t == "aten.softplus.default":
+        beta, th = float(_arg(n, 1, "beta", 1.0, consts)), float(_arg(n, 2, "threshold", 20.0, consts))
+        return Act(t, p, "softplus", params=(beta, th))
+    if t == "aten.gelu.default":
+        approx = n.kwargs.get("approximate", "none")
+        if approx not in ("none", "tanh"):
+            raise refuse(where, Item(t, p), f"approximate={approx!r}")
+        return Act(t, p, "gelu" if approx == "none" else "gelu_tanh")
+    if t in ("aten.prelu.default", "aten._prelu_kernel.default"):
+        w = _arg(n, 1, "weight", None, consts)
+        if not isinstance(w, np.ndarray):
+            raise refuse(where, Item(t, p), "the PReLU weight is not a constant")
+        return Act(t, p, "prelu", params=tuple(float(v) for v in w.reshape(-1)))
+    if t == "aten.hardsigmoid.default":
+        return Act(t, p, "hardsigmoid", params=(1.0 / 6.0, 0.5))
+    return Act(t, p, _SMOOTH[t], params=SELU if t == "aten.selu.default" else ())
+
+
 def _clamp(n: Any, t: str, p: str, consts: dict, where: str) -> Act:
     """hardtanh(lo, hi), clamp(min, max), clamp_min, clamp_max -> relu or hardtanh (bounds must be numbers
     or one-element constants)."""
@@ -350,6 +396,8 @@ def sequential_items(m: Any) -> list[Item] | None:
             items.append(Act(t, p, {"ReLU": "relu", "Tanh": "tanh", "Sigmoid": "sigmoid"}[t]))
         elif type(c) is nn.LeakyReLU:
             items.append(Act(t, p, "leaky_relu", alpha=float(c.negative_slope)))
+        elif (act := _smooth_module(c)) is not None:
+            items.append(Act(t, p, act[0], params=act[1]))
         elif type(c) in (nn.Hardtanh, nn.ReLU6):
             items.append(clip_act(t, p, float(c.min_val), float(c.max_val)))
         elif type(c) in (nn.Identity, nn.Dropout) or (type(c) is nn.Flatten and c.start_dim == 1):
@@ -359,6 +407,26 @@ def sequential_items(m: Any) -> list[Item] | None:
         else:
             return None
     return items
+
+
+def _smooth_module(c: Any) -> tuple[str, tuple[float, ...]] | None:
+    """(IR activation, params) of a torch.nn smooth or piecewise-linear activation module, else None."""
+    import torch.nn as nn
+
+    if type(c) is nn.ELU:
+        return "elu", (float(c.alpha),)
+    if type(c) is nn.SELU:
+        return "selu", SELU
+    if type(c) is nn.Softplus:
+        return "softplus", (float(c.beta), float(c.threshold))
+    if type(c) is nn.GELU and c.approximate in ("none", "tanh"):
+        return ("gelu" if c.approximate == "none" else "gelu_tanh"), ()
+    if type(c) is nn.PReLU:
+        return "prelu", tuple(float(v) for v in c.weight.detach().double().numpy().reshape(-1))
+    if type(c) is nn.Hardsigmoid:
+        return "hardsigmoid", (1.0 / 6.0, 0.5)
+    names = {nn.Mish: "mish", nn.SiLU: "silu", nn.Hardswish: "hardswish"}
+    return (names[type(c)], ()) if type(c) in names else None
 
 
 def _bn_module(c: Any, t: str, p: str) -> Affine:
