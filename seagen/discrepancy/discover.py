@@ -42,6 +42,7 @@ class Discovery:
     evidence: Evidence | None = None
     table: pd.DataFrame | None = None  # every term's fit and held-out BIC
     edge: list[str] = field(default_factory=list)
+    basis: str = "held-out BIC and the claim rule"  # how it was found (the search, or the readings' lattice)
 
     @property
     def cut(self) -> float:
@@ -187,6 +188,52 @@ def discover(
         table,
         edge,
     )
+
+
+ON_LATTICE = 0.99  # share of a channel's readings on one lattice for it to count as read in steps
+LATTICE = (("load_cell_n", "cell_quantisation", "step_n"), ("pot", "pot_quantisation", "step_counts"))
+
+
+def lattice(runs: Runs, rms_now: float, floor: float) -> Discovery | None:
+    """A channel read in steps coarser than its noise, from the readings themselves: >= ON_LATTICE of them
+    on multiples of the smallest step q between successive readings, and q at least the noise sigma of its
+    second differences (steps that size are the channel's noise: no residual shows them). A log written
+    with fewer decimals than its noise is reported so too (it is read in steps). The pot's own unit count
+    is no discovery (q >= its box's lowest step). None when no channel is."""
+    from seagen.discrepancy.candidates import box
+
+    for c, term, param in LATTICE:
+        x = runs.meas[c][runs.mask]
+        d = np.abs(np.diff(x))
+        d = d[np.isfinite(d) & (d > 1e-9 * float(np.nanmax(np.abs(x), initial=0.0)))]  # not float rounding
+        if not d.size:
+            continue
+        q = float(d.min())
+        k = (x - x[0]) / q
+        on = float(np.mean(np.abs(k - np.rint(k)) < 1e-6))
+        d2 = x[2:] - 2 * x[1:-1] + x[:-2]
+        noise = 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / np.sqrt(6.0)
+        lo = box(term, param, full_scale())[0]
+        if on < ON_LATTICE or q < noise or q < lo:
+            continue
+        near = d[np.abs(d - q) < 0.01 * q]
+        return Discovery(
+            term,
+            form_of(term),
+            {param: q},
+            {param: float(np.std(near))},
+            True,
+            "",
+            rms_now,
+            rms_now,
+            rms_now,
+            floor,
+            basis=(
+                f"{on:.1%} of the {c} readings on multiples of {q:.4g}, at least the noise sigma of their "
+                f"second differences ({noise:.3g})"
+            ),
+        )
+    return None
 
 
 def with_term(cfg: PlantConfig, d: Discovery) -> PlantConfig:

@@ -233,6 +233,7 @@ def discovered_lines(res: Result) -> list[str]:
         f"held-out residual RMS {d.rms_before:.3g} -> {d.rms_after:.3g} noise sigmas (floor {d.floor:.3g}; "
         f"the catalogue's best: {d.rms_catalogue:.3g}); gap cut {d.cut:.0%}",
         f"unlike the closest catalogue effect, {d.unlike()}",
+        f"found by: {d.basis}",
         *([d.why] if d.why else []),
     ]
 
@@ -243,8 +244,10 @@ def discovered_section(res: Result) -> str:
     if not lines:
         return ""
     d = res.discovered
-    assert d is not None and d.table is not None
+    assert d is not None
     head = "plant.toml carries it" if d.claimed else "not written to plant.toml"
+    if d.table is None:  # found from the readings themselves (discover.lattice), not by the search
+        return f"## Discovered: {d.form}\n" + "\n".join(f"- {x}" for x in lines) + f"\n\n{head}."
     return (
         f"## Discovered: {d.form}\n" + "\n".join(f"- {x}" for x in lines) + f"\n\n{head}. "
         "Every term of the library (discrepancy/terms.py) fitted alone (a start grid, a zoom, least squares) "
@@ -284,7 +287,7 @@ def write_report(res: Result, out: str | os.PathLike[str], source: str) -> None:
         after.to_csv(tmp / "regions_after.csv", index=False)
         gap.to_csv(tmp / "gap_by_region.csv", index=False)
         residual_maps(res, tmp / "residual_maps.png")
-        if (d := res.discovered) is not None:
+        if (d := res.discovered) is not None and d.z_after:
             residual_maps(res, tmp / "discovered_maps.png", d.z_after, f"({d.term})")
         (tmp / "report.md").write_text(markdown(res, source, before, after, gap))
         if out.exists():

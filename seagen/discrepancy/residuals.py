@@ -47,7 +47,8 @@ def resolution(x: np.ndarray) -> np.ndarray:
     of q (a quantised load cell) is uncertain by at least q / sqrt(12) even where its second differences
     vanish (for a float reading with noise the step is tiny and changes nothing)."""
     d = np.abs(np.diff(x, axis=1))
-    d = np.where(np.isfinite(d) & (d > 0), d, np.inf).min(axis=1)
+    tiny = 1e-9 * np.nanmax(np.abs(x), axis=1, initial=0.0)[:, None]  # float rounding, not a step
+    d = np.where(np.isfinite(d) & (d > tiny), d, np.inf).min(axis=1)
     return np.where(np.isfinite(d), d, 0.0)
 
 

@@ -26,7 +26,7 @@ from seagen.discrepancy.candidates import (
     start,
 )
 from seagen.discrepancy.claims import Evidence, evidence, footprints
-from seagen.discrepancy.discover import Discovery, discover, with_term
+from seagen.discrepancy.discover import Discovery, discover, lattice, with_term
 from seagen.discrepancy.erratic import ERRATIC_SHARE, TINY, erratic
 from seagen.discrepancy.learned import Learned, fit_learned, with_learned
 from seagen.discrepancy.recalibrate import BaseCheck, base_check, plausible, plausible_range, uncertainty
@@ -594,6 +594,8 @@ def identify(
         res.discovered = discover(kept, fit, held, sig_f, sig_h, floor, labels, rms(z1))
         if res.found and res.discovered:
             res.config = with_term(kept, res.discovered)
+    elif discovering and (steps := lattice(held, rms(z1), floor)) is not None:  # a channel read in steps
+        res.discovered, res.config = steps, with_term(cfg, steps)
     if verdict == "unexplained" and not base.on("learned_residual") and not res.found:
         res.learned = fit_learned(cfg, fit, held, sig_f, sig_h)
         res.config = with_learned(cfg, res.learned) if res.learned else cfg
