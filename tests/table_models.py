@@ -157,8 +157,8 @@ class Lambda(nn.Module):
         if k == "alpha_arith":  # add/rsub/sub with alpha, a constant built from torch.ones
             g = torch.rsub(torch.add(self.fc2.bias, F.relu(self.fc2(h)), alpha=2.0), 1.0, alpha=0.5)
             return self.out(torch.sub(3.0 * torch.ones(8), g, alpha=1.5)) / 2 - 1
-        if k == "softplus":
-            return self.out(F.softplus(self.fc2(h)))
+        if k == "celu":  # an activation seagen does not read
+            return self.out(F.celu(self.fc2(h)))
         if k == "addmm_scaled":  # addmm's beta and alpha scale the bias and the product
             return self.out(torch.addmm(self.fc2.bias, h, self.fc2.weight.t(), beta=0.5, alpha=2.0))
         if k == "add_self":

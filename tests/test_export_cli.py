@@ -124,9 +124,9 @@ def _bad_nan(tmp: Path, files: dict) -> list[str]:
 
 def _bad_layer(tmp: Path, files: dict) -> list[str]:
     d = load_model(files["mlp_relu"])
-    d["module"] = torch.nn.Sequential(d["module"][0], torch.nn.Softplus(), *list(d["module"])[1:])
-    torch.save(d, tmp / "softplus.pt")
-    return [str(tmp / "softplus.pt"), "--allow-pickle"]
+    d["module"] = torch.nn.Sequential(d["module"][0], torch.nn.CELU(), *list(d["module"])[1:])
+    torch.save(d, tmp / "celu.pt")
+    return [str(tmp / "celu.pt"), "--allow-pickle"]
 
 
 def _bad_width(tmp: Path, files: dict) -> list[str]:
@@ -175,7 +175,7 @@ def _bad_onnx(tmp: Path, files: dict) -> list[str]:
 
 BAD = {
     "unsupported onnx node": (_bad_onnx, "(Softmax): unsupported op"),
-    "unsupported layer": (_bad_layer, "1/softplus (aten.softplus.default): unsupported op"),
+    "unsupported layer": (_bad_layer, "1/celu (aten.celu.default): unsupported op"),
     "input width": (_bad_width, "takes 9 inputs"),
     "nan weights": (_bad_nan, "NaN or Inf"),
     "range": (_bad_range, "cannot be represented"),

@@ -29,7 +29,7 @@ PT2_REFUSED = {
     "residual": "computed inputs",
     "shared": "called twice",
     "stacked": "stacked",
-    "softplus": "unsupported op",
+    "celu": "unsupported op",
     "mul_self": "a product of two computed values",
     "leaky_steep": "LeakyReLU slope 1.5",
 }
