@@ -157,19 +157,26 @@ def test_toolchain_file_cross_builds_for_cortex_m4(exports, tmp_path):
 
 
 def test_verify_hashes_the_cmake_files_and_reexport_restores_them(tmp_path):
-    """CMakeLists.txt and NAME.seagen.cmake are files of the export: verify passes, a hand edit of either is
-    a changed file, and re-exporting writes them back in place."""
+    """CMakeLists.txt, NAME.seagen.cmake and the other build systems' files (zephyr/module.yml, library.json,
+    the example sketch) are files of the export: verify passes, a hand edit of any is a changed file, and
+    re-exporting writes them back in place."""
     fw = tmp_path / "fw"
     write(prepare(_model("cal_mlp"), prefix="cal_mlp"), fw)
     assert verify(str(fw), _model("cal_mlp"), vectors=50).ok
     good = (fw / "CMakeLists.txt").read_text()
     (fw / "CMakeLists.txt").write_text(good.replace("C_STANDARD 99", "C_STANDARD 11"))
     (fw / "cal_mlp.seagen.cmake").write_text("list(APPEND SEAGEN_SOURCES cal_mlp.c)\n")
+    others = ("zephyr/module.yml", "library.json", "examples/cal_mlp/cal_mlp.ino")  # the other build systems'
+    kept = {n: (fw / n).read_text() for n in others}
+    for n in others:
+        (fw / n).write_text(kept[n] + "\n")
     bad = verify(str(fw), _model("cal_mlp"), vectors=50)
     failed = {i.name for i in bad.items if not i.ok}
-    assert {"CMakeLists.txt unchanged", "cal_mlp.seagen.cmake unchanged"} <= failed, bad.text()
+    want = {"CMakeLists.txt unchanged", "cal_mlp.seagen.cmake unchanged", *(f"{n} unchanged" for n in others)}
+    assert want <= failed, bad.text()
     code, _out, _err = run_cli("export", _model("cal_mlp"), "--prefix", "cal_mlp", "--out", str(fw))
     assert code == 0 and (fw / "CMakeLists.txt").read_text() == good
+    assert {n: (fw / n).read_text() for n in others} == kept
     assert verify(str(fw), _model("cal_mlp"), vectors=50).ok
 
 
@@ -254,7 +261,8 @@ def test_ctest_runs_each_model_on_recorded_vectors_against_the_twins(exports, tm
 
 
 @needs_cmake
-@pytest.mark.parametrize("core", ["cortex-m0plus", pytest.param("cortex-m4", marks=pytest.mark.slow)])
+@pytest.mark.slow  # ~4 s a board (the CMake cross build and the QEMU run)
+@pytest.mark.parametrize("core", ["cortex-m0plus", "cortex-m4"])
 def test_cmake_built_firmware_closes_the_pil_loop_bit_for_bit(core, tmp_path):
     """The processor-in-the-loop firmware built by CMake from an export folder (add_subdirectory, seagen::sea,
     the folder's arm-none-eabi.cmake for the board's core) runs seagen pil's closed loop on the QEMU board:

@@ -19,8 +19,6 @@ import yaml
 from seagen.codegen.packaging import kconfig_symbol, library_name, sketch_name
 from seagen.defaults import GENERATED
 from seagen.export import prepare, write
-from seagen.verify.run import verify
-from tests.conftest import run_cli
 
 MODELS = {"cal_mlp": ("mlp_calibration", False), "ctl_mlp": ("mlp_control", True)}
 PACKAGE = "sea"
@@ -283,21 +281,3 @@ def test_arduino_example_compiles_for_an_uno(package, tmp_path):
     assert objects == [f"{n}.o" for n in _sources(done)], objects
     ours = [ln for ln in out.splitlines() if "warning" in ln and library_name(PACKAGE) in ln]
     assert not ours, ours
-
-
-def test_reexport_updates_the_package_in_place_and_verify_hashes_its_files(tmp_path):
-    """A hand edit of zephyr/module.yml, library.json or the example sketch is a changed file for verify;
-    re-exporting the model writes them back in place."""
-    fw = tmp_path / "fw"
-    write(prepare(_model("cal_mlp"), prefix="cal_mlp"), fw)
-    edited = ("zephyr/module.yml", "library.json", sketch_name("cal_mlp"))
-    good = {n: (fw / n).read_text() for n in edited}
-    for n in edited:
-        (fw / n).write_text(good[n] + "\n")
-    bad = verify(str(fw), _model("cal_mlp"), vectors=50)
-    failed = {i.name for i in bad.items if not i.ok}
-    assert {f"{n} unchanged" for n in edited} <= failed, bad.text()
-    code, _out, err = run_cli("export", _model("cal_mlp"), "--prefix", "cal_mlp", "--out", str(fw))
-    assert code == 0, err
-    assert {n: (fw / n).read_text() for n in edited} == good
-    assert verify(str(fw), _model("cal_mlp"), vectors=50).ok
