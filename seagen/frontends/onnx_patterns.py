@@ -26,6 +26,7 @@ ELEMENTWISE = {
     *("Identity", "Cast", "HardSigmoid"),
 }
 MAX_NODES = 24
+MAX_TAIL = 3  # single-input nodes after the region that may complete it (a final * 0.5)
 GRID = np.concatenate([np.linspace(-12.0, 12.0, 4801), [-30.0, -20.0, 20.0, 30.0]])
 TOL = 2e-6  # |region - candidate| <= TOL (1 + |candidate|): float32 rounding of a few ops, far below the
 # gap between any two candidates (GELU's erf and tanh forms differ by up to 4.7e-4)
@@ -125,6 +126,31 @@ def identify(y: np.ndarray, region_consts: list[float]) -> tuple[str, tuple[floa
     return None
 
 
+def _grow(model: Any, x: str, region: list[Node], n: Node, consts: dict, users: dict) -> tuple:
+    """(the activation, its last node, the nodes before it) of the region ending at n, or of n followed by up
+    to MAX_TAIL single-input elementwise nodes (the 0.5 * after x (1 + erf(x / sqrt 2))); (None, n, region)
+    when none is a candidate."""
+    tail, last = list(region), n
+    for _ in range(MAX_TAIL + 1):
+        vals = [
+            float(np.asarray(consts[i]).reshape(-1)[0])
+            for m in (*tail, last)
+            for i in m.inputs
+            if i in consts
+        ]
+        y = _evaluate(model, [*tail, last], x, last.outputs[0], consts)
+        kind = identify(y, vals) if y is not None else None
+        if kind is not None:
+            return kind, last, tail
+        nxt = users.get(last.outputs[0], [])
+        if len(nxt) != 1 or nxt[0].op not in ELEMENTWISE:
+            break
+        if len({i for i in nxt[0].inputs if i and i not in consts}) != 1:
+            break
+        tail, last = [*tail, last], nxt[0]
+    return None, n, region
+
+
 def fuse_regions(model: Any, nodes: list[Node], consts: dict) -> list[Node]:
     """nodes with every recognised region replaced by one FUSED_OP node (attrs kind, params, form)."""
     changed = True
@@ -146,21 +172,14 @@ def fuse_regions(model: Any, nodes: list[Node], consts: dict) -> list[Node]:
             inner = [o for m in region for o in m.outputs]
             if any(id(u) not in members for o in inner for u in users.get(o, [])):
                 continue  # a value inside the region is used outside it
-            vals = [
-                float(np.asarray(consts[i]).reshape(-1)[0])
-                for m in [*region, n]
-                for i in m.inputs
-                if i in consts
-            ]
-            y = _evaluate(model, [*region, n], x, n.outputs[0], consts)
-            kind = identify(y, vals) if y is not None else None
+            kind, last, body = _grow(model, x, region, n, consts, users)
             if kind is None:
                 continue
-            ops = "+".join(m.op for m in [*region, n])
-            fused = Node(
-                FUSED_OP, n.path, [x], list(n.outputs), {"kind": kind[0], "params": kind[1], "form": ops}
-            )
-            nodes = [m for m in nodes if id(m) not in members] + [fused]
+            ops = "+".join(m.op for m in (*body, last))
+            attrs = {"kind": kind[0], "params": kind[1], "form": ops}
+            fused = Node(FUSED_OP, last.path, [x], list(last.outputs), attrs)
+            gone = {id(m) for m in (*body, last)}
+            nodes = [m for m in nodes if id(m) not in gone] + [fused]
             changed = True
             break
     return nodes

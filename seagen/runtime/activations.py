@@ -90,8 +90,9 @@ def _g_scalar(name: str, p: tuple[float, ...], x: float) -> float:
     if name == "silu":
         return -a * _sig(-a)
     if name == "mish":
-        if x > 0:
-            return -2.0 * x / (1.0 + (1.0 + math.exp(x)) ** 2)
+        if x > 0:  # -2x / (1 + (1 + e^x)^2), without overflow
+            e = math.exp(-x)
+            return -2.0 * x * e * e / (e * e + (1.0 + e) ** 2)
         e = math.exp(x)
         return x * (e * e + 2 * e) / (e * e + 2 * e + 2)
     raise ValueError(name)
