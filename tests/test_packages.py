@@ -91,6 +91,7 @@ def test_platformio_manifests_pass_platformios_own_validation(package, tmp_path)
         ManifestSchema().load_manifest(parser.ManifestParserFactory.new_from_file(str(bad)).as_dict())
     pio = Path(sys.executable).with_name("pio")  # platformio's command, installed beside this Python
     env = {**os.environ, "PLATFORMIO_CORE_DIR": str(tmp_path / "core"), "HOME": str(tmp_path)}
+    env["PLATFORMIO_SETTING_ENABLE_TELEMETRY"] = "false"  # offline: nothing sent
     res = subprocess.run(
         [str(pio), "pkg", "pack", str(fw), "-o", str(tmp_path / "p.tar.gz")],
         capture_output=True,
