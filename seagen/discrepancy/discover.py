@@ -19,7 +19,9 @@ from seagen.plant import PlantConfig
 
 DBIC_MIN = 10.0  # the held-out BIC gain needed to name a term: as for a catalogue effect (workflow.DBIC_MIN)
 BEAM = 3  # start points of each term zoomed after the start grid
-ZOOM, REFINE_NFEV = 0.05, 40  # the selected term's final zoom (unit-box half-width) and polish
+# the selected term's final zoom (unit-box half-width, rounds: its objective may come in steps, where least
+# squares stalls) and polish
+ZOOM, ZOOM_ROUNDS, REFINE_NFEV = 0.1, 6, 20
 EDGE = 0.01  # a parameter within this share of its box from an end is at the edge (workflow.EDGE)
 WORSE, WORSE_MIN = 1.1, 1.2  # no channel may end above WORSE x its RMS and WORSE_MIN sigmas (workflow)
 
@@ -91,8 +93,31 @@ def search(cfg: PlantConfig, fit: Runs, sig_f: dict) -> list[Candidate]:
 def refine(cfg: PlantConfig, c: Candidate, fit: Runs, sig_f: dict) -> None:
     """The selected term fitted to convergence: a local zoom (derivative-free: stick-slip and quantisation
     are not smooth), then REFINE_NFEV more least-squares evaluations."""
-    screen(cfg, [c], fit, sig_f, rounds=3, half0=ZOOM)
+    screen(cfg, [c], fit, sig_f, rounds=ZOOM_ROUNDS, half0=ZOOM, beam=2)
     polish(cfg, [c], fit, sig_f, nfev=REFINE_NFEV)
+
+
+PROFILE_H = 0.03  # unit-box step of the curvature stencil of profile_sigma
+
+
+def profile_sigma(cfg: PlantConfig, c: Candidate, fit: Runs, sig_f: dict) -> dict[str, float]:
+    """Each parameter's 1-sigma from the fit chi-square's curvature over +-PROFILE_H of its box (the others
+    held; inflated by the reduced chi-square when above 1), in its unit: an objective in steps (stick-slip)
+    gives a Gauss-Newton Jacobian of its jumps, far too sure; this wider stencil sees the valley's width."""
+    from seagen.discrepancy.candidates import box
+
+    u0, k = np.clip(c.u, PROFILE_H, 1 - PROFILE_H), len(c.keys)
+    pts = [u0] + [u0 + s * PROFILE_H * np.eye(k)[i] for i in range(k) for s in (1, -1)]
+    chi = objective(cfg, [c.params(u) for u in pts], fit, sig_f).sum(axis=1)
+    scale = max(float(chi[0]) / max(n_scored(fit) - k, 1), 1.0)
+    out = {}
+    for i, (e, p) in enumerate(c.keys):
+        curv = (chi[1 + 2 * i] + chi[2 + 2 * i] - 2 * chi[0]) / PROFILE_H**2
+        su = math.sqrt(2 * scale / curv) if curv > 0 else math.inf
+        lo, hi, log = box(e, p, c.full_scale)
+        v = c.params(u0)[e][p]
+        out[p] = float(su * (v * math.log(hi / lo) if log else hi - lo))
+    return out
 
 
 def _table(cfg: PlantConfig, cands: list[Candidate], held: Runs, sig_h: dict) -> pd.DataFrame:
@@ -160,6 +185,8 @@ def discover(
     before, after = channel_rms(z0, held.mask), channel_rms(z1, held.mask)
     ev = evidence(fp[term], before, after, floor, region_table(held, z1, labels), without[term])
     sig = uncertainty(cfg, {term: params}, fit, sig_f)[term]
+    wide = profile_sigma(cfg, win, fit, sig_f)
+    sig = {p: max(sig[p], wide[p]) for p in sig}
     edge = _edge(term, params, win.full_scale)
     worse = [c for c in before if after[c] > max(WORSE * before[c], WORSE_MIN)]
     why = ""
