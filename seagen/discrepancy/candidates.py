@@ -46,6 +46,7 @@ CONFOUNDED = {("linkage_friction", "c0_n"): "actuator_friction"}
 GRID = {1: 9, 2: 5, 3: 3}  # screening points per dimension
 POLISH_NFEV = 6  # least-squares evaluations per polished candidate
 STEP = 1e-3  # forward-difference step of the Jacobians (unit box)
+NOT_FINITE = 1e3  # the residual (noise sigmas) least squares sees where a replay is not finite
 
 
 def full_scale(cfg: PlantConfig | None = None) -> float:
@@ -168,8 +169,14 @@ def pair(cfg: PlantConfig, a: Candidate, b: Candidate) -> Candidate:
 
 
 def objective(cfg: PlantConfig, sets: list[ParamSet], runs: Runs, sigma: dict) -> np.ndarray:
-    """Chi-square per set and trial, shape (len(sets), n_trials)."""
-    return chi2_per_trial(zscores(runs, simulate(cfg, sets, runs), sigma))
+    """Chi-square per set and trial, shape (len(sets), n_trials); infinite where a set's replay is not
+    finite on a real sample (a term of the library driven out of its solver's range: never a fit)."""
+    z = zscores(runs, simulate(cfg, sets, runs), sigma)
+    chi = chi2_per_trial(z)
+    bad = np.zeros(chi.shape, dtype=bool)
+    for c in SCORE_CHANNELS:
+        bad |= (~np.isfinite(z[c]) & runs.mask).any(axis=-1)
+    return np.where(bad, np.inf, chi)
 
 
 def _grid(
@@ -240,6 +247,7 @@ def residual_vectors(
     sets = [c.params(u) for c, us in jobs for u in us]
     z = zscores(runs, simulate(cfg, sets, runs), sigma)
     flat = [np.concatenate([z[ch][k][runs.mask] for ch in SCORE_CHANNELS]) for k in range(len(sets))]
+    flat = [np.where(np.isfinite(f), f, NOT_FINITE) for f in flat]  # a replay out of range: a large misfit
     ends = np.cumsum([len(us) for _, us in jobs])
     return [flat[e - len(us) : e] for (_, us), e in zip(jobs, ends, strict=True)]
 
