@@ -65,10 +65,18 @@ typedef struct {
 
 /* Start (or restart after a fault): clears faults, starts a pot block with average `pot`, measures the
  * compression, holds it as the desired compression, resets the PID bumplessly to 0 mV. */
+/*@ requires \valid_read(c) && \valid(s) && \valid_read(c->act) && c->pid.out_min <= c->pid.out_max;
+    assigns *s;
+    ensures s->fault == 0; */
 void sea_control_reset(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot);
 
 /* One tick with raw encoder counts, raw pot counts and the desired force (Q16 N at the shaft).
  * Returns the motor command in mV (0 in the safe state); s->fault holds the latched fault bits. */
+/* Contract: the predictor writes at most the object its ctx points to (a generated NAME_predict_q16: its
+ * NAME_state_t; NAME_predict_features_q16 and sea_predict_kinematic write nothing). */
+/*@ requires \valid_read(c) && \valid(s) && \valid_read(c->act) && c->pid.out_min <= c->pid.out_max;
+    assigns *s, ((char *)c->predictor_ctx)[0 .. \block_length(c->predictor_ctx) - 1];
+    ensures \result == 0 || (c->pid.out_min <= \result <= c->pid.out_max); */
 int32_t sea_control_step(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot,
                          int32_t force_q16);
 

@@ -40,9 +40,15 @@ typedef struct {
 /* Bumpless (re)start: the integrator takes `out` (clamped to the range, Q16), the derivative filter is
  * cleared and the previous measurement set to `meas`, so a following step with |e| <= margin and an
  * unchanged measurement returns exactly `out`. sea_pid_reset(p, s, meas, 0) clears the integrator. */
+/*@ requires \valid_read(p) && \valid(s) && p->out_min <= p->out_max;
+    assigns *s;
+    ensures s->d_filt == 0; */
 void sea_pid_reset(const sea_pid_params *p, sea_pid_state *s, int32_t meas, int32_t out);
 
 /* One tick: setpoint and measurement in Q16 mm (any int32); returns the command in mV (also s->out). */
+/*@ requires \valid_read(p) && \valid(s) && p->out_min <= p->out_max;
+    assigns *s;
+    ensures p->out_min <= \result <= p->out_max; */
 int32_t sea_pid_step(const sea_pid_params *p, sea_pid_state *s, int32_t setpoint, int32_t meas);
 
 #endif
