@@ -48,14 +48,23 @@ typedef struct {
 } sea_features_out;
 
 /* Start a new run of samples: the next step has no history. */
+/*@ requires \valid(s);
+    assigns *s;
+    ensures s->primed == 0; */
 void sea_features_reset(sea_features_state *s);
 
 /* One sample from raw counts (any int32 enc, pot): base signals and their history; updates the state. */
+/*@ requires \valid(s) && \valid(f) && \valid_read(act) && \separated(s, f);
+    assigns *s, *f;
+    ensures s->primed == 1 && f->act == act; */
 void sea_features_step(sea_features_state *s, const sea_act *act, int32_t enc, int32_t pot, sea_features_out *f);
 
 /* The value of `kind` for base signal `index` (exact): SEA_FEAT_BASE b (pot, enc Q0; compression Q16 mm),
  * SEA_FEAT_D b - b[-1], SEA_FEAT_DD b - 2 b[-1] + b[-2], SEA_FEAT_ANGLE the angle (Q24 deg; index unused).
  * SEA_FEAT_EXTERNAL inputs are arguments of NAME_step, not values of the pipeline. */
+/*@ requires \valid_read(f) && 0 <= index < SEA_FEAT_N_BASE;
+    requires kind == SEA_FEAT_ANGLE ==> \valid_read(f->act);
+    assigns \nothing; */
 static inline int64_t sea_features_value(const sea_features_out *f, int kind, int index)
 {
     switch (kind) {

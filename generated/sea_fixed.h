@@ -16,15 +16,25 @@ typedef char sea_check_arith_shift[((-1) >> 1) == -1 ? 1 : -1];
 
 /* Rounding right shift, round half to even (matches np.rint, torch.round, ONNX Round).
  * Range: any int64 v, 0 <= s <= 62. Result: round(v / 2^s), ties to even. Never overflows. */
+/*@ requires s <= 62;
+    assigns \nothing;
+    ensures s <= 0 ==> \result == v; */
 int64_t sea_rshift_rne_s64(int64_t v, int s);
 
 /* Same for int32 accumulators: any int32 v, 0 <= s <= 30. */
+/*@ requires s <= 30;
+    assigns \nothing;
+    ensures s <= 0 ==> \result == v; */
 int32_t sea_rshift_rne_s32(int32_t v, int s);
 
 /* Saturate to int16: clamp v to [INT16_MIN, INT16_MAX] before narrowing (a cast never saturates). */
+/*@ assigns \nothing;
+    ensures INT16_MIN <= \result <= INT16_MAX; */
 int16_t sea_sat16(int64_t v);
 
 /* Saturate to int32. */
+/*@ assigns \nothing;
+    ensures INT32_MIN <= \result <= INT32_MAX; */
 int32_t sea_sat32(int64_t v);
 
 /* --- the SEA's geometry in fixed point (Eq. 2, 3, 5) --------------------------------------------------
@@ -58,19 +68,32 @@ typedef struct {
 
 /* Q16 mm: linkage term for a pot reading (clamped to 0..pot_max), linear interpolation between entries,
  * rounded half to even. Exact integer arithmetic. */
+/*@ requires \valid_read(a) && \valid_read(a->link_q16 + (0 .. SEA_LINK_TABLE_LEN - 1));
+    requires 0 <= a->link_shift <= 8 && a->link_i32_bits == 30 - a->link_shift;
+    requires 0 <= a->pot_max && (a->pot_max >> a->link_shift) < SEA_LINK_TABLE_LEN - 1;
+    assigns \nothing; */
 int32_t sea_linkage_q16(const sea_act *a, int32_t pot);
 
 /* Q16 mm: spring compression (Eq. 2) = linkage term + enc * travel (rounded half to even), saturated to
  * int32. Any int32 enc and pot. */
+/*@ requires \valid_read(a) && \valid_read(a->link_q16 + (0 .. SEA_LINK_TABLE_LEN - 1));
+    requires 0 <= a->link_shift <= 8 && 8 <= a->travel_shift <= 30 && 0 <= a->enc_i32_bits <= 30;
+    requires 0 <= a->pot_max && (a->pot_max >> a->link_shift) < SEA_LINK_TABLE_LEN - 1;
+    assigns \nothing; */
 int32_t sea_compression_q16(const sea_act *a, int32_t enc, int32_t pot);
 
 /* --- added for the controller (c_runtime/README.md) ------------------------------------------------ */
 
 /* Clamp v to [lo, hi] (lo <= hi expected; if lo > hi the result is lo). Any int64 values. */
+/*@ assigns \nothing;
+    ensures lo <= hi ==> lo <= \result <= hi;
+    ensures lo > hi ==> \result == lo; */
 int64_t sea_clamp_s64(int64_t v, int64_t lo, int64_t hi);
 
 /* Rounding division num / den, round half to even, for any int32 num and 0 < den (den <= 0 returns 0).
  * Floor quotient and remainder are formed in int64, so INT32_MIN / 1 cannot overflow. */
+/*@ assigns \nothing;
+    ensures den <= 0 ==> \result == 0; */
 int32_t sea_div_rne_s32(int32_t num, int32_t den);
 
 #endif
