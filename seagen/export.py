@@ -26,10 +26,13 @@ from seagen.codegen.targets import OMIT, check_target
 from seagen.codegen.targets import RUNTIME as TARGET_RUNTIME
 from seagen.errors import CheckFailed, UserError
 from seagen.frontends.load import Loaded, load_with_original, read_features_file
-from seagen.ir import FloatModel, QModel
+from seagen.ir import QMLP, FloatMLP, FloatModel, QModel
+from seagen.quant.affine import tighten
 from seagen.quant.model import quantize
 from seagen.reference.oracle import OracleReport, box_points, compare_original
 from seagen.runtime.actq import ActQ, act_q
+
+BOUND_GOAL = 10.0  # an MLP's proven bound is refined until within this factor of the error the oracle saw
 
 
 @dataclass
@@ -115,6 +118,7 @@ def prepare(
     )
     if not rep.ok:
         raise CheckFailed(f"{model_path}: {rep.line()}")
+    qm, rep = _tightened(loaded, qm, rep, model_path)
     act = export_actuator(loaded, actuator, model_path)
     aq = act_q(act)  # the geometry's formats proven, or refused with the reason
     try:
@@ -141,6 +145,10 @@ def prepare(
     if allow_pickle:  # recorded only when used: torch's own readers opened the file, past the allow-list
         options["allow_pickle"] = True
     original = {"runtime": loaded.runtime, "dtype": loaded.dtype, "margin": float(f"{loaded.margin:.6g}")}
+    # the proven bound over the largest |integer - original| the oracle saw (issue 38, item 5)
+    original["bound_over_measured"] = (
+        float(f"{qm.error_bound / rep.max_err:.4g}") if rep.max_err > 0 else None
+    )
     files[f"{prefix}{SUFFIX}"] = export_manifest(
         qm, prefix, model_path, options, spec, {**files, **tree}, onnx_bytes, original, aq
     )
@@ -158,6 +166,22 @@ def package_files(qm: QModel, prefix: str, package: str) -> dict[str, str]:
     rows = random_inputs(qm, SKETCH_VECTORS, seed=37).astype(np.int64)
     outs = numpy_ref.infer(qm, rows).reshape(len(rows), -1)
     return {**shared_files(package), **sketch(prefix, rows.tolist(), outs.tolist())}
+
+
+def _tightened(loaded: Loaded, qm: QModel, rep: OracleReport, model_path: str) -> tuple[QModel, OracleReport]:
+    """An MLP's proven bound refined (seagen.quant.affine.tighten) until it is within BOUND_GOAL x the error
+    the oracle measured, and the oracle's verdict against that bound."""
+    fm = loaded.model
+    if not isinstance(qm, QMLP) or not isinstance(fm, FloatMLP) or not rep.max_err > 0:
+        return qm, rep
+    if qm.error_bound <= BOUND_GOAL * rep.max_err:
+        return qm, rep
+    qm = tighten(fm, qm, BOUND_GOAL * rep.max_err)
+    x = box_points(qm)
+    rep = compare_original(f"oracle ({loaded.runtime}) on the box", qm, loaded.original, x, loaded.margin)
+    if not rep.ok:
+        raise CheckFailed(f"{model_path}: {rep.line()}")
+    return qm, rep
 
 
 def export_manifest(

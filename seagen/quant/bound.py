@@ -1,4 +1,5 @@
-"""Proven worst-case |fixed - float| over the calibrated box, by propagating error radii layer by layer."""
+"""Proven worst-case |fixed - float| over the calibrated box: error radii propagated layer by layer, or
+(tighter, for the activations it bounds) symbolic per-neuron intervals on sub-boxes (seagen.quant.affine)."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import numpy as np
 
 from seagen.ir import QMLP, FloatMLP
 from seagen.quant.activation import ADDED, act_error
+from seagen.quant.affine import affine_error_bound
 from seagen.quant.qformat import widened
 from seagen.runtime.activations import table_error
 
@@ -15,7 +17,8 @@ def mlp_error_bound(model: FloatMLP, qm: QMLP) -> float:
 
     Per layer: e_z = sum|W - W_hat| |x|max + sum|W_hat| e_x + |b - b_hat| + half an output LSB; ReLU and
     Hardtanh are 1-Lipschitz, LeakyReLU adds its slope's quantization and a second rounding, tanh/sigmoid
-    add the table error (Lipschitz 1 and 1/4).
+    add the table error (Lipschitz 1 and 1/4). The smaller of this and seagen.quant.affine's bound (both
+    are proven; the affine one follows each neuron's reachable range over sub-boxes of the box).
     """
     boxes = [widened(s.lo, s.hi) for s in model.inputs]
     xmax = np.array([max(abs(a), abs(b)) for a, b in boxes])
@@ -34,7 +37,7 @@ def mlp_error_bound(model: FloatMLP, qm: QMLP) -> float:
             e = _through_activation(fl.activation, q, ez, zmax, fl.alpha, half, tables, k)
         out_max = np.maximum(np.abs(q.y_lo), np.abs(q.y_hi)) * 2.0**-q.out_frac
         xmax = out_max + e
-    return float(np.max(e))
+    return min(float(np.max(e)), affine_error_bound(model, qm))
 
 
 def _through_activation(
