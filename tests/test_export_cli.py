@@ -30,6 +30,11 @@ def test_generated_is_regenerated_byte_for_byte(tmp_path):
     assert sorted(p.name for p in out.iterdir() if p.is_file()) == expected
     for name in expected:
         assert (out / name).read_bytes() == (GENERATED / name).read_bytes(), f"{name} differs"
+    for sub in ("zephyr", "examples"):  # the package's files in sub-folders (Zephyr module, Arduino sketches)
+        nested = sorted(p.relative_to(GENERATED).as_posix() for p in (GENERATED / sub).rglob("*.*"))
+        assert nested == sorted(p.relative_to(out).as_posix() for p in (out / sub).rglob("*.*"))
+        for name in nested:
+            assert (out / name).read_bytes() == (GENERATED / name).read_bytes(), f"{name} differs"
 
 
 @pytest.mark.parametrize("name", ["mlp_calibration", "sf_calibration"])
