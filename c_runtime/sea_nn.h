@@ -73,6 +73,7 @@ void sea_table_s16(int16_t *y, int n, const int16_t *table, int32_t len, int in_
 #define SEA_ACT_OUT_FRAC 14   /* table and hardsigmoid outputs: Q14 */
 #define SEA_ACT_ONE 16384     /* 1.0 in Q14 */
 #define SEA_ACT_SLOPE_FRAC 14 /* a smooth function's relu slope s (< 2): Q14 */
+#define SEA_ACT_SLOPE_ONE 16384 /* s = 1 in Q14 */
 #define SEA_ACT_HSIG_FRAC 30  /* hardsigmoid: alpha y + beta summed in Q30 (int64) */
 #define SEA_ACT_PRELU_FRAC 15 /* PReLU slopes (|a| <= 1): Q15 */
 
@@ -81,7 +82,8 @@ void sea_table_s16(int16_t *y, int n, const int16_t *table, int32_t len, int in_
     assigns \nothing; */
 static inline int16_t sea_table1(int16_t y, const int16_t *table, int32_t len, int in_shift, int32_t offset)
 {
-    int32_t k = sea_rshift_rne_s32((int32_t)y, in_shift) + offset;
+    /* in_shift 0 (a sample per input LSB): no call (the kernels pass constants, so this folds) */
+    int32_t k = ((in_shift > 0) ? sea_rshift_rne_s32((int32_t)y, in_shift) : (int32_t)y) + offset;
     if (k < 0) {
         k = 0;
     }
@@ -96,8 +98,11 @@ static inline int16_t sea_table1(int16_t y, const int16_t *table, int32_t len, i
 static inline int16_t sea_smooth1(int16_t y, const int16_t *g, int32_t len, int in_shift, int32_t offset,
                                   int32_t slope)
 {
-    /* 0 <= y * slope < 2^15 * 2^15: int32 */
-    const int32_t r = (y > 0) ? sea_rshift_rne_s32((int32_t)y * slope, SEA_ACT_SLOPE_FRAC) : 0;
+    /* 0 <= y * slope < 2^15 * 2^15: int32; s = 1 (all but SELU) is y itself */
+    int32_t r = 0;
+    if (y > 0) {
+        r = (slope == SEA_ACT_SLOPE_ONE) ? (int32_t)y : sea_rshift_rne_s32((int32_t)y * slope, SEA_ACT_SLOPE_FRAC);
+    }
     return sea_sat16((int64_t)r + sea_table1(y, g, len, in_shift, offset));
 }
 

@@ -267,7 +267,12 @@ def _quiet(fn, *a, **k):
         return fn(*a, **k)
 
 
-@pytest.mark.parametrize("act", list(MODULES))
+FAST_MODULES = ("gelu", "silu", "hardswish", "prelu")  # the rest in the slow suite
+
+
+@pytest.mark.parametrize(
+    "act", [a if a in FAST_MODULES else pytest.param(a, marks=pytest.mark.slow) for a in MODULES]
+)
 def test_torch_module_within_bound(act, tmp_path):
     """An nn.Sequential saved whole, read through its modules: within the bound of its own forward."""
     net = _net(act, 1)

@@ -26,7 +26,7 @@ from seagen.runtime.fixed import rshift_rne, sat16
 
 _H = defines("sea_nn.h")  # the formats' one definition
 TABLE_OUT_FRAC = _H["SEA_ACT_OUT_FRAC"]  # tanh/sigmoid/hardsigmoid outputs are Q14 (1.0 = 16384)
-assert _H["SEA_ACT_ONE"] == 1 << TABLE_OUT_FRAC
+assert _H["SEA_ACT_ONE"] == 1 << TABLE_OUT_FRAC and _H["SEA_ACT_SLOPE_ONE"] == 1 << _H["SEA_ACT_SLOPE_FRAC"]
 TABLE_STEP_FRAC = 8  # tables sampled every 2^-8 of the input (every input LSB when coarser)
 TABLE_RANGE = {"tanh": 4.0, "sigmoid": 8.0}  # beyond +-R the function is taken as saturated
 SMOOTH = ("elu", "selu", "softplus", "gelu", "gelu_tanh", "mish", "silu")  # s * relu(x) + table of g
