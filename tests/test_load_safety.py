@@ -308,7 +308,7 @@ def test_kinds_of_torch_files(tmp_path):
     assert file_kind(tmp_path / "p.bin") == PICKLE
 
 
-@pytest.mark.parametrize("layer", [nn.ELU(), nn.LayerNorm(T.HIDDEN)])
+@pytest.mark.parametrize("layer", [nn.CELU(), nn.LayerNorm(T.HIDDEN)])
 def test_unsupported_layer_named(layer, good, tmp_path, capsys):
     """A whole-pickled Sequential with a torch.nn layer seagen does not export: the layer is named as
     unsupported, not 'pass --allow-pickle'."""

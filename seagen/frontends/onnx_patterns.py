@@ -48,7 +48,8 @@ def _region(n: Node, producer: dict[str, Node], consts: set[str]) -> tuple[str, 
     """(x, the region's nodes) when n's computed inputs all come from one edge x through elementwise nodes."""
     computed = list(dict.fromkeys(i for i in n.inputs if i and i not in consts))
     # candidate x: edges on the way back from the first computed input, nearest first
-    edge, order = computed[0], []
+    edge: str | None = computed[0]
+    order: list[str] = []
     while edge is not None and len(order) <= MAX_NODES:
         order.append(edge)
         p = producer.get(edge)
@@ -102,7 +103,8 @@ def _evaluate(model: Any, nodes: list[Node], x: str, out: str, consts: dict) -> 
 
 def _topo(raw: list[Any], x: str, known: set[str]) -> list[Any]:
     """The nodes in an order that computes each input before its use."""
-    have, out, todo = {x, *known}, [], list(raw)
+    have, todo = {x, *known}, list(raw)
+    out: list[Any] = []
     while todo:
         ready = [n for n in todo if all(i in have or not i for i in n.input)]
         if not ready:

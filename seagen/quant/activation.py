@@ -91,9 +91,9 @@ def act_error(
         assert table is not None
         return A.shape_of(act, p).lip_f * ez + A.smooth_error(act, p, table, xmax)
     if act == "hardsigmoid":
-        return abs(p[0]) * ez + A.hsig_error(p[0], p[1], *q.act_params, f, xmax)
+        return abs(p[0]) * ez + A.hsig_error(p[0], p[1], q.act_params[0], q.act_params[1], f, xmax)
     if act == "hardswish":  # |d/dx x h(x)| <= 2 alpha 3 + beta = 1.5 on [-3, 3], 1 beyond
-        return 1.5 * ez + A.hswish_error(*q.act_params, f, xmax)
+        return 1.5 * ez + A.hswish_error(q.act_params[0], q.act_params[1], f, xmax)
     slopes = np.broadcast_to(np.asarray(p, dtype=float), ez.shape)
     a_q = np.array(q.act_params, dtype=float) / 2**A.PRELU_FRAC
     return np.maximum(1.0, np.abs(slopes)) * ez + np.abs(slopes - a_q) * zmax + 2.0 ** -(f + 1)
