@@ -73,6 +73,7 @@ CASES = {
     "sigmoid int16 4-16-1": ([4, 16, 1], "sigmoid", 16, {}),
     "leaky int8 4-24-24-1": ([4, 24, 24, 1], "leaky_relu", 8, {"alpha": 0.1}),
     "hardtanh int8 4-24-24-1": ([4, 24, 24, 1], "hardtanh", 8, {"lo": -0.4, "hi": 0.3}),
+    "hardtanh inverted int16 4-8-1": ([4, 8, 1], "hardtanh", 16, {"lo": 0.4, "hi": -0.1}),
 }
 
 

@@ -283,7 +283,13 @@ def _clamp(fl, q, z, ez, lo, hi, lo_h, hi_h, between, d):
     out = _interval(np.clip(lo, fl.lo, fl.hi), np.clip(hi, fl.lo, fl.hi), d)
     val = z.where(inside, out)
     far = Form(between.c, between.a, between.r + moved)
-    return val, ez.where(inside, far)
+    # pinned to one limit in both (min > max: every output is the upper one, in ONNX, torch and numpy)
+    top = (lo >= fl.hi) & (lo_h >= t_hi) | (fl.lo >= fl.hi and t_lo >= t_hi)
+    bottom = (hi <= fl.lo) & (hi_h <= t_lo) & ~top
+    with np.errstate(invalid="ignore"):
+        gap = np.where(top, t_hi - fl.hi, np.where(bottom, t_lo - fl.lo, 0.0))
+    pinned = _const(gap, np.zeros_like(gap), d)
+    return val, pinned.where(top | bottom, ez.where(inside, far))
 
 
 def _moved(limit: float, fixed: float, at_int16_end: bool) -> float:
