@@ -16,8 +16,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Quantize MODEL to fixed point and write NAME.h/NAME.c rendered from templates and the C "
         "runtime it needs (optionally the quantized ONNX graph). MODEL: a model.pt from `seagen train`, an "
         "nn.Sequential saved whole, a TorchScript archive, a torch.export .pt2, or an .onnx; it must compute "
-        "a chain of dense layers each followed by at most one ReLU, LeakyReLU, Hardtanh, ReLU6, Clip, Tanh "
-        "or Sigmoid. Bare networks need --features. Every export is checked against the original model run "
+        "a chain of dense layers each followed by at most one ReLU, LeakyReLU, PReLU, Hardtanh, ReLU6, Clip, "
+        "Tanh, Sigmoid, ELU, SELU, Softplus, GELU, Mish, SiLU, HardSigmoid or HardSwish. Bare networks need "
+        "--features. Every export is checked against the original model run "
         "by its own runtime. Exit codes: 0 written, 1 a check disagreed (nothing written), 2 bad input.",
     )
     p.add_argument(
