@@ -132,7 +132,7 @@ def test_verify_prove_without_frama_c_exits_2(tmp_path, monkeypatch):
 @pytest.mark.slow
 def test_verify_prove_cli_writes_one_case_per_function(tmp_path):
     """`seagen verify --prove --junit` on a controller export: every check passes, and the JUnit report has
-    one case per public function proven (infer, step, controller tick)."""
+    one case per public function proven (infer, step, controller tick, and the tick on a shared pipeline)."""
     d = export(tmp_path, "sf_control", "portable", controller=True)
     junit = tmp_path / "v.xml"
     args = ["verify", str(d), "--model", "default:sf_control", "--vectors", "100", "--prove"]
@@ -140,7 +140,8 @@ def test_verify_prove_cli_writes_one_case_per_function(tmp_path):
     assert code == 0, out + err
     names = [c.get("name", "") for c in ET.fromstring(junit.read_bytes()).findall("testcase")]
     proven = [n.split(":")[0] for n in names if "Frama-C Eva" in n]
-    assert proven == ["m_infer", "m_step", "m_controller_tick"], names
+    assert proven[:3] == ["m_infer", "m_step", "m_controller_tick"], names
+    assert proven[3:] == ["m_controller_tick on a shared pipeline"], names  # NAME_controller_init_shared
 
 
 # Eva's interval domain cannot carry the range of an int16 half inside a packed 32-bit word (the M4 int16

@@ -100,6 +100,8 @@ def harness_files(man: Manifest, root: Path, ticks: int = TICKS) -> dict[str, st
     step = re.search(rf"\bint16_t {re.escape(p)}_step\(([^)]*)\);", head)
     externals = [a for a in step.group(1).split(",")[3:]] if step else []
     controller = bool(man.data["options"].get("controller"))
+    ctl_head = root / f"{p}_controller.h"
+    shared = controller and ctl_head.is_file() and f"{p}_controller_init_shared(" in ctl_head.read_text()
     env = environment()
     ctx = {
         "P": p,
@@ -107,6 +109,7 @@ def harness_files(man: Manifest, root: Path, ticks: int = TICKS) -> dict[str, st
         "step": step is not None,
         "externals": externals,
         "controller": controller,
+        "shared": shared,
         "ticks": ticks,
     }
     out = {f"{p}_eva_harness.c": env.get_template("eva_harness.c.j2").render(ctx)}
@@ -123,6 +126,9 @@ def entries(man: Manifest, harness: str) -> list[tuple[str, str]]:
         out.append(("prove_step", f"{p}_step ({TICKS} ticks from {p}_reset)"))
     if "void prove_controller(" in harness:
         out.append(("prove_controller", f"{p}_controller_tick ({TICKS} ticks from {p}_controller_init)"))
+    if "void prove_controller_shared(" in harness:
+        what = f"{p}_controller_tick on a shared pipeline ({TICKS} ticks from {p}_controller_init_shared)"
+        out.append(("prove_controller_shared", what))
     return out
 
 
