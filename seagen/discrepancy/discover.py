@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 from seagen.discrepancy.candidates import POLISH_NFEV, Candidate, full_scale, objective, polish, screen
-from seagen.discrepancy.claims import CUT, Evidence, evidence, footprints
+from seagen.discrepancy.claims import Evidence, evidence, footprints
 from seagen.discrepancy.recalibrate import uncertainty
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
 from seagen.discrepancy.residuals import channel_rms, n_scored, region_table, rms, zscores
@@ -195,7 +195,7 @@ def discover(
     elif worse:
         why = f"not claimed: it makes held-out {', '.join(worse)} worse"
     elif not ev.ok:
-        why = f"not claimed: its fit {ev.words()} (rule: >= {CUT:.0%} of the gap, no structure left)"
+        why = f"not claimed: its fit {ev.words()}"
     shown = dict(params)
     if "phase_rad" in shown:  # its box spans two turns: reported in [0, 2 pi)
         shown["phase_rad"] = float(shown["phase_rad"] % (2 * math.pi))

@@ -351,18 +351,15 @@ def simulate(
     # the plant states each read needs (the reads of step k see the states after k steps)
     ks = np.repeat(np.arange(k_max + 1), np.diff(bounds))[:, None]
     motor_mm, shaft_mm = traj.motor_mm[mrows, ks], traj.shaft_mm[mrows, ks]
-    # the force the load cell sees, per motion element (fm) or, behind a lag, per set element
-    fm, frows = traj.force_n, mrows
-    if "cell_lag" in post:
-        lag_a = np.minimum(dt / np.maximum(zero + post["cell_lag"]["time_constant_s"], 1e-300), 1.0)
-        fm, frows = kernel.lagged(traj.force_n, of_set, lag_a), rows
+    # the force the load cell sees: the motion's, or behind a set element's lag (cell_lag)
+    fl = _Lagged(traj.force_n, post, "cell_lag", zero, of_set, dt, rows, mrows)
     if delay.any():  # the force i0 and i0 + 1 steps back (zero before the first step), weighted
         i0 = np.floor(delay).astype(int)
         frac = (delay - i0)[rows]
         back = ks - i0[rows]
-        force = (1 - frac) * fm[frows, np.maximum(back, 0)] + frac * fm[frows, np.maximum(back - 1, 0)]
+        force = (1 - frac) * fl.read(np.maximum(back, 0)) + frac * fl.read(np.maximum(back - 1, 0))
     else:
-        force = fm[frows, ks]
+        force = fl.read(ks)
     drops = None
     if pvd and traj.current is not None:  # filtered once per distinct (motion, gain, time constant)
         key = np.stack([of_set, zero + kappa, zero + alpha], axis=1)
@@ -375,15 +372,14 @@ def simulate(
         rec = {key: v[mrows, ks] for key, v in signals.items() if v is not None}
         rec["contact_deg"] = np.broadcast_to(plant.contact_deg[mrows], rows.shape).copy()
     r = rows
-    if "pot_lag" in post:  # the pot's angle reading after every step, behind each set element's lag
-        seen = np.minimum(traj.shaft_mm, plant.y_contact[:, None])
-        pot_a = plant.geo.pot_from_angle(plant.geo.angle_from_shaft(seen))
-        lag_p = np.minimum(dt / np.maximum(zero + post["pot_lag"]["time_constant_s"], 1e-300), 1.0)
-        pot0 = kernel.lagged(pot_a, of_set, lag_p)[rows, ks]
-    else:
-        pot0 = plant.geo.pot_from_angle(
-            plant.geo.angle_from_shaft(np.minimum(shaft_mm, plant.y_contact[mrows]))
-        )
+    pot0 = plant.geo.pot_from_angle(plant.geo.angle_from_shaft(np.minimum(shaft_mm, plant.y_contact[mrows])))
+    if "pot_lag" in post:  # the pot's angle reading behind a set element's lag (pot_lag), after every step
+        pl = _Lagged(None, post, "pot_lag", zero, of_set, dt, rows, mrows)
+        if pl.slow.size:
+            mel = of_set[pl.slow]  # only the motion elements a lag reads
+            seen = np.minimum(traj.shaft_mm[mel], plant.y_contact[mel, None])
+            pl.lag(plant.geo.pot_from_angle(plant.geo.angle_from_shaft(seen)), np.arange(mel.size))
+            pot0 = pl.read(ks, pot0)
     pot = pot0 + (drops if drops is not None else zero[r])
     readings = {
         "enc": motor_mm / plant.geo.mm_per_count - 0.5,  # E[floored count]
@@ -414,6 +410,34 @@ def simulate(
     if inputs is not None:
         inputs.update(rec)
     return out
+
+
+class _Lagged:
+    """A trajectory x (motion elements, K + 1) read per set element, behind the first-order lag of `effect`
+    (post-hoc) for the elements whose lag is not neutral (computed for those alone)."""
+
+    def __init__(self, x, post: dict, effect: str, zero, of_set, dt: float, rows, mrows) -> None:
+        tau = zero + (post[effect]["time_constant_s"] if effect in post else 0.0)
+        alpha = np.minimum(dt / np.maximum(tau, 1e-300), 1.0)
+        self.x, self.rows, self.mrows, self.alpha = x, rows, mrows, alpha
+        self.slow = np.flatnonzero(alpha < 1.0)
+        pos = np.zeros(len(alpha), dtype=np.int64)
+        pos[self.slow] = np.arange(self.slow.size)
+        self.pos, self.is_slow = pos[rows], (alpha < 1.0)[rows]
+        self.lagged: np.ndarray | None = None
+        if x is not None and self.slow.size:
+            self.lag(x, of_set[self.slow])
+
+    def lag(self, x: np.ndarray, which: np.ndarray) -> None:
+        """The lagged rows `which` of x, one per slow element."""
+        self.lagged = kernel.lagged(x, which, self.alpha[self.slow])
+
+    def read(self, cols: np.ndarray, plain: np.ndarray | None = None) -> np.ndarray:
+        """Every read at steps cols: the lagged value for a slow element, else `plain` (x's own)."""
+        out = self.x[self.mrows, cols] if plain is None else plain
+        if self.lagged is None:
+            return out
+        return np.where(self.is_slow, self.lagged[self.pos, cols], out)
 
 
 def _cell(reading: np.ndarray, t: np.ndarray, post: dict, r: np.ndarray, n: int) -> np.ndarray:

@@ -174,7 +174,7 @@ TERM_SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
     "pot_quantisation": {"step_counts": (1.5, 128.0, True)},
     "drive_saturation": {"limit_v": (0.5, 12.0, True)},
 }
-# Start grids of parameters whose objective has many valleys (a period, a phase): this many points along it.
+# Start grids: this many points along a parameter whose objective has many valleys (a period, a phase).
 DENSE = {
     ("lead_error", "period_mm"): 24,
     ("cogging", "period_mm"): 24,
