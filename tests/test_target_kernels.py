@@ -221,17 +221,23 @@ def test_dsp_helpers_match_python_twins():
                 assert lib.t_wide(x, r, s) == want, (x, r, s)
 
 
-def test_bad_target_and_unsupported_activation_are_clear_errors():
-    """An unknown --target, or a tanh layer on a target kernel, is a UserError naming the fix."""
+def test_bad_target_and_unsupported_shape_are_clear_errors():
+    """An unknown --target, or a model with two outputs on a target kernel, is a UserError naming the fix; a
+    tanh layer (applied per value, sea_nn.h) renders and equals numpy on both kernels."""
     qm = quantize_mlp(_odd_mlp((3, 4, 1), 0.5, 1))
     with pytest.raises(UserError, match="cortex-m0plus"):
         render(qm, "m", "cortex-m7")
+    with pytest.raises(UserError, match="one output"):
+        render(quantize_mlp(_odd_mlp((3, 4, 2), 0.5, 1)), "m", "cortex-m4")
     fm = _odd_mlp((3, 4, 1), 0.5, 1)
     tanh = FloatMLP(
         fm.inputs, fm.output, (FloatLayer(fm.layers[0].weight, fm.layers[0].bias, "tanh"), fm.layers[1])
     )
-    with pytest.raises(UserError, match="portable"):
-        render(quantize_mlp(tanh), "m", "cortex-m4")
+    qt = quantize_mlp(tanh)
+    x = _cases(qt)
+    for t in TARGETS:
+        c = CModel({**render(qt, "m", t), **prepare_runtime(t)}, "m", qt)
+        assert first_mismatch(c.infer(x), numpy_ref.infer(qt, x), x) is None, t
 
 
 def test_32_bit_paths_of_sea_fixed_match_twins():
