@@ -193,23 +193,32 @@ def check_prove(v: Verdict, root: Path, man: Manifest) -> None:
         return
     harness = harness_files(man, root)
     info = settings_line(target, version)
+    files = {n: (root / n).read_text(errors="replace") for n in names} | harness
+    hname = f"{man.prefix}_eva_harness.c"
+    todo = entries(man, harness[hname])
+    results = prove_sources(files, target, [e for e, _what in todo])
+    for entry, what in todo:
+        alarms, failed = results[entry]
+        name = f"{what}: Frama-C Eva, 0 alarms over its contract's domain"
+        if failed:
+            v.add(name, failed, kind="prove")
+        elif alarms:
+            v.add(name, f"{len(alarms)} alarm(s): " + "; ".join(a.text() for a in alarms), kind="prove")
+        else:
+            v.add(name, None, info, kind="prove")
+
+
+def prove_sources(
+    files: dict[str, str], target: str, entry_points: list[str]
+) -> dict[str, tuple[list[Alarm], str]]:
+    """Eva on C sources given by name (every .c analysed together, the .h beside them) for `target`, once
+    per entry point: its alarms and '' or why it did not complete."""
     with tempfile.TemporaryDirectory(prefix="seagen-prove-") as tmp:
         work = Path(tmp)
-        for n in names:
-            shutil.copyfile(root / n, work / n)
-        for n, text in harness.items():
+        for n, text in files.items():
             (work / n).write_text(text)
-        hname = f"{man.prefix}_eva_harness.c"
-        sources = [hname] + sorted(n for n in names if n.endswith(".c"))
-        for entry, what in entries(man, harness[hname]):
-            alarms, failed = run_entry(work, target, sources, entry)
-            name = f"{what}: Frama-C Eva, 0 alarms over its contract's domain"
-            if failed:
-                v.add(name, failed, kind="prove")
-            elif alarms:
-                v.add(name, f"{len(alarms)} alarm(s): " + "; ".join(a.text() for a in alarms), kind="prove")
-            else:
-                v.add(name, None, info, kind="prove")
+        sources = sorted(n for n in files if n.endswith(".c"))
+        return {e: run_entry(work, target, sources, e) for e in entry_points}
 
 
 def prove_folder(folder: str | Path, prefix: str | None = None) -> Verdict:
