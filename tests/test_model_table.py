@@ -51,6 +51,8 @@ ACTS = {
     "tanh": nn.Tanh(),
     "sigmoid": nn.Sigmoid(),
     "relu6": nn.ReLU6(),
+    "gelu": nn.GELU(),  # the smooth ones: every form in tests/test_smooth_activations.py
+    "prelu": nn.PReLU(T.HIDDEN),
 }
 
 
