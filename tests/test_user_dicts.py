@@ -185,7 +185,7 @@ def sf_dicts(draw: st.DrawFn, fault: str | None) -> dict[str, Any]:
     fs = draw(faults(fault, SF_FAULTS))
     for f in sorted(fs, key=lambda f: f == "empty"):  # emptied last: the others index a power
         if f in ("fractional", "negative", "degree", "bool"):
-            bad = {"fractional": 0.5, "negative": -1, "degree": draw(st.integers(4, 6)), "bool": True}[f]
+            bad = {"fractional": 0.5, "negative": -1, "degree": draw(st.integers(13, 15)), "bool": True}[f]
             powers[k] = [bad, powers[k][1]] if draw(st.booleans()) else [powers[k][0], bad]
         elif f == "repeat":
             powers.append(list(powers[k]))

@@ -9,8 +9,15 @@ import numpy as np
 from seagen.ir import poly2
 
 ORDER = 3
-# Ascending total degree, then descending power of the first input: 1, a, b, a², ab, b², a³, a²b, ab², b³.
-POWERS: tuple[tuple[int, int], ...] = tuple((d - j, j) for d in range(ORDER + 1) for j in range(d + 1))
+
+
+def powers_of(order: int) -> tuple[tuple[int, int], ...]:
+    """Every term of total degree <= order: ascending degree, then descending power of the first input
+    (order 3: 1, a, b, a², ab, b², a³, a²b, ab², b³)."""
+    return tuple((d - j, j) for d in range(order + 1) for j in range(d + 1))
+
+
+POWERS = powers_of(ORDER)
 # Raw inputs (un-normalized) and output of each task's surface.
 SF_INPUTS = {"calibration": ("angle_deg", "compression_mm"), "control": ("force_n", "angle_deg")}
 SF_OUTPUT = {"calibration": "force_n", "control": "compression_mm"}
@@ -65,9 +72,12 @@ def fit_mae(x: np.ndarray, y: np.ndarray, iterations: int = IRLS_ITERATIONS) -> 
     return coef
 
 
-def fit_sf(a: np.ndarray, b: np.ndarray, y: np.ndarray, loss: str) -> dict[str, Any]:
-    """Fit the 10-term surface; returns the coefficient part of the model file (without input names)."""
-    x = design(a, b)
+def fit_sf(a: np.ndarray, b: np.ndarray, y: np.ndarray, loss: str, order: int = ORDER) -> dict[str, Any]:
+    """Fit the surface of total degree `order` (the paper's 3: 10 terms); returns the coefficient part of the
+    model file (without input names). Any order exports when its Horner program's widths are proven
+    (seagen.quant.sf)."""
+    powers = powers_of(order)
+    x = design(a, b, powers)
     y = np.asarray(y, dtype=float)
     if loss == "mse":
         coef = fit_mse(x, y)
@@ -75,7 +85,7 @@ def fit_sf(a: np.ndarray, b: np.ndarray, y: np.ndarray, loss: str) -> dict[str, 
         coef = fit_mae(x, y)
     else:
         raise ValueError(f"unknown loss {loss!r}")
-    return {"powers": [list(p) for p in POWERS], "coef": [float(c) for c in coef]}
+    return {"powers": [list(p) for p in powers], "coef": [float(c) for c in coef]}
 
 
 def eval_sf(sf: dict[str, Any], a: np.ndarray, b: np.ndarray) -> np.ndarray:

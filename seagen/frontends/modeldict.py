@@ -1,5 +1,5 @@
 """The fields of a model dict (a seagen model.pt, or a --features file's extra keys) checked before any is
-used: each of its type, every number finite, SF powers non-negative integers within the degree seagen fits,
+used: each of its type, every number finite, SF powers non-negative integers up to SF_MAX_DEGREE,
 texts that land in C comments safe there. Each error is one line naming the file and the field."""
 
 from __future__ import annotations
@@ -11,7 +11,10 @@ from seagen.cnames import comment_ascii, comment_problem, is_identifier
 from seagen.errors import UserError
 from seagen.ir import Signal
 
-SF_MAX_DEGREE = 3  # the surface fit is a polynomial of total degree <= 3 in its two inputs (seagen.fit.sf)
+# a surface fit is a polynomial in its two inputs of any total degree up to this program-size cap (its
+# Horner program has (degree + 1)(degree + 2) / 2 steps); below it the quantizer proves each register's
+# width over the calibrated box or refuses naming the step whose bound fails (seagen.quant.sf)
+SF_MAX_DEGREE = 12
 TASKS = ("calibration", "control")
 KINDS = ("mlp", "sf")
 MAX_TEXT = 64  # longest unit or output name (printed into the generated C's comments)

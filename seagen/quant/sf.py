@@ -1,4 +1,5 @@
-"""Float surface fit -> a fixed-point 2-D Horner program with per-coefficient Q formats."""
+"""Float surface fit (any degree) -> a fixed-point 2-D Horner program with per-coefficient Q formats, each
+register's width proven over the calibrated box (or the fit refused naming the step and its failing bound)."""
 
 from __future__ import annotations
 
@@ -50,6 +51,11 @@ class _Planner:
         """r[dst] = constant c in its own Q format."""
         f = frac_for(abs(c), REG_LIMIT)
         q = int(np.rint(c * 2.0**f))
+        if abs(q) > REG_LIMIT:
+            raise UserError(
+                f"surface fit: coefficient {c:.6g} is {abs(q):.3g} at Q{f}, the coarsest format seagen uses, "
+                f"over the registers' proven limit 2^30"
+            )
         self.ops.append(QHorner(dst, -1, -1, -1, q, 0, 0, f))
         self.regs[dst] = _Reg(c, c, f, abs(c - q * 2.0**-f))
 
@@ -61,8 +67,14 @@ class _Planner:
         a = self.regs[add_reg] if add_reg >= 0 else _Reg(c, c, 0, 0.0)
         lo, hi = plo + a.lo, phi + a.hi
         f = min(frac_for(max(abs(lo), abs(hi)), REG_LIMIT), fp - MIN_SHIFT)
-        if max(abs(plo), abs(phi)) * 2.0**f >= 2**30:
-            raise UserError("surface fit: a Horner product would overflow int32 over the calibrated box")
+        for what, mag in (("product", max(abs(plo), abs(phi))), ("sum", max(abs(lo), abs(hi)))):
+            if mag * 2.0**f >= 2**30:
+                step = f"Horner step {len(self.ops) + 1} (r{dst} = {'ab'[var]} * r{src} + ...)"
+                reach = f"{mag:.4g} over the calibrated box, {mag * 2.0**f:.4g} at Q{f}"
+                raise UserError(
+                    f"surface fit: {step}: its {what} reaches {reach}, over the int32 registers' proven "
+                    "limit 2^30 (a lower degree or smaller coefficients or ranges)"
+                )
         if add_reg >= 0:
             align, coef_q, aerr = f - a.frac, 0, a.err + (2.0**-f if f < a.frac else 0.0)
         else:
@@ -93,7 +105,8 @@ def quantize_sf(model: FloatSF) -> QSF:
     final = pl.regs[acc]
     out_frac = min(frac_for(final.mag, INT16_MAX), final.frac)
     shift = final.frac - out_frac
-    if int(rshift_rne(int(np.ceil(final.mag * 2.0**final.frac)), shift)) > INT16_MAX:
+    top = int(np.ceil(final.mag * 2.0**final.frac))
+    while int(rshift_rne(top, shift)) > INT16_MAX:  # frac_for stops at MIN_FRAC: go on until it fits int16
         out_frac -= 1
         shift += 1
     bound = final.err + 2.0 ** -(out_frac + 1)
