@@ -9,7 +9,16 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from seagen.discrepancy.candidates import POLISH_NFEV, Candidate, full_scale, objective, polish, screen
+from seagen.discrepancy.candidates import (
+    POLISH_NFEV,
+    Candidate,
+    at,
+    full_scale,
+    held_in,
+    objective,
+    polish,
+    screen,
+)
 from seagen.discrepancy.claims import Evidence, evidence, footprints
 from seagen.discrepancy.recalibrate import uncertainty
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
@@ -45,6 +54,7 @@ class Discovery:
     table: pd.DataFrame | None = None  # every term's fit and held-out BIC
     edge: list[str] = field(default_factory=list)
     basis: str = "held-out BIC and the claim rule"  # how it was found (the search, or the readings' lattice)
+    with_change: ParamSet = field(default_factory=dict)  # the catalogue change fitted with it (anchored)
 
     @property
     def cut(self) -> float:
@@ -90,10 +100,27 @@ def search(cfg: PlantConfig, fit: Runs, sig_f: dict) -> list[Candidate]:
     return out
 
 
+def anchored(cfg: PlantConfig, anchor: ParamSet, fit: Runs, sig_f: dict) -> list[Candidate]:
+    """Every term fitted on the plant cfg with the catalogue's closest change `anchor` (an effect added or
+    re-fitted, at its own fit): each term searched with the anchor held, then both polished together (a
+    form that stands in for a catalogue effect: the truth has the effect's share in another shape)."""
+    held_cfg = cfg
+    for e, p in anchor.items():
+        held_cfg = held_cfg.with_effect(e, True, **p)
+    terms = search(held_cfg, fit, sig_f)
+    pairs = [
+        at(tuple(anchor) + t.names, {**anchor, **t.params()}, held_in(cfg, tuple(anchor)), cfg=cfg)
+        for t in terms
+    ]
+    polish(cfg, pairs, fit, sig_f, nfev=2 * POLISH_NFEV)
+    return pairs
+
+
 def refine(cfg: PlantConfig, c: Candidate, fit: Runs, sig_f: dict) -> None:
     """The selected term fitted to convergence: a local zoom (derivative-free: stick-slip and quantisation
-    are not smooth), then REFINE_NFEV more least-squares evaluations."""
-    screen(cfg, [c], fit, sig_f, rounds=ZOOM_ROUNDS, half0=ZOOM, beam=2)
+    are not smooth; up to 3 parameters), then REFINE_NFEV more least-squares evaluations."""
+    if len(c.keys) <= 3:
+        screen(cfg, [c], fit, sig_f, rounds=ZOOM_ROUNDS, half0=ZOOM, beam=2)
     polish(cfg, [c], fit, sig_f, nfev=REFINE_NFEV)
 
 
@@ -110,8 +137,10 @@ def profile_sigma(cfg: PlantConfig, c: Candidate, fit: Runs, sig_f: dict) -> dic
     pts = [u0] + [u0 + s * PROFILE_H * np.eye(k)[i] for i in range(k) for s in (1, -1)]
     chi = objective(cfg, [c.params(u) for u in pts], fit, sig_f).sum(axis=1)
     scale = max(float(chi[0]) / max(n_scored(fit) - k, 1), 1.0)
-    out = {}
+    out: dict[str, float] = {}
     for i, (e, p) in enumerate(c.keys):
+        if e != c.names[-1]:  # the term's own parameters (an anchor's come from Gauss-Newton)
+            continue
         curv = (chi[1 + 2 * i] + chi[2 + 2 * i] - 2 * chi[0]) / PROFILE_H**2
         su = math.sqrt(2 * scale / curv) if curv > 0 else math.inf
         lo, hi, log = box(e, p, c.full_scale)
@@ -127,8 +156,9 @@ def _table(cfg: PlantConfig, cands: list[Candidate], held: Runs, sig_h: dict) ->
     n = n_scored(held)
     return pd.DataFrame(
         {
-            "term": ["(none)"] + [c.names[0] for c in cands],
-            "form": ["-"] + [form_of(c.names[0]) for c in cands],
+            "term": ["(none)"] + [c.names[-1] for c in cands],
+            "with": ["-"] + ["+".join(c.names[:-1]) or "-" for c in cands],
+            "form": ["-"] + [form_of(c.names[-1]) for c in cands],
             "k": k,
             "chi2_fit": [np.nan] + [c.chi2_fit for c in cands],
             "bic_held_out": chi + k * math.log(n),
@@ -165,28 +195,32 @@ def discover(
     floor: float,
     labels: dict[str, np.ndarray],
     rms_catalogue: float,
+    anchor: ParamSet | None = None,
 ) -> Discovery | None:
     """Search the term library on the plant cfg (the base with the claimed catalogue changes), select by
     held-out BIC (the best term must beat the plant alone by DBIC_MIN), fit its parameters with their
     1-sigma, and claim it only on the named effects' rule: no parameter at its box's edge, no channel made
     worse, and on the channels it acts on >= CUT of the gap closed and no significant region left. None
-    when no term earns the BIC gain."""
-    cands = search(cfg, fit, sig_f)
-    table = _table(cfg, cands, held, sig_h).sort_values("bic_held_out").reset_index(drop=True)
-    top = table.iloc[0]
-    base_bic = float(table.loc[table.term == "(none)", "bic_held_out"].iloc[0])
-    if top.term == "(none)" or float(top.bic_held_out) > base_bic - DBIC_MIN:
+    when no term earns the BIC gain. With `anchor` (the catalogue's closest change, not claimed), every term
+    is also fitted together with it (anchored); the anchor's parameters count in the BIC."""
+    cands = search(cfg, fit, sig_f) + (anchored(cfg, anchor, fit, sig_f) if anchor else [])
+    table = _table(cfg, cands, held, sig_h)
+    order = np.argsort(table.bic_held_out.to_numpy(), kind="stable")
+    base_bic = float(table.bic_held_out.iloc[0])
+    if order[0] == 0 or float(table.bic_held_out.iloc[order[0]]) > base_bic - DBIC_MIN:
         return None
-    win = next(c for c in cands if c.names[0] == top.term)
+    win = cands[order[0] - 1]
+    table = table.iloc[order].reset_index(drop=True)
     refine(cfg, win, fit, sig_f)
-    term, params = win.names[0], win.params()[win.names[0]]
-    z0, z1 = _residual(cfg, [{}, {term: params}], held, sig_h)
-    fp, without = footprints(cfg, {term: params}, held, sig_h)
+    term, found = win.names[-1], win.params()
+    params = found[term]
+    z0, z1 = _residual(cfg, [{}, found], held, sig_h)
+    fp, without = footprints(cfg, found, held, sig_h)
     before, after = channel_rms(z0, held.mask), channel_rms(z1, held.mask)
     ev = evidence(fp[term], before, after, floor, region_table(held, z1, labels), without[term])
-    sig = uncertainty(cfg, {term: params}, fit, sig_f)[term]
+    gn = uncertainty(cfg, found, fit, sig_f)
     wide = profile_sigma(cfg, win, fit, sig_f)
-    sig = {p: max(sig[p], wide[p]) for p in sig}
+    sig = {p: max(gn[term][p], wide[p]) for p in gn[term]}
     edge = _edge(term, params, win.full_scale)
     worse = [c for c in before if after[c] > max(WORSE * before[c], WORSE_MIN)]
     why = ""
@@ -214,6 +248,7 @@ def discover(
         ev,
         table,
         edge,
+        with_change={e: p for e, p in found.items() if e != term},
     )
 
 
@@ -264,5 +299,8 @@ def lattice(runs: Runs, rms_now: float, floor: float) -> Discovery | None:
 
 
 def with_term(cfg: PlantConfig, d: Discovery) -> PlantConfig:
-    """cfg with the discovered term switched on at its fitted values (what plant.toml carries)."""
+    """cfg with the discovered term switched on at its fitted values, and the catalogue change fitted with
+    it (what plant.toml carries)."""
+    for e, p in d.with_change.items():
+        cfg = cfg.with_effect(e, True, **p)
     return cfg.with_effect(d.term, True, **d.params)

@@ -230,6 +230,18 @@ def discovered_lines(res: Result) -> list[str]:
         f"discovered: {d.form} ({d.term}){'' if d.claimed else ', not claimed'}",
         f"formula: {d.formula()}",
         f"parameters: {pars}",
+        *(
+            [
+                "fitted together with "
+                + "; ".join(
+                    f"{e} ({', '.join(f'{k} = {v:.4g}' for k, v in p.items())})"
+                    for e, p in d.with_change.items()
+                )
+                + " (the catalogue's closest change, which the form stands in for or adds to)"
+            ]
+            if d.with_change
+            else []
+        ),
         f"held-out residual RMS {d.rms_before:.3g} -> {d.rms_after:.3g} noise sigmas (floor {d.floor:.3g}; "
         f"the catalogue's best: {d.rms_catalogue:.3g}); gap cut {d.cut:.0%}",
         f"unlike the closest catalogue effect, {d.unlike()}",

@@ -493,6 +493,14 @@ def _erratic_note(base: PlantConfig, named: list[Named], held: Runs, sig_h, z1) 
     )
 
 
+def _whole(n: Named, base: PlantConfig) -> bool:
+    """Whether a named change carries every parameter its candidate fits (none dropped by _honest)."""
+    from seagen.discrepancy.candidates import SPACE, held_in
+
+    held = held_in(base, (n.name,))
+    return all(p in n.params for p in SPACE[n.name] if (n.name, p) not in held)
+
+
 def identify(
     runs: Runs,
     base: PlantConfig,
@@ -591,7 +599,10 @@ def identify(
     res.remainder = describe(profile(z1, held, feats)) if verdict == "unexplained" else []
     if verdict == "unexplained" and discovering:  # the catalogue ran out: search the term library
         kept = _apply(base, {n.name: n.params for n in named if n.claimed})
-        res.discovered = discover(kept, fit, held, sig_f, sig_h, floor, labels, rms(z1))
+        anchor = {
+            n.name: n.params for n in named if n.name == res.first and not n.claimed and _whole(n, base)
+        }
+        res.discovered = discover(kept, fit, held, sig_f, sig_h, floor, labels, rms(z1), anchor or None)
         if res.found and res.discovered:
             res.config = with_term(kept, res.discovered)
     elif discovering and (steps := lattice(held, rms(z1), floor)) is not None:  # a channel read in steps
