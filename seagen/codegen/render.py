@@ -86,7 +86,9 @@ def _layers(qm: QMLP, prefix: str) -> list[dict[str, Any]]:
         t = tables.get(f"l{k}_{q.activation}")
         table = None
         if t is not None:
-            table = {"name": f"{prefix}_{t.name}", "data": t.values, "len": len(t.values)}
+            # the smooth ones' tables end in _tab (tanh/sigmoid keep their names): the MISRA record's 8.9 pattern
+            tab = "_tab" if q.activation in SMOOTH else ""
+            table = {"name": f"{prefix}_{t.name}{tab}", "data": t.values, "len": len(t.values)}
             table |= {"in_shift": t.in_shift, "offset": t.offset}
         out.append(
             {
@@ -100,8 +102,8 @@ def _layers(qm: QMLP, prefix: str) -> list[dict[str, Any]]:
                 "dense": f"sea_dense_w{qm.weight_bits}_a{q.acc_bits}",
                 "shift": q.shift,
                 "act_name": q.activation,
-                "act": _activation(q, table, f"{prefix}_l{k}_prelu"),
-                "slopes": {"name": f"{prefix}_l{k}_prelu", "data": q.act_params}
+                "act": _activation(q, table, f"{prefix}_l{k}_prelu_tab"),
+                "slopes": {"name": f"{prefix}_l{k}_prelu_tab", "data": q.act_params}
                 if q.activation == "prelu"
                 else None,
                 "src": f"buf{k % 2}",

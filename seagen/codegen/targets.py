@@ -21,7 +21,7 @@ import numpy as np
 
 from seagen.codegen.cfmt import c_int
 from seagen.errors import UserError
-from seagen.ir import QMLP, QSF, QHorner, QModel
+from seagen.ir import QMLP, QSF, QHorner, QLayer, QModel, QTable
 from seagen.quant.interval import acc_interval
 from seagen.runtime.activations import SMOOTH
 from seagen.runtime.fixed import rshift_rne
@@ -75,6 +75,12 @@ def _elem(qm: QMLP, k: int) -> dict[str, Any] | None:
     t = next((t for t in qm.tables if t.name == f"l{k}_{q.activation}"), None)
     if q.activation in FUSED:
         return None
+    # tables named _tab but tanh/sigmoid's (as the portable kernel names them: the MISRA record's 8.9 pattern)
+    return {"suffix": "" if q.activation in ("tanh", "sigmoid") else "_tab", **_elem_call(q, k, t)}
+
+
+def _elem_call(q: QLayer, k: int, t: QTable | None) -> dict[str, Any]:
+    """_elem's function, table and arguments."""
     if q.activation in SMOOTH and t is not None:
         args = [str(len(t.values)), str(t.in_shift), c_int(t.offset), c_int(q.act_params[0])]
         return {
