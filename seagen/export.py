@@ -86,7 +86,7 @@ def prepare(
     features: str | dict[str, Any] | None = None,
     with_onnx: bool = False,
     allow_pickle: bool = False,
-    controller: bool = False,
+    controller: bool | None = False,
     ranges: list[list[float]] | None = None,
     target: str = "portable",
     actuator: Actuator | None = None,
@@ -95,7 +95,8 @@ def prepare(
     """Everything of an export, in memory (nothing is written); refuses (CheckFailed) when the integer
     reference and the original model disagree beyond the proven bound on the calibrated box.
 
-    `controller` adds NAME_controller.{h,c} and the controller runtime (control models); `ranges` gives the
+    `controller` adds NAME_controller.{h,c} and the controller runtime (control models; None: when the model
+    is one); `ranges` gives the
     input ranges outright (seagen verify rebuilds an export from its manifest that way); `target` picks the
     kernel of NAME_infer (seagen/codegen/targets.py) and the runtime header it includes; `features` is a
     --features file or the spec already read from one (a manifest's); `actuator`: a description given with
@@ -127,6 +128,10 @@ def prepare(
         raise UserError(f"{model_path}: {e}") from None
     shipped = [n for n in RUNTIME if n not in OMIT[check_target(target)]]
     files = {**rendered, **runtime_sources(*shipped, *TARGET_RUNTIME[target])}
+    if controller is None:
+        from seagen.runtime.features import is_predictor
+
+        controller = is_predictor(qm)
     if controller:
         from seagen.codegen.controller import controller_files
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from seagen.defaults import model_arg
@@ -25,7 +26,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         "model",
         metavar="MODEL",
         type=model_arg,
-        help="model file (.pt, TorchScript, .pt2 or .onnx), or default:NAME (see seagen models)",
+        nargs="+",
+        help="model file (.pt, TorchScript, .pt2 or .onnx), or default:NAME (see seagen models); several "
+        "models go into one package in one run (each NAME from its file name; every one is checked before "
+        "any is written)",
     )
     p.add_argument("--out", default=".", help="output directory (default: current)")
     p.add_argument("--prefix", help="C symbol prefix NAME (default: from the file name)")
@@ -48,7 +52,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--controller",
         action="store_true",
         help="control models: also write NAME_controller.h/.c (tuned PID, limits, margin, the model wired "
-        "in as the predictor) and the controller runtime (sea_pid, sea_control)",
+        "in as the predictor) and the controller runtime (sea_pid, sea_control); with several models, for "
+        "each control model among them",
     )
     p.add_argument(
         "--allow-pickle",
@@ -78,34 +83,49 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    """Export (checked against the original), optionally check on data, then write; 1 if a check fails."""
-    from seagen.errors import CheckFailed
-    from seagen.export import check_out_dir, prepare, write
+    """Export each model (checked against its original), optionally check on data, then write them all;
+    1 if a check fails (nothing written), 2 on bad input (nothing written)."""
+    from seagen.errors import CheckFailed, UserError
+    from seagen.export import Export, check_out_dir, prepare, write
     from seagen.runtime.control import proven_actuator
 
     check_out_dir(args.out)
-    ex = prepare(
-        args.model,
-        args.prefix,
-        args.weights,
-        args.calib,
-        args.features,
-        args.onnx,
-        args.allow_pickle,
-        controller=args.controller,
-        target=args.target,
-        actuator=proven_actuator(args.actuator),
-        package=args.package,
-    )
-    if args.check:
-        from seagen.datacheck import check_data_dir
+    models: list[str] = args.model
+    if len(models) > 1 and args.prefix:
+        raise UserError("--prefix names one export; with several models each NAME comes from its file name")
+    several = len(models) > 1
+    exports: list[Export] = []
+    for model in models:
+        ex = prepare(
+            model,
+            args.prefix,
+            args.weights,
+            args.calib,
+            args.features,
+            args.onnx,
+            args.allow_pickle,
+            controller=None if several and args.controller else args.controller,
+            target=args.target,
+            actuator=proven_actuator(args.actuator),
+            package=args.package,
+        )
+        clash = [m for m, e in zip(models, exports, strict=False) if e.prefix == ex.prefix]
+        if clash:
+            raise UserError(
+                f"{model}: its C name {ex.prefix} is also {clash[0]}'s; export them one by one with --prefix"
+            )
+        if args.check:
+            from seagen.datacheck import check_data_dir
 
-        rep = check_data_dir(ex, args.check)
-        print(rep.report())
-        if not rep.ok:
-            raise CheckFailed(f"{args.model}: the checks on {args.check} disagree; nothing written")
-    written = write(ex, args.out)
-    print(f"seagen export: {args.model} -> {Path(args.out)}/ ({', '.join(p.name for p in written)})")
-    for line in [*ex.lines, ex.oracle.line()]:
-        print("  " + line)
+            rep = check_data_dir(ex, args.check)
+            print(rep.report())
+            if not rep.ok:
+                raise CheckFailed(f"{model}: the checks on {args.check} disagree; nothing written")
+        exports.append(ex)
+    for model, ex in zip(models, exports, strict=True):
+        written = write(ex, args.out)
+        names = ", ".join(os.path.relpath(p, args.out) for p in written)
+        print(f"seagen export: {model} -> {Path(args.out)}/ ({names})")
+        for line in [*ex.lines, ex.oracle.line()]:
+            print("  " + line)
     return 0
