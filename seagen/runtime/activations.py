@@ -202,14 +202,18 @@ def smooth_error(name: str, p: tuple[float, ...], t: QTable, xmax: float) -> flo
     """Worst |integer - f(x)| (output units) for any input x on the Q(in_frac) grid with |x| <= xmax:
     nearest sample (sup |g'| x half a step; 0 when every input is a sample), the tail beyond the table's
     ends (cut at the radius), the table's rounding, s's Q14 rounding (|s - s_q| xmax + half an LSB; 0 for
-    s = 1) and the sat16 (never acts: the format holds s xmax + sup |g|, seagen/quant/mlp.py)."""
+    s = 1), Softplus's jump at its threshold, and the sat16 (never acts: the format holds s xmax + sup |g|,
+    seagen/quant/activation.py)."""
     sh = shape_of(name, p)
     lsb = 2.0**-t.in_frac
     step = 2.0**t.in_shift * lsb
     sample = 0.0 if t.in_shift == 0 else sh.lip_g * step / 2
     s_q = slope_q(name, p)
     s_err = 0.0 if s_q == 2**SLOPE_FRAC else abs(slope(name, p) - s_q / 2**SLOPE_FRAC) * xmax + lsb / 2
-    return sample + sh.tail + lsb / 2 + s_err
+    # torch's Softplus threshold: g jumps by log1p(e^-threshold) / beta at beta x = threshold, which a sample
+    # on the other side of it may miss
+    jump = math.log1p(math.exp(-p[1])) / p[0] if name == "softplus" and math.isfinite(p[1]) else 0.0
+    return sample + sh.tail + lsb / 2 + s_err + jump
 
 
 def smooth_s16(y: np.ndarray, t: QTable, slope_q14: int) -> np.ndarray:
