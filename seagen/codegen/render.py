@@ -86,7 +86,7 @@ def _layers(qm: QMLP, prefix: str) -> list[dict[str, Any]]:
         t = tables.get(f"l{k}_{q.activation}")
         table = None
         if t is not None:
-            # the smooth ones' tables end in _tab (tanh/sigmoid keep their names): the MISRA record's 8.9 pattern
+            # the smooth ones' tables end in _tab (tanh/sigmoid keep theirs): the MISRA record's 8.9 pattern
             tab = "_tab" if q.activation in SMOOTH else ""
             table = {"name": f"{prefix}_{t.name}{tab}", "data": t.values, "len": len(t.values)}
             table |= {"in_shift": t.in_shift, "offset": t.offset}
