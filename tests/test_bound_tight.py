@@ -1,7 +1,7 @@
 """The proven MLP error bound (seagen.quant.affine: symbolic per-neuron intervals on sub-boxes) holds on the
 worst inputs a targeted search finds, for every activation it bounds, and is within 10x the measured error
 on int8 4-64-64-64-1 networks and the shipped models (the export records the ratio). ~6 s; the trained
-deep network is slow."""
+deep network and the hypothesis-drawn networks are slow."""
 
 from __future__ import annotations
 
@@ -91,6 +91,7 @@ def test_bound_holds_on_searched_worst_inputs(name):
         assert worst <= fine, (worst, fine)
 
 
+@pytest.mark.slow
 @settings(max_examples=8, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
 @given(
     seed=st.integers(0, 10**6),

@@ -38,18 +38,22 @@ class Network:
 
 def read_onnx(p: Path) -> Network:
     """An .onnx file: its chain by edges, and onnxruntime on the original file."""
-    from seagen.frontends.onnx_file import load_onnx
+    from seagen.frontends.onnx_file import inlined, load_onnx
     from seagen.frontends.onnx_reader import onnx_items
 
     model = load_onnx(p)
-    items, n_in, feed = onnx_items(p, model)
-    dtype = onnx_dtype(model)
+    flat = inlined(model, p)  # local functions expanded (read); the original file is what onnxruntime runs
+    items, n_in, feed = onnx_items(p, flat)
+    dtype = onnx_dtype(flat)
     run = _ort_runner(model, str(p), feed)
     net = Network(to_layers(items, n_in, str(p)), n_in, run, f"onnxruntime ({dtype})", dtype)
+    if flat is not model:
+        names = ", ".join(sorted({f.name for f in model.functions}))
+        net.notes.append(f"note: {p.name}: local functions ({names}) inlined by onnx.inliner before reading")
     if dtype in LOW_FLOATS:
         from seagen.frontends.onnx_file import widened_to_float32
 
-        net.wide = _ort_runner(widened_to_float32(model), str(p), feed)
+        net.wide = _ort_runner(widened_to_float32(flat), str(p), feed)
         net.wide_whole = True
     return net
 
@@ -167,9 +171,14 @@ def _read_script(sm: Any, p: Path, n_in: int) -> Network:
     from seagen.frontends.onnx_reader import onnx_items
 
     notes = _eval_mode(sm, p)
-    items, width, _feed = onnx_items(p, _script_to_onnx(sm, p, n_in))
+    n_args = len(list(sm.forward.graph.inputs())) - 1  # without self
+    if n_args > 1:
+        items, width, parts = _script_joined(sm, p, n_in, n_args)
+    else:
+        items, width, _feed = onnx_items(p, _script_to_onnx(sm, p, n_in))
+        parts = None
     d = _dn(_dtype(sm))
-    run = _torch_runner(sm, None, _in_dtype(sm), str(p))
+    run = _torch_runner(sm, None, _in_dtype(sm), str(p), parts)
     net = Network(to_layers(items, width, str(p)), width, run, f"TorchScript ({d})", d, notes)
     net.wide = _wide_torch(sm, None, d, str(p))
     return net
@@ -288,22 +297,50 @@ def _export(m: Any, p: Path, n_in: int) -> Any:
         log.setLevel(level)
 
 
-def _script_to_onnx(sm: Any, p: Path, n_in: int) -> Any:
-    """TorchScript -> ONNX through the TorchScript-based (legacy) exporter, which inlines the graph."""
+def _script_joined(sm: Any, p: Path, n_in: int, n_args: int) -> tuple[list[Item], int, Any]:
+    """A TorchScript forward of several (batch, width) tensors that it concatenates along the features
+    (forward(a, b): torch.cat([a, b], 1)): the first split of the n_in features into its arguments that
+    exports and reads as a Concat of the graph's inputs (any such split computes the same function of the
+    joined row); the chain, its width and the parts (argument, width) the original's rows split into."""
+    from itertools import combinations
+
+    from seagen.frontends.onnx_reader import onnx_items
+
+    last = f"its forward takes {n_args} tensors"
+    for cuts in combinations(range(1, n_in), n_args - 1):
+        widths = [b - a for a, b in zip((0, *cuts), (*cuts, n_in), strict=True)]
+        try:
+            items, width, feed = onnx_items(p, _script_to_onnx(sm, p, n_in, widths))
+        except UserError as e:
+            last = str(e).removeprefix(f"{p}: ")
+            continue
+        if feed.parts:
+            return items, width, [(int(name[1:]), w) for name, w in feed.parts]
+    raise UserError(
+        f"{p}: cannot read the TorchScript forward of {n_args} inputs as one feature vector joined by "
+        f"torch.cat along the features ({last})"
+    )
+
+
+def _script_to_onnx(sm: Any, p: Path, n_in: int, widths: list[int] | None = None) -> Any:
+    """TorchScript -> ONNX through the TorchScript-based (legacy) exporter, which inlines the graph; with
+    `widths`, a forward of several inputs (x0, x1, ...) of those widths."""
     import onnx
     import torch
 
     buf = io.BytesIO()
+    names = [f"x{k}" for k in range(len(widths))] if widths else ["x"]
+    example = tuple(torch.zeros(TRACE_BATCH, w, dtype=_in_dtype(sm)) for w in (widths or [n_in]))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             torch.onnx.export(
                 sm,
-                (torch.zeros(TRACE_BATCH, n_in, dtype=_in_dtype(sm)),),
+                example,
                 buf,  # type: ignore[arg-type]  # the TorchScript-based exporter writes to file objects
                 dynamo=False,
-                input_names=["x"],
-                dynamic_axes={"x": {0: "N"}},
+                input_names=names,
+                dynamic_axes={n: {0: "N"} for n in names},
             )
     except Exception as e:  # the exporter raises many types
         msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__

@@ -86,3 +86,17 @@ def widened_to_float32(model: Any) -> Any:
         if v.type.tensor_type.elem_type in low:
             v.type.tensor_type.elem_type = TensorProto.FLOAT
     return wide
+
+
+def inlined(model: Any, path: Path) -> Any:
+    """The graph with its local functions (onnxscript's @script functions, exporters' modules) expanded by
+    onnx's own inliner, for reading; the model itself when it has none (the oracle runs the file as is)."""
+    if not model.functions:
+        return model
+    from onnx import inliner
+
+    try:
+        return inliner.inline_local_functions(model)
+    except Exception as e:  # onnx raises several types for functions it cannot expand
+        lines = str(e).strip().splitlines() or [type(e).__name__]
+        raise UserError(f"{path}: cannot inline its local functions: {lines[0]}") from None
