@@ -86,10 +86,15 @@ int16_t ctl_mlp_step_features(const sea_features_out *f, int16_t force_n_q);
 
 /* Predictor callback for sea_control_step (c_runtime/sea_control.h): desired compression (Q16 mm) for a
  * desired force at the shaft (Q16 N) and the raw counts. ctx must point to a ctl_mlp_state_t. */
+/*@ requires \valid((ctl_mlp_state_t *)ctx);
+    requires CTL_MLP_ENC_MIN <= enc <= CTL_MLP_ENC_MAX && CTL_MLP_POT_MIN <= pot <= CTL_MLP_POT_MAX;
+    assigns *(ctl_mlp_state_t *)ctx; */
 int32_t ctl_mlp_predict_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);
 
 /* The same on a shared pipeline: ctx must point to the sea_features_out of this tick (sea_features_step with
  * CTL_MLP_ACT on the same enc and pot, run before the controller tick); enc and pot are not read again. */
+/*@ requires \valid_read((const sea_features_out *)ctx);
+    assigns \nothing; */
 int32_t ctl_mlp_predict_features_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);
 
 #endif /* CTL_MLP_H */
