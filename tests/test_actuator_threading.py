@@ -311,8 +311,10 @@ def test_generate_and_train_on_the_second_design(tmp_path, monkeypatch, capsys):
     file (values + sha256), its loop rate in the feature spec; a disagreeing --actuator is refused (~10 s)."""
     act = load_actuator(EXAMPLE)
     assert act.digest() != default_actuator().digest()
-    # the shortest splits that still reach the force range (data generate refuses less: 75 % of it in train)
-    monkeypatch.setattr(protocol, "SECONDS", {"train": 10.0, "test": 4.0, "validation": 2.5})
+    # the shortest splits that still reach the force range (data generate refuses less: 75 % of it in every
+    # split): four angles, so each test trial lasts 1.5 s
+    monkeypatch.setattr(protocol, "N_ANGLES", 4)
+    monkeypatch.setattr(protocol, "SECONDS", {"train": 10.0, "test": 6.0, "validation": 2.5})
     data = tmp_path / "data"
     assert main(["data", "generate", "--out", str(data), "--actuator", str(EXAMPLE)]) == 0
     assert load_actuator(data / "actuator.toml") == act

@@ -37,6 +37,8 @@ ALLOWED: dict[tuple[str, float], str] = {
     "separate from the description by design; the description's friction_n is what the estimate subtracts)",
     ("seagen/plant/config.py", 0.55): "actuator_friction.reverse_ratio, an effect parameter (not h_fit[0])",
     ("seagen/pil/fw/pil_common.c", 28): "interrupt vector 28 in the PIL firmware's vector table",
+    ("seagen/data/protocol.py", 4.2): "the validation move's push volts on the paper's motor (scaled like "
+    "every move on another design), not spring.stiffness_n_per_mm",
     ("seagen/discrepancy/signature.py", 0.025): "the signature's 'under load' band as a share of the force "
     "range (the paper's 0.5 N of 20 N), not control.margin_mm",
 }
