@@ -59,7 +59,7 @@ RECORD: tuple[Deviation, ...] = (
         "sea_nn.h",
         r"if \(v > \(INT16_MAX >> k\)\)",
         r"if \(v < -\(32768 >> k\)\)",
-        r"return \(int16_t\)\(\(int32_t\)v \* \(1 << k\)\);",
+        r"return \(int16_t\)\(\(int32_t\)v \* \(\(int32_t\)1 << k\)\);",
         r"return sea_sat32\(v \* \(\(int64_t\)1 << \(to_frac",
     ),
     *_d(
@@ -182,7 +182,7 @@ RECORD: tuple[Deviation, ...] = (
     *_d("D3", "10.7", "sea_nn.h", r"return sea_sat32\(v \* \(\(int64_t\)1 << \(to_frac - from_frac\)\)\);"),
     *_d("D3", "10.8", "sea_pid.c", r"const int64_t mid = \(int64_t\)\(ah \* \(int32_t\)bl\)"),
     # D11 (15.5): more early returns.
-    *_d("D11", "15.5", "sea_nn.h", r"^        return \(int16_t\)\(\(int32_t\)v \* \(1 << k\)\);$"),
+    *_d("D11", "15.5", "sea_nn.h", r"^        return \(int16_t\)\(\(int32_t\)v \* \(\(int32_t\)1 << k\)\);"),
     *_d("D11", "15.5", r"sea_fixed(_ctrl)?\.c", r"^        return sea_rshift_rne_s32\(\(a32 \* "),
     *_d("D11", "15.5", "sea_nn.h", r"^        return sea_sat32\(v \* \(\(int64_t\)1 << "),
     *_d(
