@@ -164,7 +164,24 @@ def run_entry(work: Path, target: str, sources: list[str], entry: str) -> tuple[
     alarms = parse_alarms(log)
     if not alarms and "NON TERMINATING FUNCTION" in log:
         return [], "the analysis found no path through the function (an invalid property stopped every path)"
+    if not alarms and (open_props := unproven(log)):
+        return [], f"Eva's summary leaves properties unproven: {open_props}"
     return alarms, ""
+
+
+_STATUS = re.compile(
+    r"^\s*(Assertions|Preconditions|Postconditions)\s+\d+ valid\s+(\d+) unknown\s+(\d+) invalid", re.M
+)
+
+
+def unproven(log: str) -> str:
+    """The summary's unknown or invalid assertions, preconditions and postconditions ('' when none): a
+    second reading of the same verdict, so that a status Eva reports without an alarm line is not missed."""
+    out = []
+    for m in _STATUS.finditer(log):
+        if int(m.group(2)) or int(m.group(3)):
+            out.append(f"{m.group(1).lower()} {m.group(2)} unknown, {m.group(3)} invalid")
+    return "; ".join(out)
 
 
 def settings_line(target: str, version: str) -> str:
