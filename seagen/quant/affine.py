@@ -16,7 +16,11 @@ from seagen.runtime.activations import table_error
 
 AFFINE = ("linear", "relu", "leaky_relu", "hardtanh", "tanh", "sigmoid")  # activations this module bounds
 WORK = 4e6  # multiply-adds spent on the sub-boxes at quantization (the splits per input follow from it)
-WORK_MAX = 1e9  # tighten() refines up to this much (about a second for a 4-64-64-64-1 network)
+# tighten() refines up to this much: ~10 s of one core on a 4-64-64-64-1 network, the only size that needs
+# it so far (a freshly initialised int8 one reaches 6.9x its measured error there, 38x at 1e9)
+WORK_MAX = 1.6e10
+MAX_BOXES = 8192  # tighten()'s sub-box evaluations at most (a small network's cheap boxes stop here)
+STALL = 0.9  # tighten() stops when a refinement gains less than 10 %
 MAX_SPLIT = 12  # sub-boxes per input at most
 CHUNK = 256  # sub-boxes evaluated together
 BAB_SHARE = 1.0  # the first, even grid gets 1/BAB_SHARE of the work; the rest splits the worst sub-boxes
@@ -96,12 +100,19 @@ def _interval(lo: np.ndarray, hi: np.ndarray, d: int) -> Form:
     return _const((lo + hi) / 2, (hi - lo) / 2, d)
 
 
+def _boxes(work: float, per_box: float) -> float:
+    """How many sub-boxes `work` buys: work / per_box, beyond quantization's WORK at most MAX_BOXES (or what
+    WORK buys, if more)."""
+    per_box = max(per_box, 1.0)
+    return min(work, max(WORK, per_box * MAX_BOXES)) / per_box
+
+
 def sub_boxes(
     lo: np.ndarray, hi: np.ndarray, per_box: float, work: float = WORK
 ) -> tuple[np.ndarray, np.ndarray]:
     """Centres and half-widths (B, d) of a grid of sub-boxes of lo..hi, as many as work / per_box allows."""
     d = len(lo)
-    k = max(1, min(MAX_SPLIT, int((work / max(per_box, 1.0)) ** (1.0 / d) + 1e-9)))
+    k = max(1, min(MAX_SPLIT, int(_boxes(work, per_box) ** (1.0 / d) + 1e-9)))
     edges = [np.linspace(a, b, k + 1) for a, b in zip(lo, hi, strict=True)]
     cells = np.array(list(itertools.product(range(k), repeat=d)), dtype=int)
     left = np.stack([edges[j][cells[:, j]] for j in range(d)], axis=1)
@@ -112,11 +123,15 @@ def sub_boxes(
 def tighten(model: FloatMLP, qm: QMLP, goal: float) -> QMLP:
     """qm with its proven bound refined on ever finer sub-boxes (x8 the work each time, up to WORK_MAX)
     until it is at most `goal` (e.g. a multiple of the error measured at export), or as tight as that
-    work makes it."""
+    work makes it (stopping early when a refinement gains less than 1 - STALL)."""
     work, bound = WORK, qm.error_bound
     while bound > goal and work < WORK_MAX:
         work = min(work * 8, WORK_MAX)
-        bound = min(bound, affine_error_bound(model, qm, work))
+        finer = affine_error_bound(model, qm, work)
+        stalled = finer > STALL * bound
+        bound = min(bound, finer)
+        if stalled:
+            break
     return dataclasses.replace(qm, error_bound=bound)
 
 
@@ -138,7 +153,7 @@ def affine_error_bound(model: FloatMLP, qm: QMLP, work: float = WORK) -> float:
     boxes = np.array([widened(s.lo, s.hi) for s in model.inputs])
     d = len(boxes)
     per_box = _cost(model, d)
-    budget = int(work / per_box)  # sub-box evaluations
+    budget = int(_boxes(work, per_box))  # sub-box evaluations
     centre, half = sub_boxes(boxes[:, 0], boxes[:, 1], per_box * BAB_SHARE, work)
     bound = _chunked(model, qm, centre, half)
     used = len(centre)
