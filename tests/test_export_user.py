@@ -57,7 +57,7 @@ def files(tmp_path_factory) -> dict[str, Path]:
     torch.save(net.state_dict(), d / "sd.pt")
     torch.save({"weights": [1.0, 2.0]}, d / "other_dict.pt")
     out |= {"ckpt": d / "ckpt.pt", "sd": d / "sd.pt", "other_dict": d / "other_dict.pt"}
-    for name, power in {"sf_frac": [0.5, 1], "sf_neg": [-1, 0], "sf_dup": [0, 0], "sf_deg": [4, 0]}.items():
+    for name, power in {"sf_frac": [0.5, 1], "sf_neg": [-1, 0], "sf_dup": [0, 0], "sf_deg": [13, 0]}.items():
         sf = load_model(SF)
         sf["sf"]["powers"][1] = power
         torch.save(sf, d / f"{name}.pt")
@@ -102,7 +102,7 @@ BAD = {  # case: (arguments with {placeholders}, expected text, the file the mes
     "sf fractional power": (["{sf_frac}", *OUT], "field 'sf.powers[1]' must be an integer", "sf_frac.pt"),
     "sf negative power": (["{sf_neg}", *OUT], "field 'sf.powers[1]' is [-1, 0]", "sf_neg.pt"),
     "sf repeated power": (["{sf_dup}", *OUT], "field 'sf.powers[1]' repeats [0, 0]", "sf_dup.pt"),
-    "sf degree 4": (["{sf_deg}", *OUT], "i + j <= 3", "sf_deg.pt"),
+    "sf degree 13": (["{sf_deg}", *OUT], "i + j <= 12", "sf_deg.pt"),
     "inputs a string": (["{seq}", "--features", "{str_inputs}", *OUT], "must be a list", "str_inputs.json"),
     "mean NaN": (
         ["{seq}", "--features", "{nan_mean}", *OUT],
