@@ -275,7 +275,7 @@ TAMPERS = [
         "error bound edited",
         lambda o: manifest_field(o, lambda d: d["resolved"].__setitem__("error_bound", 0.01)),
         1,
-        "error_bound 0.01 (recomputed: 0.0699",
+        "error_bound 0.01 (recomputed: 0.0698",
     ),
     (
         "output unit edited",
