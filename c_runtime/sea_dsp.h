@@ -31,18 +31,24 @@
 #endif
 
 /* Low (first) int16 of a packed word, as int32; exact, no implementation-defined conversion. */
+/*@ assigns \nothing;
+    ensures INT16_MIN <= \result <= INT16_MAX; */
 static inline int32_t sea_lo16(int32_t w)
 {
     return (int32_t)(((uint32_t)w & 0xFFFFu) ^ 0x8000u) - 0x8000;
 }
 
 /* High (second) int16 of a packed word, as int32. */
+/*@ assigns \nothing;
+    ensures INT16_MIN <= \result <= INT16_MAX; */
 static inline int32_t sea_hi16(int32_t w)
 {
     return (int32_t)(((uint32_t)w >> 16) ^ 0x8000u) - 0x8000;
 }
 
 /* Pack two int16 values (lo first) into one word: hi * 2^16 + (lo mod 2^16), never overflows. */
+/*@ requires INT16_MIN <= hi <= INT16_MAX;
+    assigns \nothing; */
 static inline int32_t sea_pack16x2(int32_t lo, int32_t hi)
 {
     return (hi * 65536) + (int32_t)((uint32_t)lo & 0xFFFFu);
@@ -50,6 +56,8 @@ static inline int32_t sea_pack16x2(int32_t lo, int32_t hi)
 }
 
 /* Pack two int16 values known to be >= 0 (ReLU outputs): lo + hi * 2^16, one ADD; equals sea_pack16x2. */
+/*@ requires 0 <= lo <= INT16_MAX && 0 <= hi <= INT16_MAX;
+    assigns \nothing; */
 static inline int32_t sea_pack_nonneg16x2(int32_t lo, int32_t hi)
 {
     return (hi * 65536) + lo;
@@ -105,24 +113,28 @@ static inline void sea_ld4(const int32_t *p, int32_t *v0, int32_t *v1, int32_t *
 
 #if defined(__ARM_FEATURE_SIMD32)
 /* acc + lo(x)*lo(w) + hi(x)*hi(w): one SMLAD. The generator proves |acc| + the products stay < 2^31. */
+/*@ assigns \nothing; */
 static inline int32_t sea_smlad(int32_t x, int32_t w, int32_t acc)
 {
     return __smlad(x, w, acc);
 }
 
 /* Same into a 64-bit accumulator: one SMLALD. */
+/*@ assigns \nothing; */
 static inline int64_t sea_smlald(int32_t x, int32_t w, int64_t acc)
 {
     return __smlald(x, w, acc);
 }
 #else
 /* Portable SMLAD: the same exact sum (the generator's bound rules out any overflow). */
+/*@ assigns \nothing; */
 static inline int32_t sea_smlad(int32_t x, int32_t w, int32_t acc)
 {
     return acc + (sea_lo16(x) * sea_lo16(w)) + (sea_hi16(x) * sea_hi16(w));
 }
 
 /* Portable SMLALD. */
+/*@ assigns \nothing; */
 static inline int64_t sea_smlald(int32_t x, int32_t w, int64_t acc)
 {
     return acc + (int64_t)(sea_lo16(x) * sea_lo16(w)) + (int64_t)(sea_hi16(x) * sea_hi16(w));
@@ -131,6 +143,8 @@ static inline int64_t sea_smlald(int32_t x, int32_t w, int64_t acc)
 
 /* Round-half-to-even shift of v = acc + 2^(s-1) (the half already folded into the bias), 1 <= s <= 31:
  * floor(v / 2^s), made even when v's low s bits are 0 (the tie). Equals sea_rshift_rne_s32(acc, s). */
+/*@ requires 1 <= s <= 31;
+    assigns \nothing; */
 static inline int32_t sea_rne_folded_s32(int32_t v, int s)
 {
     int32_t q = v >> s;
@@ -144,6 +158,8 @@ static inline int32_t sea_rne_folded_s32(int32_t v, int s)
  * (u + bit s of u) >> s, which equals sea_rshift_rne_s32(acc, s). With acc = k 2^s + r (0 <= r < 2^s):
  * r < 2^(s-1) gives k, r > 2^(s-1) gives k + 1, and the tie r = 2^(s-1) gives k + (k & 1), the even one.
  * Three instructions on the M4 with the saturation (UBFX, ADD, USAT/SSAT with the shift), no IT block. */
+/*@ requires 1 <= s <= 30;
+    assigns \nothing; */
 static inline int32_t sea_rne_bit_s32(int32_t u, int s)
 {
     const uint32_t bit = ((uint32_t)u >> s) & 1u;
@@ -153,6 +169,8 @@ static inline int32_t sea_rne_bit_s32(int32_t u, int s)
 }
 
 /* The same for a 64-bit accumulator, 1 <= s <= 62. */
+/*@ requires 1 <= s <= 62;
+    assigns \nothing; */
 static inline int64_t sea_rne_bit_s64(int64_t u, int s)
 {
     const uint64_t bit = ((uint64_t)u >> s) & 1u;
@@ -162,6 +180,8 @@ static inline int64_t sea_rne_bit_s64(int64_t u, int s)
 }
 
 /* The same for a 64-bit accumulator, 1 <= s <= 62. */
+/*@ requires 1 <= s <= 62;
+    assigns \nothing; */
 static inline int64_t sea_rne_folded_s64(int64_t v, int s)
 {
     int64_t q = v >> s;
@@ -172,6 +192,8 @@ static inline int64_t sea_rne_folded_s64(int64_t v, int s)
 }
 
 /* ReLU then saturation to int16: clamp(q, 0, 32767) (USAT #15 where available). */
+/*@ assigns \nothing;
+    ensures 0 <= \result <= INT16_MAX; */
 static inline int32_t sea_relu_sat16(int32_t q)
 {
 #if defined(__ARM_FEATURE_SAT)
@@ -182,18 +204,24 @@ static inline int32_t sea_relu_sat16(int32_t q)
 }
 
 /* Saturation to int16 of an int32 value (gcc emits SSAT #16 for this on cores that have it). */
+/*@ assigns \nothing;
+    ensures INT16_MIN <= \result <= INT16_MAX; */
 static inline int32_t sea_sat16_s32(int32_t q)
 {
     return (q < -32768) ? -32768 : ((q > 32767) ? 32767 : q);
 }
 
 /* Saturation to int16 of an int64 value. */
+/*@ assigns \nothing;
+    ensures INT16_MIN <= \result <= INT16_MAX; */
 static inline int32_t sea_sat16_s64(int64_t q)
 {
     return (q < -32768) ? -32768 : ((q > 32767) ? 32767 : (int32_t)q);
 }
 
 /* ReLU then saturation to int16 of an int64 value. */
+/*@ assigns \nothing;
+    ensures 0 <= \result <= INT16_MAX; */
 static inline int32_t sea_relu_sat16_s64(int64_t q)
 {
     return (q < 0) ? 0 : ((q > 32767) ? 32767 : (int32_t)q);
@@ -201,30 +229,36 @@ static inline int32_t sea_relu_sat16_s64(int64_t q)
 
 /* Narrowing of a value the generator proved to lie in int16 (the layer's output format was chosen so that
  * nothing saturates inside the calibrated box, c_runtime/README.md item 5): sea_sat16 would not act. */
+/*@ assigns \nothing; */
 static inline int32_t sea_proven16_s32(int32_t q)
 {
     return q;
 }
 
 /* The same for a 64-bit accumulator's shifted value. */
+/*@ assigns \nothing; */
 static inline int32_t sea_proven16_s64(int64_t q)
 {
     return (int32_t)q;
 }
 
 /* ReLU of a value proven to be at most INT16_MAX (the upper saturation would not act): max(q, 0). */
+/*@ assigns \nothing; */
 static inline int32_t sea_relu_proven_s32(int32_t q)
 {
     return (q < 0) ? 0 : q;
 }
 
 /* The same for a 64-bit accumulator's shifted value. */
+/*@ assigns \nothing; */
 static inline int32_t sea_relu_proven_s64(int64_t q)
 {
     return (q < 0) ? 0 : (int32_t)q;
 }
 
 /* Clamp an input to its calibrated box [lo, hi] (sea_clamp_s16 on one value). */
+/*@ assigns \nothing;
+    ensures lo <= hi ==> lo <= \result <= hi; */
 static inline int32_t sea_clamp_s32(int32_t v, int32_t lo, int32_t hi)
 {
     return (v < lo) ? lo : ((v > hi) ? hi : v);
@@ -233,6 +267,8 @@ static inline int32_t sea_clamp_s32(int32_t v, int32_t lo, int32_t hi)
 /* floor(x * r / 2^s) for an int16 x and int32 r, 16 <= s <= 46 (the surface-fit planner's MIN_SHIFT), by a
  * 16x32 split: r = rh * 2^16 + rl with 0 <= rl < 2^16, so floor(x * r / 2^16) = x * rh + floor(x * rl / 2^16),
  * both products exact in int32 (ARMv6-M has no 32x32->64 multiply). Exact for every such x, r. */
+/*@ requires INT16_MIN <= x <= INT16_MAX && 16 <= s <= 46;
+    assigns \nothing; */
 static inline int32_t sea_mulshr_split_s32(int32_t x, int32_t r, int s)
 {
     const int32_t rh = r >> 16;
@@ -242,6 +278,8 @@ static inline int32_t sea_mulshr_split_s32(int32_t x, int32_t r, int s)
 
 /* The same through a 64-bit product: for s <= 32 the high word of (x * 2^(32 - s)) * r (one SMMUL, or SMMLA
  * with the addend, on ARMv7E-M; x * 2^(32 - s) fits int32 as |x| <= 2^15). The result must fit int32. */
+/*@ requires INT16_MIN <= x <= INT16_MAX && 16 <= s <= 62;
+    assigns \nothing; */
 static inline int32_t sea_mulshr_wide_s32(int32_t x, int32_t r, int s)
 {
     if (s <= 32) {
@@ -252,6 +290,8 @@ static inline int32_t sea_mulshr_wide_s32(int32_t x, int32_t r, int s)
 
 /* floor(x * r / 2^s): the Horner step's product (c_runtime/README.md, item 7); identical integers on every
  * core, the split form where the core lacks a long multiply (ARMv6-M: Cortex-M0/M0+). */
+/*@ requires INT16_MIN <= x <= INT16_MAX && 16 <= s <= 46;
+    assigns \nothing; */
 static inline int32_t sea_mulshr_s32(int32_t x, int32_t r, int s)
 {
 #if defined(__ARM_ARCH_6M__)
@@ -263,6 +303,7 @@ static inline int32_t sea_mulshr_s32(int32_t x, int32_t r, int s)
 
 /* Modular uint32 -> int32 (two's complement reinterpretation) without implementation-defined conversion;
  * compiles to nothing. Used by the M0+ kernel, whose accumulators are uint32 sums proven to end in int32. */
+/*@ assigns \nothing; */
 static inline int32_t sea_u32_to_s32(uint32_t u)
 {
     return (u <= 0x7FFFFFFFu) ? (int32_t)u : ((int32_t)(u - 0x80000000u) - 0x7FFFFFFF - 1);
@@ -271,6 +312,7 @@ static inline int32_t sea_u32_to_s32(uint32_t u)
 /* Clamp both int16 halves of the packed word x to [lo, hi] (the halves of the packed words lo and hi, each
  * lo half <= its hi half): sea_clamp_s32 on each half. With the DSP extension max then min as SSUB16 (GE
  * flags per half) and SEL, four instructions for two inputs. */
+/*@ assigns \nothing; */
 static inline int32_t sea_clamp16x2(int32_t x, int32_t lo, int32_t hi)
 {
 #if defined(__ARM_FEATURE_SIMD32)
