@@ -19,6 +19,10 @@
 #include "sea_fixed.h"
 #include "sea_pid.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #define SEA_CTRL_PRED_AVG_MAX 10    /* the desired compression is the mean of the last pred_avg predictions */
 /* The pot-average length, the default encoder-jump bound (twice the no-load counts per tick) and the default
  * stuck-pot ticks (100 ms) are the actuator's: act->pot_avg_ticks, act->enc_jump_max, act->pot_stuck_ticks. */
@@ -79,5 +83,9 @@ void sea_control_reset(const sea_control_config *c, sea_control_state *s, int32_
     ensures \result == 0 || (c->pid.out_min <= \result <= c->pid.out_max); */
 int32_t sea_control_step(const sea_control_config *c, sea_control_state *s, int32_t enc, int32_t pot,
                          int32_t force_q16);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

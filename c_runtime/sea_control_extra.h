@@ -7,6 +7,10 @@
 
 #include "sea_control.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Desired compression (Q16 mm) from outside (the "cloud" predictor); kept until the next call.
  * With a predictor configured, the predictor overwrites it at its next call. */
 /*@ requires \valid(s);
@@ -23,5 +27,9 @@ typedef struct {
 /*@ requires \valid_read((const sea_kin_params *)ctx);
     assigns \nothing; */
 int32_t sea_predict_kinematic(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

@@ -19,6 +19,10 @@
 #include <arm_acle.h>
 #endif
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* SEA_OPAQUE(p): makes the compiler forget what pointer p holds (an empty asm on gcc/clang), so loads
  * through it are not hoisted out of a loop: on the M0+ the hoisted inputs would live in high registers,
  * which Thumb-1 arithmetic cannot use directly. No effect on the results.
@@ -326,5 +330,9 @@ static inline int32_t sea_clamp16x2(int32_t x, int32_t lo, int32_t hi)
                         sea_clamp_s32(sea_hi16(x), sea_hi16(lo), sea_hi16(hi)));
 #endif
 }
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

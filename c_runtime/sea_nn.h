@@ -12,6 +12,10 @@
 
 #include "sea_fixed.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* out[i] = min(max(x[i], lo[i]), hi[i]) for i < n. */
 /*@ requires n >= 0 && \valid_read(x + (0 .. n - 1)) && \valid(out + (0 .. n - 1));
     requires \valid_read(lo + (0 .. n - 1)) && \valid_read(hi + (0 .. n - 1));
@@ -203,5 +207,9 @@ static inline int32_t sea_to_s32(int64_t v, int from_frac, int to_frac)
     }
     return sea_sat32(sea_rshift_rne_s64(v, from_frac - to_frac));
 }
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

@@ -16,6 +16,10 @@
 
 #include "sea_fixed.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #define SEA_PID_GAIN_FRAC 12   /* kp, ki, kd: signed Q19.12 in int32 (gains >= 1 up to ~524,287) */
 #define SEA_PID_ALPHA_FRAC 16  /* derivative filter coefficient: Q16 in [0, 65536]; 65536 = no filter */
 #define SEA_PID_OUT_FRAC 16    /* integrator and term sums: Q16 millivolts */
@@ -50,5 +54,9 @@ void sea_pid_reset(const sea_pid_params *p, sea_pid_state *s, int32_t meas, int3
     assigns *s;
     ensures p->out_min <= \result <= p->out_max; */
 int32_t sea_pid_step(const sea_pid_params *p, sea_pid_state *s, int32_t setpoint, int32_t meas);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

@@ -26,6 +26,10 @@
 #include "sea_features.h"
 #include "sea_act_iglhmlcd.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #define CAL_MLP_N_IN 9
 #define CAL_MLP_N_OUT 1
 
@@ -85,5 +89,9 @@ int16_t cal_mlp_step(cal_mlp_state_t *s, int32_t enc, int32_t pot);
 /*@ requires \valid_read(f);
     assigns \nothing; */
 int16_t cal_mlp_step_features(const sea_features_out *f);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* CAL_MLP_H */

@@ -17,6 +17,10 @@
 #include "sea_features.h"
 #include "sea_act_iglhmlcd.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #define CAL_SF_N_IN 2
 #define CAL_SF_N_OUT 1
 
@@ -69,5 +73,9 @@ int16_t cal_sf_step(cal_sf_state_t *s, int32_t enc, int32_t pot);
 /*@ requires \valid_read(f);
     assigns \nothing; */
 int16_t cal_sf_step_features(const sea_features_out *f);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* CAL_SF_H */

@@ -24,6 +24,10 @@
 #include "sea_features.h"
 #include "sea_act_iglhmlcd.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #define CTL_MLP_N_IN 7
 #define CTL_MLP_N_OUT 1
 
@@ -96,5 +100,9 @@ int32_t ctl_mlp_predict_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q
 /*@ requires \valid_read((const sea_features_out *)ctx);
     assigns \nothing; */
 int32_t ctl_mlp_predict_features_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* CTL_MLP_H */

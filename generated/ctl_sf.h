@@ -17,6 +17,10 @@
 #include "sea_features.h"
 #include "sea_act_iglhmlcd.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #define CTL_SF_N_IN 2
 #define CTL_SF_N_OUT 1
 
@@ -84,5 +88,9 @@ int32_t ctl_sf_predict_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q1
 /*@ requires \valid_read((const sea_features_out *)ctx);
     assigns \nothing; */
 int32_t ctl_sf_predict_features_q16(void *ctx, int32_t enc, int32_t pot, int32_t force_q16);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* CTL_SF_H */

@@ -9,7 +9,14 @@
 
 #include "sea_fixed.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
 
 extern const sea_act sea_act_iglhmlcd;
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* SEA_ACT_IGLHMLCD_H */

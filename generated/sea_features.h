@@ -19,6 +19,10 @@
 
 #include "sea_fixed.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #define SEA_FEAT_N_BASE 3 /* base signals carried in the state */
 #define SEA_FEAT_POT 0
 #define SEA_FEAT_ENC 1
@@ -79,5 +83,9 @@ static inline int64_t sea_features_value(const sea_features_out *f, int kind, in
         return f->b[index];
     }
 }
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

@@ -11,6 +11,10 @@
 
 #include <stdint.h>
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Compile-time check: right shift of a negative value is arithmetic (floor division by 2^s). */
 typedef char sea_check_arith_shift[((-1) >> 1) == -1 ? 1 : -1];
 
@@ -95,5 +99,9 @@ int64_t sea_clamp_s64(int64_t v, int64_t lo, int64_t hi);
 /*@ assigns \nothing;
     ensures den <= 0 ==> \result == 0; */
 int32_t sea_div_rne_s32(int32_t num, int32_t den);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

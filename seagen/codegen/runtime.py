@@ -3,9 +3,13 @@ from C headers (so no struct or prototype is declared twice)."""
 
 from __future__ import annotations
 
+import re
 from importlib import resources
 
 from seagen.c_runtime import COMMENT, define_of
+
+# the C++ guard of every header (`#ifdef __cplusplus` / `extern "C" {` or `}` / `#endif`): not C
+CPLUSPLUS = re.compile(r"^#ifdef __cplusplus\n.*?^#endif\n?", re.M | re.S)
 
 # The C runtime of the controller: what NAME_controller.c and a controller tick link against.
 CONTROL_RUNTIME = ("sea_pid.h", "sea_pid.c", "sea_control.h", "sea_control.c", "sea_fixed_ctrl.c")
@@ -35,12 +39,12 @@ def _prototypes(text: str) -> str:
 
 def cdef_of(*headers: str) -> str:
     """cffi declarations of C header texts, in order: their integer #defines, typedefs, structs and
-    prototypes (of inline functions too); include guards, #includes and compile-time checks (typedefs with
-    `?:`) are dropped."""
+    prototypes (of inline functions too); include guards, #includes, the C++ `extern "C"` guard and
+    compile-time checks (typedefs with `?:`) are dropped."""
     out = []
     for text in headers:
         lines = []
-        for line in _prototypes(COMMENT.sub("", text)).splitlines():
+        for line in _prototypes(CPLUSPLUS.sub("", COMMENT.sub("", text))).splitlines():
             if line.startswith("#"):
                 if d := define_of(line):
                     lines.append(f"#define {d[0]} {d[1]}")

@@ -21,6 +21,10 @@
 #include "sea_features.h"
 #include "sea_act_iglhmlcd.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #define TINY_MLP_N_IN 4
 #define TINY_MLP_N_OUT 1
 
@@ -75,5 +79,9 @@ int16_t tiny_mlp_step(tiny_mlp_state_t *s, int32_t enc, int32_t pot);
 /*@ requires \valid_read(f);
     assigns \nothing; */
 int16_t tiny_mlp_step_features(const sea_features_out *f);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* TINY_MLP_H */

@@ -2,9 +2,7 @@
 //
 // cal_mlp_infer on 4 recorded input rows; prints whether each output equals the one
 // seagen's integer reference computed for it (every integer must be equal: the C is bit-for-bit).
-extern "C" {
 #include <cal_mlp.h>
-}
 
 static const int16_t x[4][CAL_MLP_N_IN] = {
     { -10872, 14350, 12444, 10595, -15615, -28247, 26946, 13290, -14395 },

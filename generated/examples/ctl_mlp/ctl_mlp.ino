@@ -2,9 +2,7 @@
 //
 // ctl_mlp_infer on 4 recorded input rows; prints whether each output equals the one
 // seagen's integer reference computed for it (every integer must be equal: the C is bit-for-bit).
-extern "C" {
 #include <ctl_mlp.h>
-}
 
 static const int16_t x[4][CTL_MLP_N_IN] = {
     { -18341, 17406, 8701, 10595, -15615, -28247, 26946 },

@@ -2,9 +2,7 @@
 //
 // ctl_sf_infer on 4 recorded input rows; prints whether each output equals the one
 // seagen's integer reference computed for it (every integer must be equal: the C is bit-for-bit).
-extern "C" {
 #include <ctl_sf.h>
-}
 
 static const int16_t x[4][CTL_SF_N_IN] = {
     { -18341, 13379 },
