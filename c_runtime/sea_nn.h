@@ -94,7 +94,7 @@ static inline int16_t sea_table1(int16_t y, const int16_t *table, int32_t len, i
     if (k > (len - 1)) {
         k = len - 1;
     }
-    return table[k];
+    return SEA_ROM_RD16(&table[k]); /* a SEA_ROM table: program memory on an AVR */
 }
 
 /*@ requires len >= 1 && \valid_read(g + (0 .. len - 1)) && in_shift <= 30;

@@ -71,8 +71,8 @@ int32_t sea_linkage_q16(const sea_act *a, int32_t pot)
     int32_t p = (pot < 0) ? 0 : ((pot > a->pot_max) ? a->pot_max : pot);
     int32_t i = p >> s;
     int32_t f = (int32_t)((uint32_t)p & (((uint32_t)1 << s) - 1u)); /* p - (i << s): 0 <= f < 2^s (p >= 0) */
-    const int32_t lo32 = t[i]; /* read once: the guard below narrows these locals */
-    const int32_t hi32 = t[i + 1];
+    const int32_t lo32 = SEA_ROM_RD32(&t[i]); /* read once: the guard below narrows these locals */
+    const int32_t hi32 = SEA_ROM_RD32(&t[i + 1]); /* (a SEA_ROM table: program memory on an AVR) */
     int32_t r;
     if (SEA_ABS_BELOW(lo32, a->link_i32_bits) && SEA_ABS_BELOW(hi32, a->link_i32_bits)) {
         /* the same integers in int32: |lo (2^s - f) + hi f| < 2^s 2^(30 - s) */

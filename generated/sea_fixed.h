@@ -11,6 +11,27 @@
 
 #include <stdint.h>
 
+/* Constant tables in program memory. SEA_ROM marks a constant table (weights, biases, activation tables, the
+ * actuator's linkage table); SEA_ROM_RD8/16/32/64(p) read the element p points to, one macro per width.
+ * On an AVR (avr-gcc, __AVR__) a const table is otherwise copied into RAM at start-up (an Uno has 2 KB): there
+ * SEA_ROM is avr-libc's PROGMEM and the reads are its pgm_read_*. Everywhere else (host, Cortex-M, Frama-C,
+ * cppcheck) SEA_ROM is empty and a read is a plain dereference: the same C as before. */
+#if defined(__AVR__) && !defined(__FRAMAC__)
+#include <avr/pgmspace.h>
+#define SEA_ROM PROGMEM
+#define SEA_ROM_RD8(p) ((int8_t)pgm_read_byte(p))
+#define SEA_ROM_RD16(p) ((int16_t)pgm_read_word(p))
+#define SEA_ROM_RD32(p) ((int32_t)pgm_read_dword(p))
+#define SEA_ROM_RD64(p) \
+    ((int64_t)(((uint64_t)pgm_read_dword((const uint8_t *)(p) + 4) << 32) | (uint64_t)pgm_read_dword(p)))
+#else
+#define SEA_ROM
+#define SEA_ROM_RD8(p) (*(p))
+#define SEA_ROM_RD16(p) (*(p))
+#define SEA_ROM_RD32(p) (*(p))
+#define SEA_ROM_RD64(p) (*(p))
+#endif
+
 #ifdef __cplusplus
 extern "C" {
 #endif

@@ -11,14 +11,15 @@ void sea_clamp_s16(const int16_t *x, const int16_t *lo, const int16_t *hi, int n
 }
 
 /* The four dense kernels share one body: W (int8/int16) times x (int16) accumulated from the bias in ACC
- * (int32 where the generator proved every partial sum fits, else int64), then shifted and saturated. */
-#define SEA_DENSE_BODY(ACC, SHIFT_FN)                                        \
+ * (int32 where the generator proved every partial sum fits, else int64), then shifted and saturated. W and b
+ * are SEA_ROM tables (program memory on an AVR), read with the SEA_ROM_RD macro of their width (sea_fixed.h). */
+#define SEA_DENSE_BODY(ACC, SHIFT_FN, RD_W, RD_B)                            \
     int i;                                                                   \
     int j;                                                                   \
     for (j = 0; j < n_out; ++j) {                                            \
-        ACC acc = b[j];                                                      \
+        ACC acc = RD_B(&b[j]);                                               \
         for (i = 0; i < n_in; ++i) {                                         \
-            acc += (ACC)((int32_t)w[(j * n_in) + i] * (int32_t)x[i]);        \
+            acc += (ACC)((int32_t)RD_W(&w[(j * n_in) + i]) * (int32_t)x[i]); \
         }                                                                    \
         y[j] = sea_sat16(SHIFT_FN(acc, shift));                              \
     }
@@ -26,25 +27,25 @@ void sea_clamp_s16(const int16_t *x, const int16_t *lo, const int16_t *hi, int n
 void sea_dense_w16_a32(const int16_t *w, const int32_t *b, const int16_t *x, int n_in, int n_out, int shift,
                        int16_t *y)
 {
-    SEA_DENSE_BODY(int32_t, sea_rshift_rne_s32)
+    SEA_DENSE_BODY(int32_t, sea_rshift_rne_s32, SEA_ROM_RD16, SEA_ROM_RD32)
 }
 
 void sea_dense_w16_a64(const int16_t *w, const int64_t *b, const int16_t *x, int n_in, int n_out, int shift,
                        int16_t *y)
 {
-    SEA_DENSE_BODY(int64_t, sea_rshift_rne_s64)
+    SEA_DENSE_BODY(int64_t, sea_rshift_rne_s64, SEA_ROM_RD16, SEA_ROM_RD64)
 }
 
 void sea_dense_w8_a32(const int8_t *w, const int32_t *b, const int16_t *x, int n_in, int n_out, int shift,
                       int16_t *y)
 {
-    SEA_DENSE_BODY(int32_t, sea_rshift_rne_s32)
+    SEA_DENSE_BODY(int32_t, sea_rshift_rne_s32, SEA_ROM_RD8, SEA_ROM_RD32)
 }
 
 void sea_dense_w8_a64(const int8_t *w, const int64_t *b, const int16_t *x, int n_in, int n_out, int shift,
                       int16_t *y)
 {
-    SEA_DENSE_BODY(int64_t, sea_rshift_rne_s64)
+    SEA_DENSE_BODY(int64_t, sea_rshift_rne_s64, SEA_ROM_RD8, SEA_ROM_RD64)
 }
 
 void sea_relu_s16(int16_t *y, int n)
@@ -110,7 +111,7 @@ void sea_prelu_s16(int16_t *y, int n, const int32_t *alpha)
 {
     int i;
     for (i = 0; i < n; ++i) {
-        y[i] = sea_prelu1(y[i], alpha[i]);
+        y[i] = sea_prelu1(y[i], SEA_ROM_RD32(&alpha[i]));
     }
 }
 

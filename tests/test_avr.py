@@ -257,9 +257,8 @@ int main(void)
 """
 
 
-# ctl_mlp's controller is not run: its tables in RAM (avr-gcc keeps const data there) leave the stack ~150 B
-# of the Uno's 2 KB, and its run under simavr does not finish (docs/firmware.md)
-@pytest.mark.parametrize("prefix", ["ctl_sf"])
+# ctl_mlp's controller fits the Uno since the tables are read from program memory (SEA_ROM, sea_fixed.h)
+@pytest.mark.parametrize("prefix", ["ctl_sf", pytest.param("ctl_mlp", marks=pytest.mark.slow)])
 def test_controller_ticks_on_avr_equal_the_twins(prefix, tmp_path):
     """NAME_controller (the --controller export: sea_control, sea_pid, the model as its predictor) on the
     ATmega328P under simavr, fed a recorded sensor walk and desired forces: every tick's command equals the
@@ -283,3 +282,4 @@ def test_controller_ticks_on_avr_equal_the_twins(prefix, tmp_path):
     flash, ram = avr_size(elf)
     cycles = [g[1] for g in got]
     print(f"{prefix}_controller: flash {flash} B, RAM {ram} B, {min(cycles)}-{max(cycles)} cycles per tick")
+    assert ram <= UNO_RAM - 256  # the static RAM leaves the stack at least 256 B of the Uno's 2 KB

@@ -7,6 +7,7 @@ functions (their SDKs cannot be fetched here)."""
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -282,3 +283,7 @@ def test_arduino_example_compiles_for_an_uno(package, tmp_path):
     assert objects == [f"{n}.o" for n in _sources(done)], objects
     ours = [ln for ln in out.splitlines() if "warning" in ln and library_name(PACKAGE) in ln]
     assert not ours, ours
+    # the builder's own count: the tables are in program memory (SEA_ROM), so RAM is Serial's and the sketch's
+    flash, ram = (int(m) for m in re.findall(r"(?:Sketch uses|Global variables use) (\d+) bytes", out))
+    print(f"cal_mlp.ino on an Uno: flash {flash} B, RAM {ram} B")
+    assert ram <= 1024, out[-2000:]

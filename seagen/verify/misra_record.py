@@ -107,11 +107,16 @@ RECORD: tuple[Deviation, ...] = (
         r"return \(int32_t\)\(\(\(uint32_t\)w (& 0xFFFFu|>> 16)\) \^ 0x8000u\) - 0x8000;",
         r"return \(u <= 0x7FFFFFFFu\) \? \(int32_t\)u",
     ),
-    *_d("D3", "10.8", "sea_nn.c", r"^    SEA_DENSE_BODY\(int64_t, sea_rshift_rne_s64\)$"),
+    *_d(
+        "D3",
+        "10.8",
+        "sea_nn.c",
+        r"^    SEA_DENSE_BODY\(int64_t, sea_rshift_rne_s64, SEA_ROM_RD(8|16), SEA_ROM_RD64\)$",
+    ),
     *_d("D3", "10.8", "sea_pid.c", r"const int64_t p = \(\(int64_t\)\(ah \* bh\) \* 4294967296\)"),
     *_d("D3", "10.7", "sea_pid.c", r"const int64_t mid = \(int64_t\)\(ah \* \(int32_t\)bl\)"),
-    # D4 (20.7, required): the dense kernels' shared body macro (its parameters are a type and a function).
-    *_d("D4", "20.7", "sea_nn.c", r"^#define SEA_DENSE_BODY\(ACC, SHIFT_FN\)"),
+    # D4 (20.7, required): the dense kernels' shared body macro (its parameters are a type and functions).
+    *_d("D4", "20.7", "sea_nn.c", r"^#define SEA_DENSE_BODY\(ACC, SHIFT_FN, RD_W, RD_B\)"),
     # D5 (11.5, advisory): the predictor callback's void *ctx back to its state type.
     *_d("D5", "11.5", MODEL_C, r"_step\(\(\w+_state_t \*\)ctx, enc, pot"),
     *_d("D5", "11.5", MODEL_C, r"_step_features\(\(const sea_features_out \*\)ctx, "),
@@ -133,6 +138,8 @@ RECORD: tuple[Deviation, ...] = (
     # D9 (2.5, advisory): documented constants of the runtime API that a given export does not use.
     *_d("D9", "2.5", "sea_features.h", r"^#define SEA_FEAT_(ANGLE_FRAC_BITS|EXTERNAL|BASE) "),
     *_d("D9", "2.5", "sea_fixed.h", r"^#define SEA_(FORCE|COMP)_FRAC_BITS "),
+    # the table read macros (one per width): an export reads the widths of its own tables only
+    *_d("D9", "2.5", "sea_fixed.h", r"^#define SEA_ROM(_RD(8|16|32|64)\(p\) .*)?$"),
     *_d("D9", "2.5", "sea_dsp.h", r"^#define SEA_OPAQUE\(p\) "),
     # the proven domain of NAME_step's raw arguments (docs/prove.md): read by the ACSL contracts and the caller
     *_d("D9", "2.5", r"(?!sea_)\w+\.h", r"^#define [A-Z0-9_]+_(ENC|POT|FORCE|CMD)_(MIN|MAX) "),
@@ -160,7 +167,7 @@ RECORD: tuple[Deviation, ...] = (
     *_d("D12", "12.1", "sea_nn.c", r"k = \(k < 0\) \? 0 : \(\(k > \(len - 1\)\)"),
     *_d("D12", "12.1", "sea_pid.c", r"return \(\(r > half\) \|\| \(\(r == half\)"),
     # D13 (2.2, required): a `1 * n` array length in the portable kernel's last layer.
-    *_d("D13", "2.2", MODEL_C, r"^static const int(8|16)_t \w+_w\d+\[1 \* \d+\] = \{"),
+    *_d("D13", "2.2", MODEL_C, r"^static const int(8|16)_t \w+_w\d+\[1 \* \d+\]( SEA_ROM)? = \{"),
     # D14 (unusedFunction): runtime functions not called by the folder's exports (shipped whole per file).
     *_d("D14", "unusedFunction", "sea_nn.c", r"^(void|int32_t) sea_\w+\("),
     # D3 (10.7/10.8): found once the 10.1 findings of the same lines are recorded.

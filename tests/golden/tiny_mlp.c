@@ -8,26 +8,26 @@ static const int16_t tiny_mlp_in_lo[4] = { 200, -25600, -1638, -1920 };
 static const int16_t tiny_mlp_in_hi[4] = { 22200, 25600, 1638, 17280 };
 
 /* layer 0: 4 -> 3, leaky_relu */
-static const int16_t tiny_mlp_w0[3 * 4] = {
+static const int16_t tiny_mlp_w0[3 * 4] SEA_ROM = {
     8389, 2621, 10240, 6554, -16777, -1311, 5120, 13107, 4194, 3932, -20480, -2621
 };
-static const int32_t tiny_mlp_b0[3] = {
+static const int32_t tiny_mlp_b0[3] SEA_ROM = {
     6710886, -13421773, 20132659
 };
 
 /* layer 1: 3 -> 2, hardtanh */
-static const int16_t tiny_mlp_w1[2 * 3] = {
+static const int16_t tiny_mlp_w1[2 * 3] SEA_ROM = {
     8192, -4096, 16384, 12288, 8192, -8192
 };
-static const int32_t tiny_mlp_b1[2] = {
+static const int32_t tiny_mlp_b1[2] SEA_ROM = {
     0, 6710886
 };
 
 /* layer 2: 2 -> 1, linear */
-static const int16_t tiny_mlp_w2[1 * 2] = {
+static const int16_t tiny_mlp_w2[1 * 2] SEA_ROM = {
     16384, -12288
 };
-static const int32_t tiny_mlp_b2[1] = {
+static const int32_t tiny_mlp_b2[1] SEA_ROM = {
     33554432
 };
 
