@@ -34,7 +34,7 @@ MODELS = {
     "cal_mlp": "mlp_calibration",
     "ctl_mlp": "mlp_control",
 }
-FAST = ("cal_sf",)  # ~1 s; the others in the slow suite (ctl_sf's controller test runs in make test)
+FAST = ("cal_sf",)  # ~1 s; the others in the slow suite (both controller tests run in make test)
 
 
 def harness(prefix: str, n_in: int, n_out: int, rows: np.ndarray) -> str:
@@ -258,7 +258,7 @@ int main(void)
 
 
 # ctl_mlp's controller fits the Uno since the tables are read from program memory (SEA_ROM, sea_fixed.h)
-@pytest.mark.parametrize("prefix", ["ctl_sf", pytest.param("ctl_mlp", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("prefix", ["ctl_sf", "ctl_mlp"])
 def test_controller_ticks_on_avr_equal_the_twins(prefix, tmp_path):
     """NAME_controller (the --controller export: sea_control, sea_pid, the model as its predictor) on the
     ATmega328P under simavr, fed a recorded sensor walk and desired forces: every tick's command equals the
@@ -283,3 +283,47 @@ def test_controller_ticks_on_avr_equal_the_twins(prefix, tmp_path):
     cycles = [g[1] for g in got]
     print(f"{prefix}_controller: flash {flash} B, RAM {ram} B, {min(cycles)}-{max(cycles)} cycles per tick")
     assert ram <= UNO_RAM - 256  # the static RAM leaves the stack at least 256 B of the Uno's 2 KB
+
+
+def _table_mlp(weight_bits: int):
+    """A small MLP with each table kind the AVR reads from program memory: int8 or int16 weights, int32
+    biases, a tanh table, a GELU table (2,049 int16 entries each: 8 KB that an Uno's RAM could not hold) and
+    PReLU slopes. (int64 biases: cal_mlp's last layer, test_portable_c_on_avr_equals_the_reference.)"""
+    from seagen.ir import FloatLayer, FloatMLP, Signal
+    from seagen.quant.mlp import quantize_mlp
+
+    rng = np.random.default_rng(11)
+    inputs = tuple(Signal(f"x{i}", "1", -100.0 * (i + 1), 80.0 * (i + 1)) for i in range(3))
+    layers = (
+        FloatLayer(rng.normal(0, 0.02, (6, 3)), rng.normal(0, 0.5, 6), "tanh"),
+        FloatLayer(rng.normal(0, 1.0, (5, 6)), rng.normal(0, 0.5, 5), "gelu"),
+        FloatLayer(
+            rng.normal(0, 1.0, (16, 5)), rng.normal(0, 0.5, 16), "prelu", params=tuple(rng.uniform(-1, 1, 16))
+        ),
+        FloatLayer(rng.normal(0, 10.0, (1, 16)), rng.normal(0, 5.0, 1)),
+    )
+    return quantize_mlp(FloatMLP(inputs, Signal("y", "1", -1e6, 1e6), layers), weight_bits)
+
+
+@pytest.mark.parametrize("weight_bits", [8, 16])
+def test_every_table_kind_from_program_memory(weight_bits, tmp_path):
+    """The portable kernels' reads of SEA_ROM tables on the AVR (pgm_read_byte/word/dword): an MLP with each
+    table kind equals numpy_ref bit for bit under simavr, and its static RAM is the harness's alone."""
+    from seagen.codegen.render import RUNTIME, render
+    from seagen.codegen.runtime import runtime_sources
+
+    qm = _table_mlp(weight_bits)
+    files = {**render(qm, "tbl", "portable"), **runtime_sources(*RUNTIME)}
+    text = files["tbl.c"]
+    assert "sea_table_s16" in text and "sea_smooth_s16" in text and "sea_prelu_s16" in text
+    assert f"static const int{weight_bits}_t tbl_w0" in text
+    assert text.count("] SEA_ROM = {") == text.count("static const int") - 2  # all but in_lo / in_hi
+    rows = _rows(qm)
+    elf = _build(tmp_path, files, harness("tbl", len(qm.inputs), 1, rows))
+    got = run_simavr(elf)
+    assert len(got) == len(rows), got[:3]
+    outs = np.array([g[:1] for g in got], dtype=np.int64)
+    np.testing.assert_array_equal(outs, numpy_ref.infer(qm, rows).reshape(len(rows), -1))
+    flash, ram = avr_size(elf)
+    print(f"tbl (int{weight_bits} weights, tanh, GELU, PReLU): flash {flash} B, RAM {ram} B")
+    assert ram < 64  # the tables (over 8 KB) stay in flash
