@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from seagen.discrepancy.bench import measure
-from seagen.discrepancy.candidates import SPACE
+from seagen.discrepancy.candidates import BOXES, SPACE
 from seagen.discrepancy.replay import NEUTRAL, POST_HOC, simulate
 from seagen.discrepancy.terms import CLASSES, LIBRARY, TERM_SPACE
 from seagen.discrepancy.workflow import identify
@@ -32,7 +32,7 @@ def test_every_term_has_a_class_a_box_a_neutral_value_and_is_no_catalogue_name()
     for t in TERMS:
         params = {f for f in vars(cfg.effect(t)) if f != "enabled"}
         assert set(TERM_SPACE[t]) == params == set(NEUTRAL[t]), t
-        assert not cfg.on(t) and SPACE[t] == TERM_SPACE[t]
+        assert not cfg.on(t) and BOXES[t] == TERM_SPACE[t] and t not in SPACE
 
 
 def test_a_term_goes_into_plant_toml_and_back() -> None:

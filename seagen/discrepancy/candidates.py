@@ -34,8 +34,10 @@ SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
     },
     "load_cell_offset": {"offset_n": (-4.0, 4.0, False)},
     "transport_delay": {"delay_s": (0.001, 0.12, True)},
-    **TERM_SPACE,  # the term library's (searched only when the catalogue runs out: discover.py)
 }
+# Every box a candidate may use: the catalogue's and the term library's (searched only when the catalogue
+# runs out: discover.py).
+BOXES = {**SPACE, **TERM_SPACE}
 # Boxes of parameters in pot counts are shares of the pot ADC's full scale (counts_range): in counts they
 # follow the description's pot.adc_bits (5 to 600 counts per unit current on the paper's 12-bit ADC).
 # Candidate.full_scale carries the counts.
@@ -56,7 +58,7 @@ def full_scale(cfg: PlantConfig | None = None) -> float:
 
 def box(effect: str, param: str, scale: float) -> tuple[float, float, bool]:
     """(low, high, log-scaled) of a parameter's box in the plant's units, for a pot of `scale` counts."""
-    lo, hi, log = SPACE[effect][param]
+    lo, hi, log = BOXES[effect][param]
     return (*counts_range(effect, param, (lo, hi), scale), log)
 
 
@@ -74,7 +76,7 @@ class Candidate:
     @property
     def keys(self) -> list[tuple[str, str]]:
         """(effect, parameter) per coordinate."""
-        return [(e, p) for e in self.names for p in SPACE[e] if (e, p) not in self.held]
+        return [(e, p) for e in self.names for p in BOXES[e] if (e, p) not in self.held]
 
     def params(self, u: np.ndarray | None = None) -> ParamSet:
         """Parameter set at unit point u (default: the best one)."""
@@ -134,13 +136,13 @@ def at(
 def from_params(params: ParamSet, cfg: PlantConfig | None = None) -> Candidate:
     """A candidate at a fitted parameter set on the plant `cfg`; a parameter absent from it is held
     (CONFOUNDED)."""
-    held = frozenset((e, p) for e in params for p in SPACE[e] if p not in params[e])
+    held = frozenset((e, p) for e in params for p in BOXES[e] if p not in params[e])
     return at(tuple(params), params, held, cfg=cfg)
 
 
 def values(cfg: PlantConfig, effect: str) -> dict[str, float]:
     """cfg's values of an effect's fitted parameters."""
-    return {p: float(getattr(cfg.effect(effect), p)) for p in SPACE[effect]}
+    return {p: float(getattr(cfg.effect(effect), p)) for p in BOXES[effect]}
 
 
 def joint_recalibration(cfg: PlantConfig) -> Candidate | None:
@@ -158,7 +160,7 @@ def joint_recalibration(cfg: PlantConfig) -> Candidate | None:
 def start(cfg: PlantConfig, effect: str) -> Candidate:
     """A single-effect candidate: at cfg's values when the effect is on (recalibration), else mid-box."""
     if not cfg.on(effect):
-        return Candidate((effect,), np.full(len(SPACE[effect]), 0.5), full_scale=full_scale(cfg))
+        return Candidate((effect,), np.full(len(BOXES[effect]), 0.5), full_scale=full_scale(cfg))
     return at((effect,), {effect: values(cfg, effect)}, held_in(cfg, (effect,)), cfg=cfg)
 
 
