@@ -14,6 +14,7 @@ import sys
 import tarfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -287,3 +288,72 @@ def test_arduino_example_compiles_for_an_uno(package, tmp_path):
     flash, ram = (int(m) for m in re.findall(r"(?:Sketch uses|Global variables use) (\d+) bytes", out))
     print(f"cal_mlp.ino on an Uno: flash {flash} B, RAM {ram} B")
     assert ram <= 1024, out[-2000:]
+
+
+def test_headers_from_cpp(package, tmp_path):
+    """A C++ caller includes every header of the package directly (no extern "C" of its own: the headers
+    carry the guard), g++ compiles it warning-free and links it with the package's C built by gcc; its
+    cal_mlp_infer outputs equal seagen's integer reference and the controller links and ticks."""
+    from seagen.reference import numpy_ref
+    from seagen.toolchain.equivalence import edge_inputs
+
+    fw, done = package
+    qm = done["cal_mlp"].qmodel
+    rows = edge_inputs(len(qm.inputs)).astype(np.int64)
+    heads = "".join(f'#include "{h.name}"\n' for h in sorted(fw.glob("*.h")))
+    table = ",\n".join("{" + ", ".join(str(int(v)) for v in row) + "}" for row in rows)
+    main = f"""{heads}#include <cstdio>
+static const int16_t rows[{len(rows)}][CAL_MLP_N_IN] = {{
+{table}
+}};
+int main()
+{{
+    static ctl_mlp_controller_t ctl;
+    for (unsigned i = 0; i < {len(rows)}u; i++) {{
+        int16_t y[CAL_MLP_N_OUT];
+        cal_mlp_infer(rows[i], y);
+        std::printf("%d\\n", static_cast<int>(y[0]));
+    }}
+    ctl_mlp_controller_init(&ctl, 0, 2048);
+    std::printf("%ld\\n", static_cast<long>(ctl_mlp_controller_tick(&ctl, 0, 2048, 0)));
+    return 0;
+}}
+"""
+    (tmp_path / "main.cpp").write_text(main)
+    objs = []
+    for name in _sources(done):
+        obj = tmp_path / f"{name}.o"
+        cmd = [
+            "gcc",
+            "-std=c99",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-I",
+            str(fw),
+            "-c",
+            str(fw / name),
+            "-o",
+            str(obj),
+        ]
+        subprocess.run(cmd, check=True, capture_output=True, text=True)
+        objs.append(str(obj))
+    exe = tmp_path / "app"
+    cmd = [
+        "g++",
+        "-std=c++11",
+        "-Wall",
+        "-Wextra",
+        "-Wpedantic",
+        "-Werror",
+        "-I",
+        str(fw),
+        str(tmp_path / "main.cpp"),
+    ]
+    res = subprocess.run([*cmd, *objs, "-o", str(exe)], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr[-3000:]
+    out = [
+        int(v) for v in subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split()
+    ]
+    assert len(out) == len(rows) + 1
+    np.testing.assert_array_equal(np.array(out[:-1]), numpy_ref.infer(qm, rows).reshape(-1))
