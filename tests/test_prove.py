@@ -144,10 +144,11 @@ def test_verify_prove_cli_writes_one_case_per_function(tmp_path):
     assert proven[3:] == ["m_controller_tick on a shared pipeline"], names  # NAME_controller_init_shared
 
 
-# Eva's interval domain cannot carry the range of an int16 half inside a packed 32-bit word (the M4 int16
-# kernel's SMLAD operands): the low half's sign is lost ([-32768, 32767] where it is [0, 21927]), so the last
-# layer's SMLAD sum is not proven (docs/prove.md, "Not proven"). Strict: a fix makes these pass and fail here.
-M4_PACKED = pytest.mark.xfail(strict=True, reason="M4 int16 MLP: packed SMLAD operands (docs/prove.md)")
+# The M4 int16 kernel's first layer packs the clamped *signed* inputs two to a word (SSUB16/SEL clamp, then
+# SMLAD): Eva's domains (intervals, and the bitwise domain that follows the ReLU layers' nonneg halves) cannot
+# carry a signed half's range inside a word, so layer 0's SMLAD sums of mlp_calibration (inputs spanning 0)
+# are not proven (docs/prove.md, "Not proven"). Strict: a fix makes these pass and fail here.
+M4_PACKED = pytest.mark.xfail(strict=True, reason="M4 int16 MLP: signed packed layer-0 inputs, docs/prove.md")
 
 
 def matrix():
@@ -157,7 +158,7 @@ def matrix():
             for model in ("sf_calibration", "mlp_calibration", "sf_control", "mlp_control"):
                 ctl = model.endswith("control")
                 marks = [pytest.mark.slow]
-                if target == "cortex-m4" and weights == "int16" and model.startswith("mlp"):
+                if target == "cortex-m4" and weights == "int16" and model == "mlp_calibration":
                     marks.append(M4_PACKED)
                 yield pytest.param(model, target, weights, ctl, marks=marks, id=f"{target}-{weights}-{model}")
 
