@@ -39,6 +39,14 @@ ALLOWED: dict[tuple[str, float], str] = {
     ("seagen/pil/fw/pil_common.c", 28): "interrupt vector 28 in the PIL firmware's vector table",
     ("seagen/data/protocol.py", 4.2): "the validation move's push volts on the paper's motor (scaled like "
     "every move on another design), not spring.stiffness_n_per_mm",
+    (
+        "seagen/frontends/margin.py",
+        4096,
+    ): "the number of box points a float16 original's rounding is measured on, not 2^pot.adc_bits",
+    (
+        "seagen/plant/kernel.py",
+        28,
+    ): "a row index of the compiled kernel's parameter table, not linkage.angle_max_deg",
     ("seagen/discrepancy/signature.py", 0.025): "the signature's 'under load' band as a share of the force "
     "range (the paper's 0.5 N of 20 N), not control.margin_mm",
 }

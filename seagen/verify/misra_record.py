@@ -97,6 +97,9 @@ RECORD: tuple[Deviation, ...] = (
         r"^ +const uint32_t base = 32768u \* \(uint32_t\)\(",
         r"^ +\*o \+= \(uint32_t\)\(\w+_w\d+\[j( \+ 1)?\] \* y[ab]\);$",
         r"^ +\*o \+= \(uint32_t\)\(\w+_w\d+\[\d+\] \* ya\);$",
+        # the M4 kernel's pack of two non-negative int16 halves (ReLU outputs) into one SMLAD word, written
+        # as an OR for Frama-C's bitwise domain: the same word as sea_pack_nonneg16x2
+        r"^ +h\d+\[[^\]]+\] = \(int32_t\)\(\(\(uint32_t\)sea_\w+\(.*\) << 16\) \| \(uint32_t\)sea_\w+\(",
     ),
     *_d(
         "D3",
