@@ -17,19 +17,9 @@ from seagen.plant.config import CATALOGUE, TERMS
 from seagen.plant.sim import RIGID_PER_SPRING, cell_distort, learned_correction
 
 CHANNELS = ("enc", "pot", "load_cell_n", "force_n")
-# Sensor-side effects: they do not change the motion, so the replay loop applies them per element.
-POST_HOC = (
-    "pot_voltage_drop",
-    "transport_delay",
-    "load_cell_offset",
-    "cell_drift",
-    "cell_lag",
-    "cell_quantisation",
-    "cell_saturation",
-    "pot_lag",
-    "pot_hysteresis",
-    "pot_quantisation",
-)
+# Sensor-side effects: they do not change the motion, so the replay loop applies them per element (the
+# kernel's list but the pot noise and the learned remainder, which the replay switches off: union_config).
+POST_HOC = tuple(e for e in kernel.SENSOR_SIDE if e not in ("pot_noise", "learned_residual"))
 # Parameter values that make an enabled effect do nothing (exactly: same numbers as the effect off); the
 # series compliance's stiffness is the plant's rigid structure, relative to the actuator's spring (`neutral`).
 NEUTRAL: dict[str, dict[str, float]] = {
