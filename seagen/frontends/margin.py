@@ -11,6 +11,8 @@ import numpy as np
 
 from seagen.errors import UserError
 from seagen.ir import FloatLayer
+from seagen.quant.activation import ADDED
+from seagen.runtime import activations as A
 
 UNIT_ROUNDOFF = {"float64": 2.0**-53, "float32": 2.0**-24, "float16": 2.0**-11, "bfloat16": 2.0**-8}
 U32 = UNIT_ROUNDOFF["float32"]
@@ -29,7 +31,8 @@ def forward_margin(layers: list[FloatLayer], xmax: np.ndarray, dtype: str, where
     """Bound on |forward in `dtype` - exact| for inputs with |x| <= xmax (the network's own inputs).
 
     Per layer (Higham): |fl(Wx + b) - (Wx + b)| <= gamma_{n+1} (|W| |x| + |b|), gamma_k = k u / (1 - k u);
-    errors already made propagate through |W| (activations are 1-Lipschitz); the input cast adds u |x|.
+    errors already made propagate through |W| and each activation's Lipschitz constant (_act_lip_mag); the
+    input cast adds u |x|.
     u is the unit roundoff of `dtype` (float16, bfloat16, float32, float64). The result is multiplied by
     SAFETY.
     """
@@ -46,9 +49,29 @@ def forward_margin(layers: list[FloatLayer], xmax: np.ndarray, dtype: str, where
         gamma = n * u / (1 - n * u)
         w = np.abs(lay.weight)
         z = w @ mag + np.abs(lay.bias)
-        err = w @ err + gamma * z + u * z  # + one rounding of the activation's result
-        mag = _act_mag(lay, z)
+        lip, out = _act_lip_mag(lay, z)
+        # the error passes the activation through its Lipschitz constant; + one rounding of its result
+        err = lip * (w @ err + gamma * z) + u * (np.maximum(z, out) if lay.activation in ADDED else z)
+        mag = out
     return SAFETY * float(np.max(err))
+
+
+def _act_lip_mag(lay: FloatLayer, z: np.ndarray) -> tuple[float | np.ndarray, np.ndarray]:
+    """(Lipschitz constant, largest |output|) of the layer's activation given |pre-activation| <= z: 1 and
+    _act_mag for the piecewise-linear and saturating ones; the smooth ones (SELU's slope 1.05 and its
+    1.76 below zero, Softplus's log 2 at zero) their measured sup |f'| and s z + sup |g|."""
+    act, p = lay.activation, tuple(lay.params)
+    if act in A.SMOOTH:
+        shape = A.shape_of(act, p)
+        return shape.lip_f, A.slope(act, p) * z + shape.gmax
+    if act == "hardsigmoid":
+        return abs(p[0]), np.ones_like(z)
+    if act == "hardswish":  # |d/dx x h(x)| <= 1.5 (seagen.quant.activation.act_error), |x h(x)| <= |x|
+        return 1.5, z
+    if act == "prelu":
+        lip = np.maximum(1.0, np.abs(np.broadcast_to(np.asarray(p, dtype=float), z.shape)))
+        return lip, lip * z
+    return 1.0, _act_mag(lay, z)
 
 
 def _act_mag(lay: FloatLayer, z: np.ndarray) -> np.ndarray:
