@@ -166,9 +166,56 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                 plant_cfg,
             )
     print(json.dumps(table, indent=2) if args.json else format_table2(table, rows, paper_figures=paper))
-    for note in limit_notes(table, act):
+    sf = {n for n in names if n.startswith("sf_")} | (set(mine) if args.model and _is_sf(args) else set())
+    for note in limit_notes(table, act) + offset_notes(table, act, sf):
         print(note, file=sys.stderr)
     return 0
+
+
+def _is_sf(args: argparse.Namespace) -> bool:
+    """Whether --model is a surface fit (a seagen model file of kind sf)."""
+    from seagen.modelfile import load_model
+
+    try:
+        return load_model(args.model, args.allow_pickle).get("kind") == "sf"
+    except UserError:  # a bare network or ONNX graph: not a seagen SF
+        return False
+
+
+def offset_notes(table: dict[str, dict[str, dict]], act: Actuator, sf: set[str]) -> list[str]:
+    """One line per configuration whose unsettled runs reach a steady level off the target band, not held at
+    the command limit: the predictor is off there, not the loop; for a surface fit (`sf`: the configuration
+    names running one), why a static map of force and angle misses on this design's friction loop."""
+    from seagen.control.experiment import BAND_N
+
+    k, fric = act.stiffness_n_per_mm, act.friction_n
+    out = []
+    for name, rows in table.items():
+        off = [
+            (t, r["error_avg_n"])
+            for t, r in rows.items()
+            if r["settled"] < r["angles"]
+            and r["settling_final_s"] is not None
+            and r["error_avg_n"] > BAND_N
+            and r["at_limit"] < LIMIT_NOTE_SHARE
+        ]
+        if not off:
+            continue
+        where = ", ".join(f"{t} N ({e:.2g} N off)" for t, e in off)
+        line = (
+            f"seagen simulate: note: {name}'s runs reach a steady force outside the +-{BAND_N:g} N band at "
+            f"{where}: its predicted compression is off there, not the loop (the band is {BAND_N / k:.2g} mm "
+            f"of compression on the {k:g} N/mm spring)"
+        )
+        if name in sf:
+            line += (
+                f"; a surface fit is a static map of force and angle, and this design's friction loop spans "
+                f"{2 * fric / k:.2g} mm of compression (2 x transmission.friction_n {fric:g} N / spring): "
+                "a model whose inputs carry the motion (`seagen train --model mlp --task control`) can "
+                "follow it"
+            )
+        out.append(line)
+    return out
 
 
 LIMIT_NOTE_SHARE = 0.5  # runs that never settle and sit at the command limit this share of the time
