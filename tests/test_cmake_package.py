@@ -261,7 +261,7 @@ def test_ctest_runs_each_model_on_recorded_vectors_against_the_twins(exports, tm
 
 
 @needs_cmake
-@pytest.mark.slow  # ~4 s a board (the CMake cross build and the QEMU run)
+# ~4 s a board (the CMake cross build and the QEMU run): in make test, as issue 37 asks
 @pytest.mark.parametrize("core", ["cortex-m0plus", "cortex-m4"])
 def test_cmake_built_firmware_closes_the_pil_loop_bit_for_bit(core, tmp_path):
     """The processor-in-the-loop firmware built by CMake from an export folder (add_subdirectory, seagen::sea,
