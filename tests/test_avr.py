@@ -37,6 +37,36 @@ MODELS = {
 FAST = ("cal_sf",)  # ~1 s; the others in the slow suite (both controller tests run in make test)
 
 
+# The harnesses' Timer1 overflow count and their decimal print over UART0 (one definition for both).
+UART = """ISR(TIMER1_OVF_vect) { overflows++; }
+
+static void put(char c)
+{
+    while ((UCSR0A & (1u << UDRE0)) == 0u) {
+    }
+    UDR0 = (uint8_t)c;
+}
+
+static void put_int(int32_t v)
+{
+    char buf[12];
+    uint8_t n = 0u;
+    uint32_t u = (v < 0) ? (uint32_t)0 - (uint32_t)v : (uint32_t)v;
+    if (v < 0) {
+        put('-');
+    }
+    do {
+        buf[n++] = (char)('0' + (char)(u % 10u));
+        u /= 10u;
+    } while (u != 0u);
+    while (n > 0u) {
+        put(buf[--n]);
+    }
+    put(' ');
+}
+"""
+
+
 def harness(prefix: str, n_in: int, n_out: int, rows: np.ndarray) -> str:
     """main.c: NAME_infer on each row (kept in program memory), its outputs and the cycles it took (Timer1
     at the CPU clock, overflows counted; the call and the timer's reads included) printed over the UART, one
@@ -54,33 +84,7 @@ static const int16_t rows[{len(rows)}][{n_in}] PROGMEM = {{
 }};
 static volatile uint16_t overflows;
 
-ISR(TIMER1_OVF_vect) {{ overflows++; }}
-
-static void put(char c)
-{{
-    while ((UCSR0A & (1u << UDRE0)) == 0u) {{
-    }}
-    UDR0 = (uint8_t)c;
-}}
-
-static void put_int(int32_t v)
-{{
-    char buf[12];
-    uint8_t n = 0u;
-    uint32_t u = (v < 0) ? (uint32_t)0 - (uint32_t)v : (uint32_t)v;
-    if (v < 0) {{
-        put('-');
-    }}
-    do {{
-        buf[n++] = (char)('0' + (char)(u % 10u));
-        u /= 10u;
-    }} while (u != 0u);
-    while (n > 0u) {{
-        put(buf[--n]);
-    }}
-    put(' ');
-}}
-
+{UART}
 int main(void)
 {{
     uint16_t i;
@@ -194,33 +198,7 @@ static const int32_t samples[{len(enc)}][3] PROGMEM = {{
 static volatile uint16_t overflows;
 static {prefix}_controller_t ctl;
 
-ISR(TIMER1_OVF_vect) {{ overflows++; }}
-
-static void put(char c)
-{{
-    while ((UCSR0A & (1u << UDRE0)) == 0u) {{
-    }}
-    UDR0 = (uint8_t)c;
-}}
-
-static void put_int(int32_t v)
-{{
-    char buf[12];
-    uint8_t n = 0u;
-    uint32_t u = (v < 0) ? (uint32_t)0 - (uint32_t)v : (uint32_t)v;
-    if (v < 0) {{
-        put('-');
-    }}
-    do {{
-        buf[n++] = (char)('0' + (char)(u % 10u));
-        u /= 10u;
-    }} while (u != 0u);
-    while (n > 0u) {{
-        put(buf[--n]);
-    }}
-    put(' ');
-}}
-
+{UART}
 static int32_t sample(uint16_t i, uint8_t j)
 {{
     return (int32_t)pgm_read_dword(&samples[i][j]);
