@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 import tomllib
 from pathlib import Path
 
@@ -234,11 +235,8 @@ def test_bench_cli_measures_another_designs_tick(design_export):
 
     if msg := toolchain_missing():
         pytest.skip(msg)
-    fw = design_export / "sf_only"
-    fw.mkdir()
-    for p in (design_export / "fw").iterdir():
-        if not p.name.startswith("ctl_mlp"):
-            (fw / p.name).write_bytes(p.read_bytes())
+    fw = design_export / "sf_only"  # the package without the MLP export (its sub-folders too)
+    shutil.copytree(design_export / "fw", fw, ignore=shutil.ignore_patterns("ctl_mlp*"))
     args = ("bench", str(fw), "--target", "cortex-m0plus", "--json", "--actuator")
     code, out, _ = run_cli(*args, str(design_export / "design.toml"))
     rows = json.loads(out)
