@@ -66,7 +66,7 @@ def test_generate_refuses_data_short_of_the_force_range(slow_splits, tmp_path, m
     out = tmp_path / "data"
     err = _exit_2(capsys, "data", "generate", "--actuator", str(SLOW), "--out", str(out))
     assert str(out) in err and "nothing written" in err
-    assert "peak force train" in err and "(need 15 N, 75%)" in err and "validation" in err
+    assert "peak force train" in err and "(need 15 N, 75%)" in err and "(need 10 N, 50%)" in err
     assert "of control.force_max_n 20 N" in err and "rows in contact (force > 0.3 N)" in err
     assert "0.42 mm/s" in err
     assert not out.exists()

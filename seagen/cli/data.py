@@ -164,7 +164,7 @@ def _write_splits(out: Path, splits: dict, extra: dict[str, str] | None = None, 
 def cmd_import(args: argparse.Namespace) -> int:
     """Convert a rig's log with a column map; nothing is written unless every row converts."""
     from seagen.actuator import default_actuator, to_toml
-    from seagen.data.coverage import LOGGED_HELD_OUT_REACH, check_coverage
+    from seagen.data.coverage import check_coverage
     from seagen.data.logimport import (
         LOGGED,
         TIMING_FILE,
@@ -188,7 +188,6 @@ def cmd_import(args: argparse.Namespace) -> int:
         args.log,
         "the log's trials do not load the spring that far: log trials that do, or lower control.force_max_n "
         "in the description (--actuator)",
-        held_out=LOGGED_HELD_OUT_REACH,
     )
     info = {
         TIMING_FILE: timing_text(timing(df, mapping)),

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from seagen.actuator import is_default
-from seagen.data.coverage import coverage, held_out, shortfalls
+from seagen.data.coverage import coverage, shortfalls
 from seagen.data.features import derive
 from seagen.data.friction import ONSET_BAND_N, friction_from_trial
 from seagen.data.schema import SPLITS, DataError, data_actuator, load_split
@@ -41,7 +41,7 @@ def summarize(data_dir: str | os.PathLike[str]) -> dict[str, Any]:
         "force_max_n": act.control.force_max_n,
         "peak_force_n": {s: c.peak_n for s, c in cov.items()},
         "contact_share": {s: round(c.contact, 4) for s, c in cov.items()},
-        "missing": shortfalls(cov, act, held_out(d)),
+        "missing": shortfalls(cov, act),
         "kinematics_split": split,
         "kinematics_rows": above,
         "kinematics_error_avg_pct": errs.get("error_avg_pct"),
