@@ -107,7 +107,7 @@ def _pipeline(d: dict, tmp: Path, run_cli) -> dict:
     d["control"].update(tomllib.loads(json.loads(out)["control"]))
     f.write_text(tomli_w.dumps(d))
     code, _, err = run_cli("data", "generate", "--actuator", str(f), "--out", str(tmp / "data"))
-    assert code == 0, err  # the coverage check passed: 75 % of the range in train, 50 % in the held-out splits
+    assert code == 0, err  # the coverage check passed: 75 % of the range in train, 50 % held out
     for task in ("calibration", "control"):
         args = [
             "--data",
