@@ -11,7 +11,7 @@ import numpy as np
 
 from seagen.errors import UserError
 from seagen.ir import FloatLayer
-from seagen.quant.activation import ADDED
+from seagen.quant.activation import ADDED, lipschitz
 from seagen.runtime import activations as A
 
 UNIT_ROUNDOFF = {"float64": 2.0**-53, "float32": 2.0**-24, "float16": 2.0**-11, "bfloat16": 2.0**-8}
@@ -61,17 +61,14 @@ def _act_lip_mag(lay: FloatLayer, z: np.ndarray) -> tuple[float | np.ndarray, np
     _act_mag for the piecewise-linear and saturating ones; the smooth ones (SELU's slope 1.05 and its
     1.76 below zero, Softplus's log 2 at zero) their measured sup |f'| and s z + sup |g|."""
     act, p = lay.activation, tuple(lay.params)
+    if act not in ADDED:
+        return 1.0, _act_mag(lay, z)
+    lip = lipschitz(lay, z.shape)
     if act in A.SMOOTH:
-        shape = A.shape_of(act, p)
-        return shape.lip_f, A.slope(act, p) * z + shape.gmax
+        return lip, A.slope(act, p) * z + A.shape_of(act, p).gmax
     if act == "hardsigmoid":
-        return abs(p[0]), np.ones_like(z)
-    if act == "hardswish":  # |d/dx x h(x)| <= 1.5 (seagen.quant.activation.act_error), |x h(x)| <= |x|
-        return 1.5, z
-    if act == "prelu":
-        lip = np.maximum(1.0, np.abs(np.broadcast_to(np.asarray(p, dtype=float), z.shape)))
-        return lip, lip * z
-    return 1.0, _act_mag(lay, z)
+        return lip, np.ones_like(z)
+    return lip, (z if act == "hardswish" else lip * z)  # |x h(x)| <= |x|; PReLU: max(1, |a|) |x|
 
 
 def _act_mag(lay: FloatLayer, z: np.ndarray) -> np.ndarray:

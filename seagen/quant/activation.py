@@ -78,6 +78,19 @@ def apply(q: QLayer, table: QTable | None, y: np.ndarray) -> np.ndarray:
     return A.prelu_s16(y, np.array(q.act_params, dtype=np.int64)[None, :])
 
 
+def lipschitz(layer: FloatLayer, shape: tuple[int, ...]) -> float | np.ndarray:
+    """sup |f'| of the layer's added activation (per neuron for PReLU, broadcast to `shape`): the factor a
+    pre-activation error passes through (the integer bound's and the float margin's)."""
+    act, p = layer.activation, params_of(layer)
+    if act in A.SMOOTH:
+        return A.shape_of(act, p).lip_f
+    if act == "hardsigmoid":
+        return abs(p[0])
+    if act == "hardswish":  # |d/dx x h(x)| <= 2 alpha 3 + beta = 1.5 on [-3, 3], 1 beyond
+        return 1.5
+    return np.maximum(1.0, np.abs(np.broadcast_to(np.asarray(p, dtype=float), shape)))
+
+
 def act_error(
     layer: FloatLayer, q: QLayer, table: QTable | None, ez: np.ndarray, zmax: np.ndarray
 ) -> np.ndarray:
@@ -87,13 +100,14 @@ def act_error(
     act, p = layer.activation, params_of(layer)
     f = q.pre_frac
     xmax = float(min(np.max(zmax + ez) + 2.0**-f, 2.0 ** (15 - f)))
+    lip = lipschitz(layer, ez.shape)
     if act in A.SMOOTH:
         assert table is not None
-        return A.shape_of(act, p).lip_f * ez + A.smooth_error(act, p, table, xmax)
+        return lip * ez + A.smooth_error(act, p, table, xmax)
     if act == "hardsigmoid":
-        return abs(p[0]) * ez + A.hsig_error(p[0], p[1], q.act_params[0], q.act_params[1], f, xmax)
-    if act == "hardswish":  # |d/dx x h(x)| <= 2 alpha 3 + beta = 1.5 on [-3, 3], 1 beyond
-        return 1.5 * ez + A.hswish_error(q.act_params[0], q.act_params[1], f, xmax)
+        return lip * ez + A.hsig_error(p[0], p[1], q.act_params[0], q.act_params[1], f, xmax)
+    if act == "hardswish":
+        return lip * ez + A.hswish_error(q.act_params[0], q.act_params[1], f, xmax)
     slopes = np.broadcast_to(np.asarray(p, dtype=float), ez.shape)
     a_q = np.array(q.act_params, dtype=float) / 2**A.PRELU_FRAC
-    return np.maximum(1.0, np.abs(slopes)) * ez + np.abs(slopes - a_q) * zmax + 2.0 ** -(f + 1)
+    return lip * ez + np.abs(slopes - a_q) * zmax + 2.0 ** -(f + 1)
