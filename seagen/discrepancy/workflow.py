@@ -143,9 +143,10 @@ def split_trials(runs: Runs, per_split: int = PER_SPLIT) -> tuple[np.ndarray, np
     two sides' top forces differ (split_balance below BALANCE), alternate in order of peak force instead."""
     if len(runs.angle) < 2:
         raise UserError("need at least two measured trials (one to fit, one to hold out)")
+    peaks = trial_peaks(runs)
     fit, held = _alternate(runs, per_split, None)
-    if split_balance(runs, fit, held) < BALANCE:
-        fit, held = _alternate(runs, per_split, trial_peaks(runs))
+    if split_balance(runs, fit, held, peaks) < BALANCE:
+        fit, held = _alternate(runs, per_split, peaks)
     return fit, held
 
 
@@ -158,9 +159,10 @@ def trial_peaks(runs: Runs) -> np.ndarray:
     return np.nan_to_num(np.nanmax(np.maximum(f, 0.0), axis=1), nan=0.0)
 
 
-def split_balance(runs: Runs, fit: np.ndarray, held: np.ndarray) -> float:
-    """The lower of the two sides' top peak forces over the higher (1: they reach the same force)."""
-    peaks = trial_peaks(runs)
+def split_balance(runs: Runs, fit: np.ndarray, held: np.ndarray, peaks: np.ndarray | None = None) -> float:
+    """The lower of the two sides' top peak forces over the higher (1: they reach the same force); `peaks`:
+    trial_peaks(runs) when already known."""
+    peaks = trial_peaks(runs) if peaks is None else peaks
     top = sorted(float(peaks[i].max()) if i.size else 0.0 for i in (fit, held))
     return top[0] / top[1] if top[1] > 0 else 1.0
 
