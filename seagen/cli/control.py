@@ -166,20 +166,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                 plant_cfg,
             )
     print(json.dumps(table, indent=2) if args.json else format_table2(table, rows, paper_figures=paper))
-    sf = {n for n in names if n.startswith("sf_")} | (set(mine) if args.model and _is_sf(args) else set())
+    sf = {n for n in names if n.startswith("sf_")} | (set(mine) if args.model and row == "SF" else set())
     for note in limit_notes(table, act) + offset_notes(table, act, sf):
         print(note, file=sys.stderr)
     return 0
-
-
-def _is_sf(args: argparse.Namespace) -> bool:
-    """Whether --model is a surface fit (a seagen model file of kind sf)."""
-    from seagen.modelfile import load_model
-
-    try:
-        return load_model(args.model, args.allow_pickle).get("kind") == "sf"
-    except UserError:  # a bare network or ONNX graph: not a seagen SF
-        return False
 
 
 def offset_notes(table: dict[str, dict[str, dict]], act: Actuator, sf: set[str]) -> list[str]:
