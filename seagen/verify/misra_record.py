@@ -97,9 +97,6 @@ RECORD: tuple[Deviation, ...] = (
         r"^ +const uint32_t base = 32768u \* \(uint32_t\)\(",
         r"^ +\*o \+= \(uint32_t\)\(\w+_w\d+\[j( \+ 1)?\] \* y[ab]\);$",
         r"^ +\*o \+= \(uint32_t\)\(\w+_w\d+\[\d+\] \* ya\);$",
-        # the M4 kernel's pack of two non-negative int16 halves (ReLU outputs) into one SMLAD word, written
-        # as an OR for Frama-C's bitwise domain: the same word as sea_pack_nonneg16x2
-        r"^ +h\d+\[[^\]]+\] = \(int32_t\)\(\(\(uint32_t\)sea_\w+\(.*\) << 16\) \| \(uint32_t\)sea_\w+\(",
     ),
     *_d(
         "D3",
@@ -107,6 +104,8 @@ RECORD: tuple[Deviation, ...] = (
         "sea_dsp.h",
         r"const int32_t rl = \(int32_t\)\(\(uint32_t\)r & 0xFFFFu\);",
         r"return \(hi \* 65536\) \+ \(int32_t\)\(\(uint32_t\)lo & 0xFFFFu\);",
+        # sea_pack_nonneg16x2 as an OR of the two non-negative halves (Frama-C's bitwise domain follows it)
+        r"return \(int32_t\)\(\(\(uint32_t\)hi << 16\) \| \(uint32_t\)lo\);",
         r"return \(int32_t\)\(\(\(uint32_t\)w (& 0xFFFFu|>> 16)\) \^ 0x8000u\) - 0x8000;",
         r"return \(u <= 0x7FFFFFFFu\) \? \(int32_t\)u",
     ),
