@@ -46,7 +46,9 @@ EVA_OPTIONS = ("-eva", "-eva-precision", "2", "-eva-auto-loop-unroll", "64")
 # Added for the Cortex-M4, whose int16 kernels pack two activations in one word for SMLAD: the bitwise domain
 # keeps each half's range through the pack (hi << 16 | lo) and the unpack, and sea_smlad/sea_smlald are
 # inlined (they only call the ACLE intrinsic, a macro in arm_acle.h) since a call's parameter loses it.
-TARGET_OPTIONS = {"cortex-m4": ("-eva-domains", "bitwise", "-inline-calls", "sea_smlad,sea_smlald,sea_pack_nonneg16x2")}
+TARGET_OPTIONS = {
+    "cortex-m4": ("-eva-domains", "bitwise", "-inline-calls", "sea_smlad,sea_smlald,sea_pack_nonneg16x2")
+}
 
 _ALARM = re.compile(r"^\[eva:alarm\] ([^:\s]+):(\d+): Warning:\s*(.*)$")
 
