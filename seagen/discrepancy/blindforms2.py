@@ -7,6 +7,10 @@ the design's default catalogue on (the hidden part is only the subclass's law), 
 starts from is the design's own default config and hides nothing else. No form draws from the plant's noise
 generator: with the same seed, a truth plant and the default plant see the same noise.
 
+Channels ("force": the load cell, "position": the pot and encoder): a sensor distortion acts on its own
+sensor's channel; a law of the mechanics acts on "both" when it moves the shaft where the pot sees it (before
+contact) and on "force" when it only acts under load, in contact (beyond the pot's view).
+
 Visibility (RMS change of the logged signals, truth plant minus default plant, same seed, `bench.measure(...,
 fast=True)`, rows logged by both; load cell in N and in its noise sigma, pot in counts and in its noise sigma,
 encoder in counts): see VISIBILITY below, printed by `python -m seagen.discrepancy.blindforms2`.
@@ -184,23 +188,37 @@ class LoadFriction(Plant):
 
 
 class DwellStiction(Plant):
-    """Stiction that grows with the time the shaft has rested: extra F_s (1 - exp(-t_rest / tau)), t_rest
-    the time since the shaft last moved (reset by any motion)."""
+    """Stiction that ages while the contact rests (rate-and-state friction, Dieterich's aging law): a contact
+    age theta with d theta / dt = 1 - |v| theta / D_c (it grows at rest, falls to D_c / |v| in sliding), and
+    extra friction b ln(1 + theta / theta_0) on the shaft. The shaft has rested `rest_s` before each trial,
+    so its first breakaway carries the full aged stiction."""
 
-    stiction_n: float
-    tau_s: float
+    b_n: float
+    d_c_mm: float
+    theta0_s: float
+    rest_s: float
 
     def friction_limits(self, angle_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The plant's friction plus the dwell-grown stiction."""
+        """The plant's friction plus the aged stiction."""
         fwd, rev = super().friction_limits(angle_deg)
-        extra = self.stiction_n * (1 - fmath.exp(-_state(self, "_rest") / self.tau_s))
+        extra = self.b_n * fmath.log(1 + self._age() / self.theta0_s)
         return fwd + extra, rev + extra
 
+    def _age(self) -> np.ndarray:
+        """The contact age (s), from the rest before the trial at first use."""
+        if not hasattr(self, "_theta"):
+            self._theta = np.full_like(self.shaft_mm, self.rest_s)
+        return self._theta
+
     def step(self, motor_v: Any) -> None:
-        """Step, then the rest time (the shaft rests when it did not move this step)."""
-        rest = _state(self, "_rest")
+        """Step, then age the contact (exactly integrated over the step at the step's speed)."""
+        theta = self._age()
         super().step(motor_v)
-        self._rest = np.where(self.v_shaft == 0.0, rest + self.cfg.dt_s, 0.0)
+        dt, rate = self.cfg.dt_s, np.abs(self.v_shaft) / self.d_c_mm
+        decay = np.exp(-rate * dt)
+        self._theta = np.where(
+            rate > 0, theta * decay + (1 - decay) / np.where(rate > 0, rate, 1.0), theta + dt
+        )
 
 
 class RoughSpot(Plant):
@@ -434,7 +452,7 @@ FORMS: dict[str, Form] = {
         GearMeshError,
         "paper",
         "periodic",
-        "force",
+        "both",
         {
             "period_mm": (0.4, 0.8),
             "amplitude_mm": (0.04, 0.07),
@@ -449,7 +467,7 @@ FORMS: dict[str, Form] = {
         "stiff_24v",
         "periodic",
         "position",
-        {"period_deg": (7.0, 12.0), "amplitude_deg": (0.25, 0.45), "phase_rad": (0.0, TWO_PI)},
+        {"period_deg": (7.0, 12.0), "amplitude_deg": (0.35, 0.6), "phase_rad": (0.0, TWO_PI)},
         _pot_ripple,
     ),
     "battery_polarisation": Form(
@@ -473,20 +491,24 @@ FORMS: dict[str, Form] = {
     ),
     "load_friction": Form(LoadFriction, "paper", "state_friction", "force", {"mu": (0.06, 0.14)}),
     "dwell_stiction": Form(
-        DwellStiction, "paper", "state_friction", "force", {"stiction_n": (1.0, 2.2), "tau_s": (0.05, 0.25)}
+        DwellStiction,
+        "paper",
+        "state_friction",
+        "both",
+        {"b_n": (0.3, 0.6), "d_c_mm": (0.005, 0.02), "theta0_s": (0.005, 0.02), "rest_s": (3.0, 10.0)},
     ),
     "rough_spot": Form(
         RoughSpot,
         "stiff_24v",
         "state_friction",
-        "force",
+        "both",
         {"extra_n": (1.2, 2.5), "center_mm": (1.0, 3.0), "width_mm": (0.3, 0.7)},
     ),
     "bouc_wen_spring": Form(
         BoucWenSpring,
         "paper",
         "hysteresis",
-        "force",
+        "both",
         {"k_h_n_per_mm": (2.0, 4.0), "z0_mm": (0.12, 0.25)},
     ),
     "cell_loop_hysteresis": Form(
@@ -515,7 +537,7 @@ FORMS: dict[str, Form] = {
         PadRelaxation, "paper", "other", "force", {"k_m_n_per_mm": (8.0, 20.0), "tau_s": (0.1, 0.4)}
     ),
     "pot_force_crosstalk": Form(
-        PotForceCrosstalk, "micro_6v", "other", "position", {"share_per_n": (0.0005, 0.001)}, _crosstalk
+        PotForceCrosstalk, "micro_6v", "other", "position", {"share_per_n": (0.0008, 0.0015)}, _crosstalk
     ),
 }
 BLIND_FORMS: tuple[str, ...] = tuple(FORMS)
@@ -547,3 +569,62 @@ def blind_case(name: str, seed: int) -> tuple[type[Plant], PlantConfig, PlantCon
         "design": form.design,
     }
     return cls, truth, base, info
+
+
+def visibility(name: str, seed: int = 0) -> dict[str, float]:
+    """RMS change of the logged signals a form makes (truth plant minus the design's default plant, same
+    seed, the quick protocol `bench.measure(..., fast=True)`, over the rows both logged): load cell in N and
+    in its noise sigma, pot in counts and in its noise sigma, encoder in counts."""
+    from seagen.discrepancy.bench import measure
+
+    cls, truth, base, _ = blind_case(name, seed)
+    with_form = measure(truth, seed=seed, fast=True, plant_cls=cls)
+    without = measure(base, seed=seed, fast=True)
+    n = min(with_form.mask.shape[1], without.mask.shape[1])
+    both = with_form.mask[:, :n] & without.mask[:, :n]
+    geo_split = base.actuator.linkage.split_deg
+    lc = base.load_cells
+    sigma_cell = np.where(without.angle <= geo_split, lc.horizontal_sigma_n, lc.vertical_sigma_n)[:, None]
+    sigma_pot = base.effects.pot_noise.sigma_counts
+
+    def rms(channel: str, scale: Any = 1.0) -> float:
+        diff = (with_form.meas[channel][:, :n] - without.meas[channel][:, :n]) / scale
+        return float(np.sqrt(np.mean(diff[both] ** 2)))
+
+    return {
+        "load_cell_n": rms("load_cell_n"),
+        "load_cell_sigmas": rms("load_cell_n", sigma_cell),
+        "pot_counts": rms("pot"),
+        "pot_sigmas": rms("pot", sigma_pot),
+        "enc_counts": rms("enc"),
+        "rows_with": float(with_form.mask.sum()),
+        "rows_without": float(without.mask.sum()),
+    }
+
+
+def main() -> None:
+    """Print the visibility table of every form (seed 0), as in the module docstring."""
+    head = (
+        "form",
+        "design",
+        "class",
+        "channels",
+        "load cell N (sigmas)",
+        "pot counts (sigmas)",
+        "enc",
+        "rows",
+    )
+    print("| " + " | ".join(head) + " |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for name in BLIND_FORMS:
+        f, v = FORMS[name], visibility(name)
+        print(
+            f"| {name} | {f.design} | {f.expected_class} | {f.channels} | {v['load_cell_n']:.3f} "
+            f"({v['load_cell_sigmas']:.1f}) | {v['pot_counts']:.1f} ({v['pot_sigmas']:.1f}) | "
+            f"{v['enc_counts']:.0f} | {v['rows_with']:.0f}/{v['rows_without']:.0f} |",
+            flush=True,
+        )
+
+
+if __name__ == "__main__":
+    main()
