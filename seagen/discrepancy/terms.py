@@ -139,6 +139,58 @@ LIBRARY: dict[str, Term] = {
             "the load cell at large forces",
             "spring_nonlinearity or series_compliance (a smooth curve, not a hard limit)",
         ),
+        Term(
+            "pot_drift",
+            "drift",
+            "pot += A (1 - exp(-t / tau)) counts, t the time into the trial",
+            "the pot's zero",
+            "pot_voltage_drop (an offset while current flows, not one that settles in time)",
+        ),
+        Term(
+            "pot_saturation",
+            "saturation",
+            "pot = min(pot, C) (its divider or converter clamps above C counts)",
+            "the pot at large angles",
+            "none in the catalogue (the pot reads its full range)",
+        ),
+        Term(
+            "pot_reading_lag",
+            "sensor_lag",
+            "c += (pot - c) (1 - exp(-dt / tau)) per reading, pot its whole reading (angle and voltage drop)",
+            "the pot during moves (an RC filter on its line, read at the log's rate)",
+            "pot_voltage_drop (a reading offset while current flows, not a lag of the reading)",
+        ),
+        Term(
+            "cell_soft_saturation",
+            "saturation",
+            "F_cell = F / (1 + |F / L|^n)^(1 / n) (n the knee's sharpness; n -> inf: the clip at +-L)",
+            "the load cell at large forces",
+            "spring_nonlinearity or series_compliance (a curve of the spring, not of the reading)",
+        ),
+        Term(
+            "cell_hysteresis",
+            "hysteresis",
+            "F_cell += h z, dz = (dF / w) (1 - sign(dF) sign(z) |z|^n) per reading (Bouc-Wen type: n = 1 an "
+            "exponential approach, large n a play of width 2 w), F the tip force",
+            "the load cell on loading versus unloading",
+            "load_cell_offset (a constant zero, not one that follows the force's history)",
+        ),
+        Term(
+            "breakaway_friction",
+            "state_friction",
+            "F_friction += dF / (1 + (w / v_s)^delta), dw/dt = (|v| - w) / tau (a lagged speed state; delta "
+            "the shape: 2 the Lorentzian)",
+            "the shaft's friction band at low speed and after starts",
+            "stribeck_friction (Gaussian in the present speed, no state)",
+        ),
+        Term(
+            "spring_bouc_wen",
+            "hysteresis",
+            "F += h z while compressed, dz = (dd / w) (1 - sign(dd) sign(z) |z|^n) per step (Bouc-Wen type: "
+            "n = 1 an exponential approach, large n a play of width 2 w), d the compression",
+            "the spring force on loading versus unloading",
+            "actuator_friction (a band on the shaft's motion, not on the spring's compression)",
+        ),
     )
 }
 assert set(LIBRARY) == set(TERMS) and all(t.form in CLASSES for t in LIBRARY.values())
@@ -173,6 +225,26 @@ TERM_SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
     "pot_hysteresis": {"half_width_counts": (0.5, 60.0, True)},
     "pot_quantisation": {"step_counts": (1.5, 128.0, True)},
     "drive_saturation": {"limit_v": (0.5, 12.0, True)},
+    "pot_drift": {"offset_counts": (-80.0, 80.0, False), "time_constant_s": (0.1, 30.0, True)},
+    "pot_saturation": {"limit_counts": (100.0, 5000.0, True)},
+    "pot_reading_lag": {"time_constant_s": (0.001, 0.3, True)},
+    "cell_soft_saturation": {"limit_n": (1.0, 60.0, True), "sharpness": (1.0, 40.0, True)},
+    "cell_hysteresis": {
+        "force_n": (0.02, 5.0, True),
+        "width_n": (0.05, 20.0, True),
+        "shape": (0.5, 30.0, True),
+    },
+    "breakaway_friction": {
+        "extra_n": (0.1, 5.0, True),
+        "v_s_mm_s": (0.05, 5.0, True),
+        "time_constant_s": (0.001, 0.5, True),
+        "shape": (0.5, 8.0, True),
+    },
+    "spring_bouc_wen": {
+        "force_n": (0.05, 10.0, True),
+        "width_mm": (0.005, 1.0, True),
+        "shape": (0.5, 30.0, True),
+    },
 }
 # Start grids: this many points along a parameter whose objective has many valleys (a period, a phase).
 DENSE = {
@@ -180,6 +252,11 @@ DENSE = {
     ("cogging", "period_mm"): 24,
     ("lead_error", "phase_rad"): 4,
     ("cogging", "phase_rad"): 4,
+    # a shape parameter starts at its box's middle (the start grid of the others is the costly part)
+    ("breakaway_friction", "shape"): 1,
+    ("spring_bouc_wen", "shape"): 1,
+    ("cell_hysteresis", "shape"): 1,
+    ("cell_soft_saturation", "sharpness"): 1,
 }
 STARTS = 3  # start points along every other parameter (its box's 1/6, 1/2 and 5/6)
 

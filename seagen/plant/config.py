@@ -353,6 +353,71 @@ class PotQuantisation(Effect):
 
 
 @dataclass
+class PotDrift(Effect):
+    """A pot zero drifting during a trial: offset A (1 - exp(-t / tau)) counts, t the time into the trial."""
+
+    offset_counts: float = 20.0
+    time_constant_s: float = 2.0
+
+
+@dataclass
+class PotSaturation(Effect):
+    """A pot reading that clamps above: min(pot, limit) counts (its divider or converter saturates)."""
+
+    limit_counts: float = 3000.0
+
+
+@dataclass
+class PotReadingLag(Effect):
+    """The pot's whole reading (angle and voltage drop) behind a first-order lag per logged sample:
+    c += (pot - c) (1 - exp(-dt / tau)), dt the time since the last reading (an RC filter on its line)."""
+
+    time_constant_s: float = 0.02
+
+
+@dataclass
+class CellSoftSaturation(Effect):
+    """A load cell that saturates with a knee: F / (1 + |F / L|^n)^(1 / n) (n the knee's sharpness; a
+    large n is the hard clip at +-L)."""
+
+    limit_n: float = 10.0
+    sharpness: float = 4.0
+
+
+@dataclass
+class CellHysteresis(Effect):
+    """A hysteretic load cell (Bouc-Wen type): reading += h z, z in [-1, 1] driven by the tip force's change
+    dF per reading: dz = (dF / w) (1 - sign(dF) sign(z) |z|^n) (n = 1 an exponential approach, a large n
+    a play of width 2 w)."""
+
+    force_n: float = 0.5
+    width_n: float = 2.0
+    shape: float = 1.0
+
+
+@dataclass
+class BreakawayFriction(Effect):
+    """Break-away friction with a speed state and a shape: extra / (1 + (w / v_s)^delta) on the shaft, w =
+    |v| through a first-order lag of time constant tau (delta = 2: the Lorentzian, Hess-Soom form)."""
+
+    extra_n: float = 1.0
+    v_s_mm_s: float = 1.0
+    time_constant_s: float = 0.02
+    shape: float = 2.0
+
+
+@dataclass
+class SpringBoucWen(Effect):
+    """Hysteresis in the spring (Bouc-Wen type): F += h z while compressed, z in [-1, 1] driven by the
+    compression's change dd per step: dz = (dd / w) (1 - sign(dd) sign(z) |z|^n) (n = 1 an exponential
+    approach, a large n a play of width 2 w)."""
+
+    force_n: float = 1.0
+    width_mm: float = 0.2
+    shape: float = 1.0
+
+
+@dataclass
 class Effects:
     """The catalogue of DESIGN.md §3 (EFFECT_NAMES: exactly these names), then the term library (TERMS)."""
 
@@ -384,6 +449,13 @@ class Effects:
     pot_lag: PotLag = field(default_factory=PotLag)
     pot_hysteresis: PotHysteresis = field(default_factory=PotHysteresis)
     pot_quantisation: PotQuantisation = field(default_factory=PotQuantisation)
+    pot_drift: PotDrift = field(default_factory=PotDrift)
+    pot_saturation: PotSaturation = field(default_factory=PotSaturation)
+    pot_reading_lag: PotReadingLag = field(default_factory=PotReadingLag)
+    cell_soft_saturation: CellSoftSaturation = field(default_factory=CellSoftSaturation)
+    cell_hysteresis: CellHysteresis = field(default_factory=CellHysteresis)
+    breakaway_friction: BreakawayFriction = field(default_factory=BreakawayFriction)
+    spring_bouc_wen: SpringBoucWen = field(default_factory=SpringBoucWen)
 
     @classmethod
     def of(cls, act: Actuator) -> Effects:
@@ -414,6 +486,13 @@ TERMS: tuple[str, ...] = (
     "pot_lag",
     "pot_hysteresis",
     "pot_quantisation",
+    "pot_drift",
+    "pot_saturation",
+    "pot_reading_lag",
+    "cell_soft_saturation",
+    "cell_hysteresis",
+    "breakaway_friction",
+    "spring_bouc_wen",
 )
 ALL_EFFECTS: tuple[str, ...] = tuple(f.name for f in fields(Effects))
 EFFECT_NAMES: tuple[str, ...] = tuple(e for e in ALL_EFFECTS if e not in TERMS)

@@ -53,6 +53,13 @@ PARAMS = (
     ("spring_poly", "k2_n_per_mm2"),
     ("spring_poly", "k3_n_per_mm3"),
     ("drive_saturation", "limit_v"),
+    ("breakaway_friction", "extra_n"),
+    ("breakaway_friction", "v_s_mm_s"),
+    ("breakaway_friction", "time_constant_s"),
+    ("breakaway_friction", "shape"),
+    ("spring_bouc_wen", "force_n"),
+    ("spring_bouc_wen", "width_mm"),
+    ("spring_bouc_wen", "shape"),
 )
 FLAGS = (
     "actuator_friction",
@@ -71,6 +78,8 @@ FLAGS = (
     "spring_hysteresis",
     "spring_poly",
     "drive_saturation",
+    "breakaway_friction",
+    "spring_bouc_wen",
 )
 SENSOR_SIDE = (
     "pot_voltage_drop",
@@ -85,6 +94,11 @@ SENSOR_SIDE = (
     "pot_lag",
     "pot_hysteresis",
     "pot_quantisation",
+    "pot_drift",
+    "pot_saturation",
+    "pot_reading_lag",
+    "cell_soft_saturation",
+    "cell_hysteresis",
 )
 
 
@@ -174,7 +188,7 @@ def _spring_slope(d, k_spring, k_stop, nl, k3):
 
 def _spring_x(d, k_spring, k_stop, nl, k3, pre, f0, tx):
     """Plant.spring_force of one element with the term library's spring terms: tx = (drift flag, drift
-    factor now, poly flag, k2, k3, hysteresis flag, k_h, w, h)."""
+    factor now, poly flag, k2, k3, hysteresis flag, k_h, w, h, Bouc-Wen flag, its h times its state z)."""
     f = k_spring * d if d >= 0 else k_stop * d
     if tx[0] and d >= 0:
         f = f + k_spring * tx[1] * d
@@ -184,6 +198,8 @@ def _spring_x(d, k_spring, k_stop, nl, k3, pre, f0, tx):
     if tx[5]:
         h = min(max(tx[8], d - tx[7]), d + tx[7])
         f = f + tx[6] * (d - h)
+    if tx[9]:
+        f = f + (tx[10] if d >= 0 else 0.0)
     if nl:
         x = d if d > 0.0 else 0.0
         f = f + k3 * (x * x * x)
@@ -253,7 +269,8 @@ def _loop(volts, y_contact, par, flags, consts, out):
         flags[13],
         flags[14],
     )
-    terms = lead or cog or drift or rate or bristle or hyst or poly
+    brk, bw = flags[16], flags[17]
+    terms = lead or cog or drift or rate or bristle or hyst or poly or brk or bw
     rad2deg = 180.0 / math.pi
     n, k_max = volts.shape
     n_sig = out.shape[0]
@@ -273,9 +290,13 @@ def _loop(volts, y_contact, par, flags, consts, out):
         )
         hk, hw, pk2, pk3, vsat = par[26, i], par[27, i], par[28, i], par[29, i], par[30, i]
         sat = flags[15]
+        kx, kvs, ktau, kdl = par[31, i], par[32, i], par[33, i], par[34, i]
+        bh, bwd, bn = par[35, i], par[36, i], par[37, i]
         hstate = wstate = travel = vsign = t = 0.0
+        kstate = bz = bd = 0.0
         ralpha = min(dt / rtau, 1.0) if rate else 0.0
-        tx = (drift, 0.0, poly, pk2, pk3, hyst, hk, hw, hstate)
+        kalpha = min(dt / ktau, 1.0) if brk else 0.0
+        tx = (drift, 0.0, poly, pk2, pk3, hyst, hk, hw, hstate, bw, bh * bz)
         yc = y_contact[i]
         a = 1.0 / kc if sc else 0.0
         b = bv / dt if visc else 0.0
@@ -291,7 +312,7 @@ def _loop(volts, y_contact, par, flags, consts, out):
                 v = min(max(v, -vsat), vsat)
             if terms:
                 dfac = ds * (1.0 - math.exp(-t / dtau)) if drift else 0.0
-                tx = (drift, dfac, poly, pk2, pk3, hyst, hk, hw, hstate)
+                tx = (drift, dfac, poly, pk2, pk3, hyst, hk, hw, hstate, bw, bh * bz)
                 load = _spring_x(nut - shaft, k_spring, k_stop, nl, k3, pre, f0, tx)
                 if cog:
                     load = load + ca * math.cos(2 * math.pi * motor / cp + cph)
@@ -323,6 +344,9 @@ def _loop(volts, y_contact, par, flags, consts, out):
                 rev = rev + boost * (1.0 if rev > 0 else 0.0)
             if rate:
                 boost = ra * math.exp(-wstate / rvc)
+                fwd, rev = fwd + boost, rev + boost
+            if brk:
+                boost = kx / (1.0 + (kstate / kvs) ** kdl)
                 fwd, rev = fwd + boost, rev + boost
             if bristle:
                 band = ba * (1.0 - math.exp(-travel / bx0))
@@ -378,6 +402,15 @@ def _loop(volts, y_contact, par, flags, consts, out):
                 hstate = min(max(hstate, dd - hw), dd + hw)
             if rate:
                 wstate = wstate + (abs(v_shaft) - wstate) * ralpha
+            if brk:
+                kstate = kstate + (abs(v_shaft) - kstate) * kalpha
+            if bw:
+                dd = (nut - shaft) - bd
+                sg = 1.0 if dd > 0 else (-1.0 if dd < 0 else 0.0)
+                sz = 1.0 if bz > 0 else (-1.0 if bz < 0 else 0.0)
+                bz = bz + min(abs(dd) / bwd, 1.0) * sg * (1.0 - sg * sz * abs(bz) ** bn)
+                bz = min(max(bz, -1.0), 1.0)
+                bd = nut - shaft
             if bristle:
                 dy = shaft - y0
                 sg = 1.0 if dy > 0 else (-1.0 if dy < 0 else 0.0)

@@ -60,25 +60,28 @@ def learned_correction(eff, values: dict[str, np.ndarray]) -> np.ndarray:
 
 def cell_terms(e, load_cell: np.ndarray, t) -> np.ndarray:
     """The term library's load-cell distortions (cell_distort) of the effects e that are on, at time t."""
-    cd, cs, cq = e.cell_drift, e.cell_saturation, e.cell_quantisation
+    cd, cs, cq, ss = e.cell_drift, e.cell_saturation, e.cell_quantisation, e.cell_soft_saturation
     return cell_distort(
         load_cell,
         t,
         (cd.offset_n, cd.time_constant_s) if cd.enabled else None,
         cs.limit_n if cs.enabled else None,
         cq.step_n if cq.enabled else None,
+        (ss.limit_n, ss.sharpness) if ss.enabled else None,
     )
 
 
-def cell_distort(load_cell: np.ndarray, t, drift=None, limit=None, step=None) -> np.ndarray:
+def cell_distort(load_cell: np.ndarray, t, drift=None, limit=None, step=None, soft=None) -> np.ndarray:
     """A load-cell reading at time t (s into the trial) with a drifting zero A (1 - exp(-t / tau)) (drift =
-    (A, tau)), saturated at +-limit, then read in steps (each None when off; scalars or arrays like the
-    reading; a step of 0 reads as is)."""
+    (A, tau)), saturated at +-limit, through a knee (soft = (L, n): soft_clip), then read in steps (each None
+    when off; scalars or arrays like the reading; a step of 0 reads as is)."""
     if drift is not None:
         tau = np.asarray(drift[1], float)
         load_cell = load_cell + drift[0] * (1.0 - fmath.exp(-np.asarray(t, float) / tau))
     if limit is not None:
         load_cell = np.minimum(np.maximum(load_cell, -limit), limit)
+    if soft is not None:
+        load_cell = soft_clip(load_cell, soft[0], soft[1])
     if step is not None:
         q = np.asarray(step, float)
         safe = np.where(q > 0, q, 1.0)
@@ -89,6 +92,38 @@ def cell_distort(load_cell: np.ndarray, t, drift=None, limit=None, step=None) ->
 def lag_step(state: np.ndarray, x: np.ndarray, alpha) -> np.ndarray:
     """One step of a first-order lag: x itself when alpha >= 1 (no lag), else state + (x - state) alpha."""
     return np.where(np.asarray(alpha) >= 1.0, x, state + (x - state) * alpha)
+
+
+def soft_clip(x: np.ndarray, limit, sharpness) -> np.ndarray:
+    """A saturation with a knee (cell_soft_saturation): x / (1 + |x / L|^n)^(1 / n) (n -> inf: the clip)."""
+    n = np.asarray(sharpness, float)
+    return x / np.power(1.0 + np.power(np.abs(x / np.asarray(limit, float)), n), 1.0 / n)
+
+
+def hysteresis_step(z: np.ndarray, dx: np.ndarray, width, shape) -> np.ndarray:
+    """One reading of cell_hysteresis's state (Bouc-Wen type): z += (dx / w) (1 - sign(dx) sign(z) |z|^n),
+    the step |dx| / w at most 1, z kept in [-1, 1]."""
+    s = np.minimum(np.abs(dx) / np.asarray(width, float), 1.0) * np.sign(dx)
+    z = z + s * (1.0 - np.sign(dx) * np.sign(z) * np.power(np.abs(z), np.asarray(shape, float)))
+    return np.minimum(np.maximum(z, -1.0), 1.0)
+
+
+def reading_alpha(dt, tau) -> np.ndarray:
+    """Weight of a first-order lag of time constant tau updated by one reading dt after the last
+    (pot_reading_lag): 1 - exp(-dt / tau); 1 (no lag) for tau = 0."""
+    tau = np.asarray(tau, float)
+    safe = np.where(tau > 0, tau, 1.0)
+    return np.where(tau > 0, 1.0 - fmath.exp(-np.asarray(dt, float) / safe), 1.0)
+
+
+def pot_distort(pot: np.ndarray, t, drift=None, limit=None) -> np.ndarray:
+    """A pot reading at time t (s into the trial) with a drifting zero A (1 - exp(-t / tau)) counts (drift =
+    (A, tau)), then clamped above at limit counts (each None when off)."""
+    if drift is not None:
+        pot = pot + drift[0] * (1.0 - fmath.exp(-np.asarray(t, float) / np.asarray(drift[1], float)))
+    if limit is not None:
+        pot = np.minimum(pot, limit)
+    return pot
 
 
 class Plant:
@@ -124,6 +159,14 @@ class Plant:
         self._h, self._w, self._travel, self._vsign, self._cell = (np.zeros(n) for _ in range(5))
         self._pot_h: np.ndarray | None = None  # the pot's play state, from its first reading
         self._pot_l = self._pot_angle() if cfg.on("pot_lag") else np.zeros(n)
+        # the pot's whole reading behind a lag and the time of its last reading (pot_reading_lag); the load
+        # cell's hysteresis state and the tip force it last saw (cell_hysteresis); both from the first reading
+        # breakaway_friction's lagged speed; spring_bouc_wen's state and the compression it last saw
+        self._wb, self._bz, self._bd = (np.zeros(n) for _ in range(3))
+        self._pot_r: np.ndarray | None = None
+        self._t_read = 0.0
+        self._cell_z: np.ndarray | None = None
+        self._cell_tip = np.zeros(n)
 
     # --- force laws -------------------------------------------------------------------------------
     def spring_force(self, d: np.ndarray, idx: np.ndarray | None = None) -> np.ndarray:
@@ -140,6 +183,8 @@ class Plant:
             sh = e.spring_hysteresis
             w, h = pick(sh.half_width_mm, idx), pick(self._h, idx)
             f = f + pick(sh.k_n_per_mm, idx) * (d - np.minimum(np.maximum(h, d - w), d + w))
+        if e.spring_bouc_wen.enabled:
+            f = f + np.where(d >= 0, pick(e.spring_bouc_wen.force_n, idx) * pick(self._bz, idx), 0.0)
         if e.spring_nonlinearity.enabled:
             dp = np.maximum(d, 0.0)
             f = f + pick(e.spring_nonlinearity.k3_n_per_mm3, idx) * (dp * dp * dp)
@@ -263,6 +308,12 @@ class Plant:
         if e.rate_friction.enabled:
             a = np.minimum(dt / np.asarray(e.rate_friction.time_constant_s, float), 1.0)
             self._w = self._w + (np.abs(self.v_shaft) - self._w) * a
+        if e.breakaway_friction.enabled:
+            a = np.minimum(dt / np.asarray(e.breakaway_friction.time_constant_s, float), 1.0)
+            self._wb = self._wb + (np.abs(self.v_shaft) - self._wb) * a
+        if e.spring_bouc_wen.enabled:
+            sb, d = e.spring_bouc_wen, self.nut_mm - self.shaft_mm
+            self._bz, self._bd = hysteresis_step(self._bz, d - self._bd, sb.width_mm, sb.shape), d
         if e.bristle_friction.enabled:
             dy = self.shaft_mm - y0
             sign = np.sign(dy)
@@ -320,6 +371,10 @@ class Plant:
         if e.rate_friction.enabled:
             rf = e.rate_friction
             boost = rf.extra_n * fmath.exp(-self._w / rf.v_c_mm_s)
+            fwd, rev = fwd + boost, rev + boost
+        if e.breakaway_friction.enabled:
+            bk = e.breakaway_friction
+            boost = bk.extra_n / (1.0 + np.power(self._wb / bk.v_s_mm_s, np.asarray(bk.shape, float)))
             fwd, rev = fwd + boost, rev + boost
         if e.bristle_friction.enabled:
             bf = e.bristle_friction
@@ -406,6 +461,13 @@ class Plant:
         pot = self._pot_l if e.pot_lag.enabled else self._pot_angle()
         if e.pot_voltage_drop.enabled:
             pot = pot + self.pot_drop
+        if e.pot_reading_lag.enabled:
+            a = reading_alpha(self.t - self._t_read, e.pot_reading_lag.time_constant_s)
+            self._pot_r = pot if self._pot_r is None else lag_step(self._pot_r, pot, a)
+            pot = self._pot_r
+        self._t_read = self.t
+        if e.pot_drift.enabled:
+            pot = pot_distort(pot, self.t, (e.pot_drift.offset_counts, e.pot_drift.time_constant_s))
         if e.pot_hysteresis.enabled:
             w = e.pot_hysteresis.half_width_counts
             self._pot_h = (
@@ -420,6 +482,8 @@ class Plant:
             pot = pot + extra
         if e.pot_quantisation.enabled:
             pot = e.pot_quantisation.step_counts * np.rint(pot / e.pot_quantisation.step_counts)
+        if e.pot_saturation.enabled:
+            pot = pot_distort(pot, self.t, None, e.pot_saturation.limit_counts)
         pot_i = np.clip(np.rint(pot), 0, self.geo.adc_max).astype(np.int64)
         shaft_force = self._cell if e.cell_lag.enabled else self._history[self._delay_n]
         tip = shaft_force * self.ratio
@@ -434,6 +498,12 @@ class Plant:
         if lr.enabled and lr.channel == "load_cell_n":
             load_cell = load_cell + extra
         load_cell = cell_terms(e, load_cell, self.t)
+        if e.cell_hysteresis.enabled:  # after the cell's other terms
+            ch = e.cell_hysteresis
+            z = np.zeros(n) if self._cell_z is None else self._cell_z
+            dx = tip - (tip if self._cell_z is None else self._cell_tip)
+            self._cell_z, self._cell_tip = hysteresis_step(z, dx, ch.width_n, ch.shape), tip
+            load_cell = load_cell + ch.force_n * self._cell_z
         true_force = self.structure_force(self.shaft_mm)[0]
         return Sensors(
             enc=enc,
