@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from seagen.actuator import actuator_from_dict, default_actuator
 from seagen.data.protocol import PUSH_MOVES, TRIAL_CAP_S, VALIDATION_MOVES, scaled_move
-from seagen.data.reach import pace, push_time, reach_problem
+from seagen.data.reach import pace, push_time, reach_problem, retract_time
 from seagen.errors import UserError
 from seagen.runtime.control import ControlConfig, act_q
 
@@ -64,12 +64,14 @@ def judged(d: dict) -> tuple[object, str | None]:
 
 def _check_accepted(act) -> None:
     """The protocol on an accepted design: pushes within the supply, each push's estimated time to its peak
-    (a lower bound of the simulated push, within 2x: test_reach) fitting twice within the paced trial cap."""
+    (a lower bound of the simulated push, within 2x: test_reach) fitting twice within the paced trial cap,
+    and so does its retract's (reach.retract_time, raised like the pushes)."""
     cap = TRIAL_CAP_S * pace(act)
     for move in PUSH_MOVES + VALIDATION_MOVES:
         m = scaled_move(act.linkage.angle_max_deg - 2.0, move, act)
         assert 0 < m.push_v <= act.motor.supply_v and -act.motor.supply_v <= m.retract_v < 0
         assert 2.0 * push_time(act, m.push_v, m.peak_n) <= cap, (act.to_dict(), move)
+        assert 2.0 * retract_time(act, m.retract_v, m.peak_n) <= cap, (act.to_dict(), move)
 
 
 def test_drawn_designs_are_refused_with_a_reason_or_get_a_protocol_that_reaches_their_range():

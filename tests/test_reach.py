@@ -83,3 +83,40 @@ def test_slow_design_pushes_at_its_supply_and_reaches_its_peak_within_the_paced_
     assert all(m.push_v == act.motor.supply_v for m in moves)
     (df,) = run_trials(PlantConfig(actuator=act), moves, seed=1)
     assert df["force_n"].max() >= moves[0].peak_n and df["t_s"].iloc[-1] < TRIAL_CAP_S * pace(act)
+
+
+MICRO = Path(__file__).parents[1] / "examples" / "actuators" / "micro_6v.toml"
+
+
+def test_retracts_are_raised_on_a_slow_design_like_the_pushes():
+    """Retracts are scaled like the pushes: unchanged on the paper's actuator and the shipped example; on
+    micro_6v (whose pushes already run at the supply) raised to the supply, where the paper's stall force
+    per volt left them at 0.6-0.9 of it (its data had 45 % of their contact rows unloading, the paper's
+    17 %: a static surface fit of them sat between the two friction branches)."""
+    from seagen.data.protocol import PUSH_MOVES, VALIDATION_MOVES, force_scale, scaled_move, volts_scale
+
+    for act in (default_actuator(), load_actuator(EXAMPLE_ACTUATOR)):
+        f = volts_scale(act) * force_scale(act)
+        for move in PUSH_MOVES + VALIDATION_MOVES:
+            assert scaled_move(20.0, move, act).retract_v == max(move[2] * f, -act.motor.supply_v)
+    act = load_actuator(MICRO)
+    moves = [scaled_move(act.linkage.angle_max_deg - 2.0, m, act) for m in PUSH_MOVES + VALIDATION_MOVES]
+    assert all(m.retract_v == -act.motor.supply_v for m in moves)
+
+
+@pytest.mark.slow  # ~5-18 s: a micro_6v trial at the plant's 1 ms step
+def test_a_raised_retract_unloads_within_its_estimate_and_the_trial():
+    """On micro_6v the quickest push's retract (at the supply) unloads the spring within the paced trial
+    cap, in at most the estimate (reach.retract_time: the plant's retract friction is lower) and at least
+    half of it."""
+    from seagen.data.protocol import PUSH_MOVES, scaled_move, trial_cap_s
+    from seagen.data.reach import retract_time
+
+    act = load_actuator(MICRO)
+    m = scaled_move(act.linkage.angle_max_deg - 2.0, PUSH_MOVES[3], act)
+    (df,) = run_trials(PlantConfig(actuator=act), [m], seed=1)
+    top = int(df["force_n"].idxmax())
+    assert df["force_n"].iloc[top] >= m.peak_n and df["force_n"].iloc[-1] < 0.4
+    t_back = float(df["t_s"].iloc[-1] - df["t_s"].iloc[top])
+    est = retract_time(act, m.retract_v, m.peak_n)
+    assert 0.5 * est <= t_back <= est and df["t_s"].iloc[-1] < trial_cap_s(act)

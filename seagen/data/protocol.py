@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from seagen.actuator import Actuator, default_actuator
-from seagen.data.reach import pace, push_volts, reach_problem, stretch
+from seagen.data.reach import pace, push_volts, reach_problem, retract_volts, stretch
 from seagen.errors import UserError
 from seagen.geometry import Geometry, geometry
 from seagen.plant import Plant, PlantConfig
@@ -67,14 +67,15 @@ def force_scale(act: Actuator | None = None) -> float:
 def scaled_move(angle_deg: float, move: tuple[float, ...], act: Actuator | None = None) -> Move:
     """The move (push volts, peak N, retract volts[, stair mm]) at `angle_deg` for `act`: its peak force
     scaled to its force range (force_scale) and its volts to its motor and that range (volts_scale x
-    force_scale: the same stall margin at the peak), raised where that push would be slower than the
-    paper's (reach.push_volts), within +-its supply. The paper's moves on its own."""
+    force_scale: the same stall margin at the peak), raised where that push or retract would be slower than
+    the paper's (reach.push_volts, reach.retract_volts), within +-its supply. The paper's moves on its own."""
     act = act or default_actuator()
     g = force_scale(act)
-    f, top = volts_scale(act) * g, act.motor.supply_v
+    f = volts_scale(act) * g
     push, peak, back, *stair = move
     volts = push_volts(act, push * f, peak * g, push)  # no slower than the paper's push (seagen.data.reach)
-    return Move(angle_deg, volts, peak * g, max(back * f, -top), *stair)
+    back_v = retract_volts(act, back * f, peak * g, back)  # nor its retract
+    return Move(angle_deg, volts, peak * g, back_v, *stair)
 
 
 STAIR_S = 0.3  # one stair: move and hold (s)

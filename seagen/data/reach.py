@@ -12,11 +12,14 @@ paper's stall force per volt (`volts_scale`) would take more than SLACK times th
 volts rise until it does not, up to the supply (`push_volts`); where even the supply is slower, the
 protocol's split durations and trial cap grow by that factor (`pace`). A design that would need more than
 MAX_PUSH_S to push to its force range at full supply is refused with its numbers before any data are made.
+The retracts likewise: one that would unload the spring more than SLACK times slower than the paper's same
+retract gets more volts, up to the supply (`retract_volts`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 from seagen.actuator import Actuator, default_actuator
 from seagen.geometry import geometry
@@ -47,20 +50,46 @@ def _paper_time(peak_share: float, volts: float) -> float:
     return push_time(paper, volts, peak_share * paper.control.force_max_n)
 
 
+def retract_time(act: Actuator, volts: float, peak_n: float) -> float:
+    """Estimated seconds for a retract at `volts` (negative) to unload the spring from `peak_n` to zero on
+    `act`: the spring helps the motor back, the friction holds it, so the nut runs at
+    v_max (a + (F - F_f) / F_stall) and t = F_stall / (k v_max) ln((a - f_f + f_p) / (a - f_f)) (infinite
+    where the motor cannot overcome the friction once the spring is slack)."""
+    m = Motor.of(act)
+    a, f_f, f_p = abs(volts) / m.supply_v, act.friction_n / m.stall_force_n, peak_n / m.stall_force_n
+    if a - f_f <= 0:
+        return math.inf
+    return m.stall_force_n / (act.stiffness_n_per_mm * m.v_max_mm_s) * math.log((a - f_f + f_p) / (a - f_f))
+
+
+def _raised(time: Callable[[float], float], volts: float, top: float, want: float) -> float:
+    """`volts` (>= 0), or more where time(volts) > want: the least that does not, up to `top`."""
+    if time(min(volts, top)) <= want * (1 + 1e-9):
+        return min(volts, top)
+    if time(top) >= want:
+        return top
+    lo, hi = volts, top
+    for _ in range(60):  # bisection: the time falls as the volts rise
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if time(mid) > want else (lo, mid)
+    return hi
+
+
 def push_volts(act: Actuator, volts: float, peak_n: float, paper_volts: float) -> float:
     """The push's volts on `act`: `volts` (the paper's stall force per volt), or more where that push would
     take more than SLACK times the paper's same move (at `paper_volts`), up to the supply."""
-    top = act.motor.supply_v
     want = SLACK * _paper_time(peak_n / act.control.force_max_n, paper_volts)
-    if push_time(act, min(volts, top), peak_n) <= want * (1 + 1e-9):
-        return min(volts, top)
-    if push_time(act, top, peak_n) >= want:
-        return top
-    lo, hi = volts, top
-    for _ in range(60):  # bisection: the push time falls as the volts rise
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if push_time(act, mid, peak_n) > want else (lo, mid)
-    return hi
+    return _raised(lambda v: push_time(act, v, peak_n), volts, act.motor.supply_v, want)
+
+
+def retract_volts(act: Actuator, volts: float, peak_n: float, paper_volts: float) -> float:
+    """The retract's volts (negative) on `act`: `volts` (scaled like the push's), or more negative where
+    unloading the spring from `peak_n` would take more than SLACK times the paper's same retract (at
+    `paper_volts`, from the same share of its range), down to minus the supply."""
+    paper = default_actuator()
+    share = peak_n / act.control.force_max_n
+    want = SLACK * retract_time(paper, paper_volts, share * paper.control.force_max_n)
+    return -_raised(lambda v: retract_time(act, v, peak_n), abs(volts), act.motor.supply_v, want)
 
 
 def stretch(act: Actuator, volts: float, peak_n: float, paper_volts: float) -> float:
