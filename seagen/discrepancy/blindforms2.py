@@ -241,7 +241,7 @@ class DwellStiction(Plant):
         theta = self._age()
         super().step(motor_v)
         dt, rate = self.cfg.dt_s, np.abs(self.v_shaft) / self.d_c_mm
-        decay = np.exp(-rate * dt)
+        decay = fmath.exp(-rate * dt)
         self._theta = np.where(
             rate > 0, theta * decay + (1 - decay) / np.where(rate > 0, rate, 1.0), theta + dt
         )
@@ -371,7 +371,7 @@ class AmpSoftRail(Plant):
         s = super().read()
         f, k, sp = s.load_cell_n, self.knee_n, self.span_n
         over = np.maximum(f - k, 0.0)
-        return _set_cell(s, self, np.where(f > k, k + sp * (1 - np.exp(-over / sp)), f))
+        return _set_cell(s, self, np.where(f > k, k + sp * (1 - fmath.exp(-over / sp)), f))
 
 
 class CurrentLimit(Plant):
