@@ -201,8 +201,10 @@ def offset_notes(table: dict[str, dict[str, dict]], act: Actuator, sf: set[str])
             line += (
                 f"; a surface fit is a static map of force and angle, and this design's friction loop spans "
                 f"{2 * fric / k:.2g} mm of compression (2 x transmission.friction_n {fric:g} N / spring): "
-                "a model whose inputs carry the motion (`seagen train --model mlp --task control`) can "
-                "follow it"
+                "fitted by least squares (`--loss mse`, train's default) it sits between the loading and "
+                "unloading branches; `--loss mae` (the paper's SF loss, the shipped SF's) follows the "
+                "loading branch, where the loop ends, and a model whose inputs carry the motion (`seagen "
+                "train --model mlp --task control`) can follow both"
             )
         out.append(line)
     return out
