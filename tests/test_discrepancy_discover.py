@@ -20,11 +20,13 @@ FORMS = {
     "spring_hysteresis": {"k_n_per_mm": 1.0, "half_width_mm": 0.2},
     "cell_saturation": {"limit_n": 8.0},
     # added after blind set 1 was read (its misses: no such terms)
-    "pot_drift": {"offset_counts": 30.0, "time_constant_s": 1.5},
+    "pot_drift": {"offset_counts": 40.0, "time_constant_s": 0.15},
     "pot_saturation": {"limit_counts": 2000.0},
     "pot_reading_lag": {"time_constant_s": 0.04},
     "cell_soft_saturation": {"limit_n": 8.0, "sharpness": 3.0},
     "cell_hysteresis": {"force_n": 0.6, "width_n": 3.0, "shape": 2.0},
+    "breakaway_friction": {"extra_n": 1.5, "v_s_mm_s": 0.8, "time_constant_s": 0.05, "shape": 1.5},
+    "spring_bouc_wen": {"force_n": 1.0, "width_mm": 0.1, "shape": 3.0},
 }
 
 
