@@ -23,6 +23,22 @@
 extern "C" {
 #endif
 
+/* sea_int16x2: two int16 values packed in one word, the first in the low half: int32_t (the ACLE's int16x2_t)
+ * for every compiler. For Frama-C analysing the Cortex-M4 code only (__FRAMAC__ with __ARM_FEATURE_SIMD32,
+ * `seagen verify --prove`, docs/prove.md) it is the struct of the two halves: Eva's interval
+ * over a word loses the range of a low half that spans 0, over the struct it keeps each half's range. The pack,
+ * the pair clamp and SMLAD/SMLALD are then analysed as their half-by-half integer functions (below, and the
+ * ACLE model Eva reads as arm_acle.h), the integers the word gives (tests/test_target_kernels.py bit for bit,
+ * tests/test_cortexm.py on emulated cores). The compiled C is unchanged: the type is int32_t there. */
+#if defined(__FRAMAC__) && defined(__ARM_FEATURE_SIMD32)
+typedef struct {
+    int16_t lo;
+    int16_t hi;
+} sea_int16x2;
+#else
+typedef int32_t sea_int16x2;
+#endif
+
 /* SEA_OPAQUE(p): makes the compiler forget what pointer p holds (an empty asm on gcc/clang), so loads
  * through it are not hoisted out of a loop: on the M0+ the hoisted inputs would live in high registers,
  * which Thumb-1 arithmetic cannot use directly. No effect on the results.
@@ -53,19 +69,28 @@ static inline int32_t sea_hi16(int32_t w)
 /* Pack two int16 values (lo first) into one word: hi * 2^16 + (lo mod 2^16), never overflows. */
 /*@ requires INT16_MIN <= hi <= INT16_MAX;
     assigns \nothing; */
-static inline int32_t sea_pack16x2(int32_t lo, int32_t hi)
+static inline sea_int16x2 sea_pack16x2(int32_t lo, int32_t hi)
 {
+#if defined(__FRAMAC__) && defined(__ARM_FEATURE_SIMD32)
+    sea_int16x2 r;
+    r.lo = (int16_t)lo; /* lo mod 2^16, as the word's low half */
+    r.hi = (int16_t)hi;
+    return r;
+#else
     return (hi * 65536) + (int32_t)((uint32_t)lo & 0xFFFFu);
-
+#endif
 }
 
-/* Pack two int16 values known to be >= 0 (ReLU outputs): hi * 2^16 | lo, one ORR; equals sea_pack16x2. Written
- * as an OR so Frama-C Eva's bitwise domain keeps each half's range (docs/prove.md); the same word as the ADD. */
+/* Pack two int16 values known to be >= 0 (ReLU outputs): hi * 2^16 | lo, one ORR; equals sea_pack16x2. */
 /*@ requires 0 <= lo <= INT16_MAX && 0 <= hi <= INT16_MAX;
     assigns \nothing; */
-static inline int32_t sea_pack_nonneg16x2(int32_t lo, int32_t hi)
+static inline sea_int16x2 sea_pack_nonneg16x2(int32_t lo, int32_t hi)
 {
+#if defined(__FRAMAC__) && defined(__ARM_FEATURE_SIMD32)
+    return sea_pack16x2(lo, hi);
+#else
     return (int32_t)(((uint32_t)hi << 16) | (uint32_t)lo);
+#endif
 }
 
 /* v0 = p[0], v1 = p[1]; with gcc on a core with the DSP extension as two LDRs back to back in one asm
@@ -117,30 +142,31 @@ static inline void sea_ld4(const int32_t *p, int32_t *v0, int32_t *v1, int32_t *
 }
 
 #if defined(__ARM_FEATURE_SIMD32)
-/* acc + lo(x)*lo(w) + hi(x)*hi(w): one SMLAD. The generator proves |acc| + the products stay < 2^31. */
+/* acc + lo(x)*lo(w) + hi(x)*hi(w): one SMLAD (x the packed activations, w a weight word). The generator proves
+ * |acc| + the products stay < 2^31. */
 /*@ assigns \nothing; */
-static inline int32_t sea_smlad(int32_t x, int32_t w, int32_t acc)
+static inline int32_t sea_smlad(sea_int16x2 x, int32_t w, int32_t acc)
 {
     return __smlad(x, w, acc);
 }
 
 /* Same into a 64-bit accumulator: one SMLALD. */
 /*@ assigns \nothing; */
-static inline int64_t sea_smlald(int32_t x, int32_t w, int64_t acc)
+static inline int64_t sea_smlald(sea_int16x2 x, int32_t w, int64_t acc)
 {
     return __smlald(x, w, acc);
 }
 #else
 /* Portable SMLAD: the same exact sum (the generator's bound rules out any overflow). */
 /*@ assigns \nothing; */
-static inline int32_t sea_smlad(int32_t x, int32_t w, int32_t acc)
+static inline int32_t sea_smlad(sea_int16x2 x, int32_t w, int32_t acc)
 {
     return acc + (sea_lo16(x) * sea_lo16(w)) + (sea_hi16(x) * sea_hi16(w));
 }
 
 /* Portable SMLALD. */
 /*@ assigns \nothing; */
-static inline int64_t sea_smlald(int32_t x, int32_t w, int64_t acc)
+static inline int64_t sea_smlald(sea_int16x2 x, int32_t w, int64_t acc)
 {
     return acc + (int64_t)(sea_lo16(x) * sea_lo16(w)) + (int64_t)(sea_hi16(x) * sea_hi16(w));
 }
@@ -316,11 +342,15 @@ static inline int32_t sea_u32_to_s32(uint32_t u)
 
 /* Clamp both int16 halves of the packed word x to [lo, hi] (the halves of the packed words lo and hi, each
  * lo half <= its hi half): sea_clamp_s32 on each half. With the DSP extension max then min as SSUB16 (GE
- * flags per half) and SEL, four instructions for two inputs. */
+ * flags per half) and SEL, four instructions for two inputs; for Frama-C on the M4 (the struct) that function,
+ * half by half (Eva cannot relate SEL's GE flags to the halves SSUB16 compared). */
 /*@ assigns \nothing; */
-static inline int32_t sea_clamp16x2(int32_t x, int32_t lo, int32_t hi)
+static inline sea_int16x2 sea_clamp16x2(sea_int16x2 x, int32_t lo, int32_t hi)
 {
-#if defined(__ARM_FEATURE_SIMD32)
+#if defined(__FRAMAC__) && defined(__ARM_FEATURE_SIMD32)
+    return sea_pack16x2(sea_clamp_s32(x.lo, sea_lo16(lo), sea_lo16(hi)),
+                        sea_clamp_s32(x.hi, sea_hi16(lo), sea_hi16(hi)));
+#elif defined(__ARM_FEATURE_SIMD32)
     int32_t m;
     (void)__ssub16(x, lo);
     m = sea_u32_to_s32(__sel((uint32_t)x, (uint32_t)lo));

@@ -144,23 +144,36 @@ def test_verify_prove_cli_writes_one_case_per_function(tmp_path):
     assert proven[3:] == ["m_controller_tick on a shared pipeline"], names  # NAME_controller_init_shared
 
 
-# The M4 int16 kernel's first layer packs the clamped *signed* inputs two to a word (SSUB16/SEL clamp, then
-# SMLAD): Eva's domains (intervals, and the bitwise domain that follows the ReLU layers' nonneg halves) cannot
-# carry a signed half's range inside a word, so layer 0's SMLAD sums of mlp_calibration (inputs spanning 0)
-# are not proven (docs/prove.md, "Not proven"). Strict: a fix makes these pass and fail here.
-M4_PACKED = pytest.mark.xfail(strict=True, reason="M4 int16 MLP: signed packed layer-0 inputs, docs/prove.md")
-
-
 def matrix():
-    """target x weights x SF/MLP x calibration/--controller."""
+    """target x weights x SF/MLP x calibration/--controller (the Cortex-M4 int16 mlp_calibration, whose
+    layer 0 packs signed clamped inputs two to a word, included: docs/prove.md)."""
     for target in ("portable", "cortex-m0plus", "cortex-m4"):
         for weights in ("int16", "int8"):
             for model in ("sf_calibration", "mlp_calibration", "sf_control", "mlp_control"):
                 ctl = model.endswith("control")
-                marks = [pytest.mark.slow]
-                if target == "cortex-m4" and weights == "int16" and model == "mlp_calibration":
-                    marks.append(M4_PACKED)
-                yield pytest.param(model, target, weights, ctl, marks=marks, id=f"{target}-{weights}-{model}")
+                yield pytest.param(
+                    model, target, weights, ctl, marks=pytest.mark.slow, id=f"{target}-{weights}-{model}"
+                )
+
+
+@needs_frama_c
+@pytest.mark.slow
+def test_m4_packed_inputs_without_their_clamp_caught(tmp_path):
+    """The M4 int16 mlp_calibration's layer 0 with its pair clamps removed (packed inputs any int16, not the
+    calibrated box): a layer-0 SMLAD sum then overflows int32 for real (a neuron's bias plus 32768 times its
+    weights' magnitudes is 2.26e9 > 2^31), and Eva reports it at sea_smlad's line in sea_dsp.h: the halves Eva
+    carries (sea_int16x2 as a struct) are the clamp's ranges, not an assumption that SMLAD cannot overflow."""
+    d = export(tmp_path, "mlp_calibration", "cortex-m4")
+    src = d / "m.c"
+    text, n = re.subn(
+        r"sea_clamp16x2\((sea_pack16x2\([^)]*\)), m_in_lo\[\d+\], m_in_hi\[\d+\]\)", r"\1", src.read_text()
+    )
+    assert n == 5
+    src.write_text(text)
+    line = line_of(d / "sea_dsp.h", "return __smlad(x, w, acc);")
+    v = prove_folder(d)
+    infer = next(i for i in v.items if i.name.startswith("m_infer"))
+    assert not infer.ok and f"sea_dsp.h:{line}: signed overflow" in infer.detail, infer.detail
 
 
 @needs_frama_c
@@ -204,7 +217,7 @@ void prove_glove(void)
 
 @needs_frama_c
 @pytest.mark.slow
-@pytest.mark.parametrize("target", ["portable", "cortex-m0plus", pytest.param("cortex-m4", marks=M4_PACKED)])
+@pytest.mark.parametrize("target", ["portable", "cortex-m0plus", "cortex-m4"])
 def test_firmware_example_as_caller_proven(target):
     """examples/firmware's glove (seven actuators, cal_mlp and ctl_mlp --controller on one shared pipeline
     each) as the caller: 12 ticks from glove_init with every sensor over the contracts' domain, 0 alarms."""

@@ -40,15 +40,10 @@ TARGET_MACROS = {
 # Eva's settings, recorded in every report: precision level 2, loops of up to 64 iterations unrolled (the
 # kernels' neuron and input loops), the harness's tick loop unrolled by its annotation; the default alarms
 # (signed overflow, invalid memory access, uninitialised read, division by zero, invalid shift, pointer
-# comparison) are all kept.
+# comparison) are all kept. The same on every target: the Cortex-M4 kernels' packed int16 pairs are, for
+# Frama-C only, the struct of their two halves (sea_int16x2 of sea_dsp.h under __FRAMAC__), so the interval
+# domain keeps each half's range with no bitwise domain or inlining (docs/prove.md).
 EVA_OPTIONS = ("-eva", "-eva-precision", "2", "-eva-auto-loop-unroll", "64")
-
-# Added for the Cortex-M4, whose int16 kernels pack two activations in one word for SMLAD: the bitwise domain
-# keeps each half's range through the pack (hi << 16 | lo) and the unpack, and sea_smlad/sea_smlald are
-# inlined (they only call the ACLE intrinsic, a macro in arm_acle.h) since a call's parameter loses it.
-TARGET_OPTIONS = {
-    "cortex-m4": ("-eva-domains", "bitwise", "-inline-calls", "sea_smlad,sea_smlald,sea_pack_nonneg16x2")
-}
 
 _ALARM = re.compile(r"^\[eva:alarm\] ([^:\s]+):(\d+): Warning:\s*(.*)$")
 
@@ -142,7 +137,7 @@ def entries(man: Manifest, harness: str) -> list[tuple[str, str]]:
 def command(target: str, sources: list[str], entry: str) -> list[str]:
     """The frama-c command line seagen runs for one entry point of an export for `target`."""
     cpp = ["-I."] + [f"-D{m}" for m in TARGET_MACROS[target]]
-    opts = [*EVA_OPTIONS, *TARGET_OPTIONS.get(target, ())]
+    opts = list(EVA_OPTIONS)
     return [FRAMA_C, *opts, "-machdep", MACHDEP[target], f"-cpp-extra-args={' '.join(cpp)}"] + [
         *sources,
         "-main",
@@ -195,7 +190,7 @@ def unproven(log: str) -> str:
 def settings_line(target: str, version: str) -> str:
     """The tool, its version and the settings of a run, for the report."""
     macros = " ".join(f"-D{m}" for m in TARGET_MACROS[target])
-    opts = " ".join([*EVA_OPTIONS, *TARGET_OPTIONS.get(target, ())])
+    opts = " ".join(EVA_OPTIONS)
     return f"Frama-C {version}, {opts} -machdep {MACHDEP[target]}" + (f", {macros}" if macros else "")
 
 
