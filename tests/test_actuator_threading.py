@@ -240,8 +240,18 @@ EXPECTED = {
         "controller",
         "data_folder",
     },  # replay: the protocol's rows; a data folder's rows at another rate are refused
-    # faults, targets, peaks, the discrepancy report's force regions, the rows of the relative errors
-    "control.force_max_n": {"controller", "experiment", "verify", "protocol", "discrepancy", "data_folder"},
+    # faults, targets, peaks, the discrepancy report's force regions, the rows of the relative errors; the
+    # plant's structure defaults at the design's scale (plant.config.DESIGN_UNITS: beta in mm/N^2)
+    "control.force_max_n": {
+        "controller",
+        "experiment",
+        "verify",
+        "protocol",
+        "discrepancy",
+        "data_folder",
+        "plant",
+        "replay",
+    },
     "control.kp_v_per_mm": {"controller"},
     "control.ki_v_per_mm_s": {"controller"},
     "control.kd_v_s_per_mm": {"controller"},

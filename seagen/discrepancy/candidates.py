@@ -10,14 +10,18 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
+from seagen.actuator import Actuator
 from seagen.discrepancy.rendezvous import Rendezvous
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS, chi2_per_trial, zscores
 from seagen.discrepancy.terms import TERM_SPACE
 from seagen.plant import PlantConfig
-from seagen.plant.config import CATALOGUE, counts_range, pot_full_scale
+from seagen.plant.config import CATALOGUE, counts_range, design_factor, pot_full_scale
 
-# Fit box per effect parameter: (low, high, log-scaled). Realistic for a compact SEA; wide on purpose.
+# Fit box per effect parameter: (low, high, log-scaled). Realistic for a compact SEA; wide on purpose. Those
+# at a design's scale (plant.config.DESIGN_UNITS: N, mm, N/mm, ...) are the paper's here, and a candidate
+# searches them times design_factor of its actuator (the structure's stiffness as a multiple of the spring's,
+# a backlash as a share of the spring's travel, a friction as a share of the force range).
 SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
     "actuator_friction": {"force_n": (0.2, 8.0, True), "reverse_ratio": (0.2, 1.2, False)},
     "linkage_friction": {"c0_n": (-1.5, 2.0, False), "c1_n": (-3.0, 3.0, False), "c2_n": (-3.0, 3.0, False)},
@@ -51,14 +55,23 @@ STEP = 1e-3  # forward-difference step of the Jacobians (unit box)
 NOT_FINITE = 1e3  # the residual (noise sigmas) least squares sees where a replay is not finite
 
 
+def _act(cfg: PlantConfig | None) -> Actuator | None:
+    """cfg's actuator, whose scale the boxes take (None: the paper's)."""
+    return None if cfg is None else cfg.actuator
+
+
 def full_scale(cfg: PlantConfig | None = None) -> float:
     """Counts of the pot ADC's full scale (2^adc_bits) of cfg's actuator (the paper's when None)."""
     return pot_full_scale((cfg or PlantConfig()).actuator)
 
 
-def box(effect: str, param: str, scale: float) -> tuple[float, float, bool]:
-    """(low, high, log-scaled) of a parameter's box in the plant's units, for a pot of `scale` counts."""
+def box(effect: str, param: str, scale: float, act: Actuator | None = None) -> tuple[float, float, bool]:
+    """(low, high, log-scaled) of a parameter's box in the plant's units, for a pot of `scale` counts, on the
+    actuator `act` (a parameter at a design's scale times its design_factor; the paper's when None)."""
     lo, hi, log = BOXES[effect][param]
+    k = 1.0 if act is None else design_factor(effect, param, act)
+    if k != 1.0:
+        lo, hi = lo * k, hi * k
     return (*counts_range(effect, param, (lo, hi), scale), log)
 
 
@@ -72,6 +85,7 @@ class Candidate:
     tag: str = ""  # appended to the label (e.g. ' (joint recalibration)')
     held: frozenset[tuple[str, str]] = frozenset()  # (effect, parameter) kept at the base's value
     full_scale: float = field(default_factory=full_scale)  # pot ADC counts (counts_range)
+    act: Actuator | None = None  # the design whose scale the boxes take (box); the paper's when None
 
     @property
     def keys(self) -> list[tuple[str, str]]:
@@ -83,7 +97,7 @@ class Candidate:
         u = self.u if u is None else u
         out: ParamSet = {e: {} for e in self.names}
         for (e, p), x in zip(self.keys, np.clip(u, 0, 1), strict=True):
-            lo, hi, log = box(e, p, self.full_scale)
+            lo, hi, log = box(e, p, self.full_scale, self.act)
             out[e][p] = float(lo * (hi / lo) ** float(x) if log else lo + (hi - lo) * x)
         return out
 
@@ -103,9 +117,9 @@ def present_effects(cfg: PlantConfig) -> list[str]:
     return [e for e in CATALOGUE if cfg.on(e)]
 
 
-def to_unit(effect: str, param: str, value: float, scale: float) -> float:
+def to_unit(effect: str, param: str, value: float, scale: float, act: Actuator | None = None) -> float:
     """Inverse of the unit-box mapping of SPACE for a pot of `scale` counts (clipped to the box)."""
-    lo, hi, log = box(effect, param, scale)
+    lo, hi, log = box(effect, param, scale, act)
     x = math.log(max(value, 1e-12) / lo) / math.log(hi / lo) if log else (value - lo) / (hi - lo)
     return float(np.clip(x, 0, 1))
 
@@ -128,8 +142,8 @@ def at(
 ) -> Candidate:
     """A candidate of `names` at the values in params (a full set for each effect but the held ones), on
     the plant `cfg` (its pot ADC scales the boxes of pot counts; the paper's when None)."""
-    c = Candidate(names, np.zeros(0), tag=tag, held=held, full_scale=full_scale(cfg))
-    c.u = np.array([to_unit(e, p, params[e][p], c.full_scale) for e, p in c.keys])
+    c = Candidate(names, np.zeros(0), tag=tag, held=held, full_scale=full_scale(cfg), act=_act(cfg))
+    c.u = np.array([to_unit(e, p, params[e][p], c.full_scale, c.act) for e, p in c.keys])
     return c
 
 
@@ -160,7 +174,9 @@ def joint_recalibration(cfg: PlantConfig) -> Candidate | None:
 def start(cfg: PlantConfig, effect: str) -> Candidate:
     """A single-effect candidate: at cfg's values when the effect is on (recalibration), else mid-box."""
     if not cfg.on(effect):
-        return Candidate((effect,), np.full(len(BOXES[effect]), 0.5), full_scale=full_scale(cfg))
+        return Candidate(
+            (effect,), np.full(len(BOXES[effect]), 0.5), full_scale=full_scale(cfg), act=_act(cfg)
+        )
     return at((effect,), {effect: values(cfg, effect)}, held_in(cfg, (effect,)), cfg=cfg)
 
 

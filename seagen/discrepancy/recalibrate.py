@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
+from seagen.actuator import Actuator
 from seagen.discrepancy.candidates import (
     at,
     box,
@@ -20,7 +21,7 @@ from seagen.discrepancy.candidates import (
 )
 from seagen.discrepancy.replay import ParamSet, Runs
 from seagen.plant import PlantConfig
-from seagen.plant.config import PAPER_POT_FULL_SCALE, counts_range
+from seagen.plant.config import PAPER_POT_FULL_SCALE, counts_range, design_factor
 
 # Plausible values for a compact SEA like the paper's (documented in the README). The fit may move a
 # parameter anywhere in its wider SPACE box; a value outside these ranges is reported as implausible.
@@ -43,9 +44,16 @@ PLAUSIBLE_SHARES: dict[str, dict[str, tuple[float, float]]] = {
 }
 
 
-def plausible_range(effect: str, param: str, scale: float = PAPER_POT_FULL_SCALE) -> tuple[float, float]:
-    """(low, high) of a parameter's plausible range, for a pot of `scale` counts (the paper's by default)."""
-    return counts_range(effect, param, PLAUSIBLE_SHARES[effect][param], scale)
+def plausible_range(
+    effect: str, param: str, scale: float = PAPER_POT_FULL_SCALE, act: Actuator | None = None
+) -> tuple[float, float]:
+    """(low, high) of a parameter's plausible range, for a pot of `scale` counts (the paper's by default), on
+    the actuator `act` (a parameter at a design's scale times its design_factor; the paper's when None)."""
+    lo, hi = PLAUSIBLE_SHARES[effect][param]
+    k = 1.0 if act is None else design_factor(effect, param, act)
+    if k != 1.0:
+        lo, hi = lo * k, hi * k
+    return counts_range(effect, param, (lo, hi), scale)
 
 
 # The ranges in the plant's units on the paper's pot (20 to 400 counts per unit current on its 12-bit ADC).
@@ -69,9 +77,11 @@ def unit_of(param: str) -> str:
     return next((u for suffix, u in _UNIT_SUFFIX if param.endswith(suffix)), "")
 
 
-def plausible(effect: str, param: str, value: float, scale: float = PAPER_POT_FULL_SCALE) -> bool:
-    """Whether value lies in the documented plausible range (for a pot of `scale` counts)."""
-    lo, hi = plausible_range(effect, param, scale)
+def plausible(
+    effect: str, param: str, value: float, scale: float = PAPER_POT_FULL_SCALE, act: Actuator | None = None
+) -> bool:
+    """Whether value lies in the documented plausible range (for a pot of `scale` counts, on `act`)."""
+    lo, hi = plausible_range(effect, param, scale, act)
     return lo <= value <= hi
 
 
@@ -110,7 +120,7 @@ def uncertainty(base: PlantConfig, params: ParamSet, fit: Runs, sigma: dict) -> 
     sig_u = unit_sigmas(jac, scale)
     out: dict[str, dict[str, float]] = {e: {} for e in params}
     for (e, p), s in zip(cand.keys, sig_u, strict=True):
-        out[e][p] = box_sigma(s, params[e][p], *box(e, p, cand.full_scale))
+        out[e][p] = box_sigma(s, params[e][p], *box(e, p, cand.full_scale, cand.act))
     return out
 
 
@@ -120,6 +130,7 @@ def change_lines(
     after: dict[str, float],
     sig: dict,
     scale: float = PAPER_POT_FULL_SCALE,
+    act: Actuator | None = None,
 ) -> list[str]:
     """'actuator_friction.force_n 3.60 -> 2.71 N, ±0.02' per parameter, flagged when implausible (for a
     pot of `scale` counts)."""
@@ -128,8 +139,8 @@ def change_lines(
         u = unit_of(p)
         line = f"{effect}.{p} {before[p]:.4g} -> {v:.4g}{' ' + u if u else ''}, ±{sig.get(p, np.nan):.2g}"
         line += " (not pinned: the data do not exercise it)" if math.isinf(sig.get(p, 0.0)) else ""
-        if not plausible(effect, p, v, scale):
-            lo, hi = plausible_range(effect, p, scale)
+        if not plausible(effect, p, v, scale, act):
+            lo, hi = plausible_range(effect, p, scale, act)
             line += f" (OUTSIDE the plausible range {lo:g}..{hi:g})"
         out.append(line)
     return out
@@ -190,7 +201,7 @@ def base_check(base: PlantConfig, fit: Runs, sigma: dict) -> BaseCheck:
     out = BaseCheck(score=score, p_value=p_value)
     params = cand.params()
     for (e, p), s in zip(cand.keys, sig_u, strict=True):
-        lo, hi, log = box(e, p, cand.full_scale)
+        lo, hi, log = box(e, p, cand.full_scale, cand.act)
         v = params[e][p]
         sig = box_sigma(s, v, lo, hi, log)
         out.sigma[f"{e}.{p}"] = sig

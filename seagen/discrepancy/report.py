@@ -122,7 +122,10 @@ def markdown(res: Result, source: str, before: pd.DataFrame, after: pd.DataFrame
         discovered_section(res),
         _learned(res),
         "## Parameter changes of the base (recalibrated)\n"
-        + ("\n".join(f"- {line}" for n in res.recalibrated for line in _changes(n, fs)) or "none"),
+        + (
+            "\n".join(f"- {line}" for n in res.recalibrated for line in _changes(n, fs, res.config.actuator))
+            or "none"
+        ),
         _pinning(res),
         "## Effects added\n" + (_md_table(eff) if len(eff) else "none"),
         "![residual maps](residual_maps.png)",
@@ -275,12 +278,12 @@ def gap_cut(before: float, after: float, floor: float) -> float:
     return float(1 - max(after - floor, 0.0) / max(before - floor, 1e-12))
 
 
-def _changes(n, full_scale: float) -> list[str]:
+def _changes(n, full_scale: float, act=None) -> list[str]:
     """Change lines of one recalibrated effect, with its bootstrap confidence (and claim); `full_scale`: the
     pot's counts (the plausible ranges of pot counts scale with it)."""
     return [
         f"{line} (confidence {n.confidence:.0%}{'' if n.claimed else '; ' + _claim(n)})"
-        for line in change_lines(n.name, n.before, n.params, n.sigma, full_scale)
+        for line in change_lines(n.name, n.before, n.params, n.sigma, full_scale, act)
     ]
 
 
@@ -362,7 +365,7 @@ def summary(res: Result) -> dict:
                 "before": n.before[p],
                 "after": v,
                 "sigma": n.sigma.get(p),
-                "plausible": plausible(n.name, p, v, fs),
+                "plausible": plausible(n.name, p, v, fs, res.config.actuator),
                 "confidence": n.confidence,
                 "claimed": n.claimed,
                 "why": n.why,

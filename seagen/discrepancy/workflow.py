@@ -436,9 +436,13 @@ def _honest(base: PlantConfig, named: list[Named], held: Runs, sig_h, z0) -> tup
     kept: list[Named] = []
     fs = pot_full_scale(base.actuator)
     for n in named:
-        bad = [p for p, v in n.params.items() if n.before is not None and not plausible(n.name, p, v, fs)]
+        bad = [
+            p
+            for p, v in n.params.items()
+            if n.before is not None and not plausible(n.name, p, v, fs, base.actuator)
+        ]
         for p in bad:
-            lo, hi = plausible_range(n.name, p, fs)
+            lo, hi = plausible_range(n.name, p, fs, base.actuator)
             notes.append(
                 f"{n.name}.{p} fitted {n.params[p]:.4g}, outside the plausible range {lo:g}..{hi:g}: "
                 f"not written to plant.toml (the base's {n.before[p]:.4g} kept)"  # type: ignore[index]
@@ -468,7 +472,7 @@ def _at_edge(n: Named, cfg: PlantConfig | None = None) -> list[str]:
     `cfg`, whose pot ADC scales the boxes of pot counts; the paper's when None)."""
     out, fs = [], full_scale(cfg)
     for p, v in n.params.items():
-        lo, hi, log = box(n.name, p, fs)
+        lo, hi, log = box(n.name, p, fs, cfg.actuator if cfg is not None else None)
         u = math.log(v / lo) / math.log(hi / lo) if log and v > 0 else (v - lo) / (hi - lo)
         if u <= EDGE or u >= 1 - EDGE:
             out.append(p)

@@ -165,6 +165,53 @@ def counts_range(
     return span[0] * k, span[1] * k
 
 
+# Effect parameters at the scale of a design's force and travel, as the (force, travel) exponents of their
+# unit: N (1, 0), mm (0, 1), N/mm (1, -1), mm/N^2 (-2, 1), N/mm^3 (1, -3), N s/mm (1, -1). The discrepancy
+# search's boxes of them are the paper's times design_factor (a design far from the paper's is searched
+# around its own scale); of the plant's defaults, the structure's (series_compliance: a share of the
+# spring's deflection like the paper's) and those of the effects off by default. Frictions and offsets the
+# plant has on by default stay absolute (the description's transmission.friction_n is the kinematics
+# baseline's and the same 2.7 N). Exactly 1.0 on the paper's actuator: its numbers are unchanged.
+DESIGN_UNITS: dict[tuple[str, str], tuple[int, int]] = {
+    ("actuator_friction", "force_n"): (1, 0),
+    ("linkage_friction", "c0_n"): (1, 0),
+    ("linkage_friction", "c1_n"): (1, 0),
+    ("linkage_friction", "c2_n"): (1, 0),
+    ("viscous_friction", "b_n_s_per_mm"): (1, -1),
+    ("stribeck_friction", "extra_static_n"): (1, 0),
+    ("stribeck_friction", "v_s_mm_s"): (0, 1),
+    ("series_compliance", "k_n_per_mm"): (1, -1),
+    ("series_compliance", "beta_mm_per_n2"): (-2, 1),
+    ("backlash", "half_width_mm"): (0, 1),
+    ("spring_preload", "force_n"): (1, 0),
+    ("spring_nonlinearity", "k3_n_per_mm3"): (1, -3),
+    ("load_cell_offset", "offset_n"): (1, 0),
+}
+PLANT_SCALED = (  # defaults scaled with the design (see above)
+    "series_compliance",
+    "viscous_friction",
+    "stribeck_friction",
+    "backlash",
+    "spring_preload",
+    "spring_nonlinearity",
+    "load_cell_offset",
+)
+
+
+def design_factor(effect: str, param: str, act: Actuator) -> float:
+    """Factor on the paper's value of a DESIGN_UNITS parameter for `act`: its force range over the paper's
+    (force) and its spring's compression at that range over the paper's (travel), each to its exponent;
+    1.0 for any other parameter and exactly 1.0 on the paper's actuator."""
+    if (effect, param) not in DESIGN_UNITS:
+        return 1.0
+    a, b = DESIGN_UNITS[(effect, param)]
+    paper = default_actuator()
+    f_paper, f = paper.control.force_max_n, act.control.force_max_n
+    force = f / f_paper
+    travel = (f / act.stiffness_n_per_mm) / (f_paper / paper.stiffness_n_per_mm)
+    return float(force**a * travel**b)
+
+
 @dataclass
 class PotVoltageDrop(Effect):
     """Pot reads high while the motor draws current (|i| normalised to stall at the supply), decays after.
@@ -459,10 +506,17 @@ class Effects:
 
     @classmethod
     def of(cls, act: Actuator) -> Effects:
-        """The default catalogue for an actuator: its pot effects at their shares of its pot's full scale."""
+        """The default catalogue for an actuator: its pot effects at their shares of its pot's full scale, the
+        structure's and the effects off by default at its scale (DESIGN_UNITS, PLANT_SCALED)."""
         out, fs = cls(), pot_full_scale(act)
         for (name, param), share in POT_SHARES.items():
             setattr(out, name, dataclasses.replace(getattr(out, name), **{param: share * fs}))
+        for name, param in DESIGN_UNITS:
+            if name in PLANT_SCALED:
+                k = design_factor(name, param, act)
+                if k != 1.0:
+                    value = getattr(getattr(out, name), param) * k
+                    setattr(out, name, dataclasses.replace(getattr(out, name), **{param: value}))
         return out
 
 
