@@ -104,7 +104,7 @@ RECORD: tuple[Deviation, ...] = (
         "sea_dsp.h",
         r"const int32_t rl = \(int32_t\)\(\(uint32_t\)r & 0xFFFFu\);",
         r"return \(hi \* 65536\) \+ \(int32_t\)\(\(uint32_t\)lo & 0xFFFFu\);",
-        # sea_pack_nonneg16x2 as an OR of the two non-negative halves (Frama-C's bitwise domain follows it)
+        # sea_pack_nonneg16x2 as an OR of the two non-negative halves (the same word as hi * 65536 + lo)
         r"return \(int32_t\)\(\(\(uint32_t\)hi << 16\) \| \(uint32_t\)lo\);",
         r"return \(int32_t\)\(\(\(uint32_t\)w (& 0xFFFFu|>> 16)\) \^ 0x8000u\) - 0x8000;",
         r"return \(u <= 0x7FFFFFFFu\) \? \(int32_t\)u",
