@@ -252,11 +252,6 @@ DENSE = {
     ("cogging", "period_mm"): 24,
     ("lead_error", "phase_rad"): 4,
     ("cogging", "phase_rad"): 4,
-    # a shape parameter starts at its box's middle (the start grid of the others is the costly part)
-    ("breakaway_friction", "shape"): 1,
-    ("spring_bouc_wen", "shape"): 1,
-    ("cell_hysteresis", "shape"): 1,
-    ("cell_soft_saturation", "sharpness"): 1,
 }
 STARTS = 3  # start points along every other parameter (its box's 1/6, 1/2 and 5/6)
 
