@@ -398,14 +398,15 @@ def simulate(
 
     def accumulate(x: np.ndarray) -> np.ndarray:
         """Weighted reads summed into (set, trial, sample), the earlier read first (as a running sum)."""
-        out = np.zeros(shape)
+        out = np.zeros((x.shape[1], n, t))  # x's sets (all, or those a term is on in)
         y = wr * x
         out[:, at_once[0], at_once[1]] += y[once].T
         out[:, at_twice[0], at_twice[1]] += y[twice].T
         return out
 
     out = {c: accumulate(v) for c, v in readings.items()}
-    tip = accumulate(force * plant.ratio[mrows]) if "cell_hysteresis" in post else None
+    hyst = _on(post, "cell_hysteresis", "force_n", n_sets, n)
+    tip = accumulate((force * plant.ratio[mrows])[:, hyst]) if hyst.size else None
     rec = {k: accumulate(v) for k, v in rec.items()}
     ratio = plant.geo.linkage_ratio(runs.angle)[None, :, None]
     if lr.enabled:
@@ -413,7 +414,10 @@ def simulate(
         out[lr.channel] += learned_correction(lr, flat).reshape(shape)
     out["pot"] = _pot(out["pot"], post, n_sets, n, runs.t)
     if tip is not None:
-        out["load_cell_n"] = _cell_hysteresis(out["load_cell_n"], tip, post["cell_hysteresis"], n_sets, n)
+        par = {
+            p: _per_set(post, "cell_hysteresis", p, n_sets, n)[hyst, :, 0] for p in NEUTRAL["cell_hysteresis"]
+        }
+        out["load_cell_n"][hyst] = _cell_hysteresis(out["load_cell_n"][hyst], tip, par)
     out["force_n"] = out["load_cell_n"] / ratio
     if inputs is not None:
         inputs.update(rec)
@@ -474,22 +478,36 @@ def _per_set(post: dict, effect: str, param: str, n_sets: int, n: int) -> np.nda
     return (np.zeros(n_sets * n) + post[effect][param]).reshape(n_sets, n, 1)
 
 
+def _on(post: dict, effect: str, param: str, n_sets: int, n: int) -> np.ndarray:
+    """The sets in which a sensor-side term is on: its parameter `param` not at its neutral value (the
+    others' reads are those without it, exactly, and are not computed again)."""
+    if effect not in post:
+        return np.zeros(0, dtype=np.int64)
+    v = _per_set(post, effect, param, n_sets, n)[:, :, 0]
+    return np.flatnonzero((v != NEUTRAL[effect][param]).any(axis=1))
+
+
 def _pot(pot: np.ndarray, post: dict, n_sets: int, n: int, t: np.ndarray) -> np.ndarray:
     """The pot's reads (sets, trials, samples at the logged instants t) behind each set element's reading
     lag, with its drifting zero, through its play (from its first reading), in its steps and clamped above
-    (sim.Plant.read); unchanged when none is in the replay."""
+    (sim.Plant.read); unchanged when none is in the replay. The term library's terms are computed for the
+    sets they are on in (_on)."""
     ph, pq = post.get("pot_hysteresis"), post.get("pot_quantisation")
-    if "pot_reading_lag" in post:
-        tau = _per_set(post, "pot_reading_lag", "time_constant_s", n_sets, n)
+    lag = _on(post, "pot_reading_lag", "time_constant_s", n_sets, n)
+    if lag.size:
+        tau = _per_set(post, "pot_reading_lag", "time_constant_s", n_sets, n)[lag]
         a = reading_alpha(np.diff(t, axis=1)[None], tau)
-        out = np.empty_like(pot)
-        c = out[:, :, 0] = pot[:, :, 0]
-        for j in range(1, pot.shape[2]):
-            c = out[:, :, j] = lag_step(c, pot[:, :, j], a[:, :, j - 1])
-        pot = out
-    if "pot_drift" in post:
-        drift = (_per_set(post, "pot_drift", p, n_sets, n) for p in ("offset_counts", "time_constant_s"))
-        pot = pot_distort(pot, t[None], tuple(drift))
+        x = pot[lag]
+        c = x[:, :, 0]
+        for j in range(1, x.shape[2]):
+            c = x[:, :, j] = lag_step(c, x[:, :, j], a[:, :, j - 1])
+        pot[lag] = x
+    drifting = _on(post, "pot_drift", "offset_counts", n_sets, n)
+    if drifting.size:
+        drift = (
+            _per_set(post, "pot_drift", p, n_sets, n)[drifting] for p in ("offset_counts", "time_constant_s")
+        )
+        pot[drifting] = pot_distort(pot[drifting], t[None], tuple(drift))
     if ph:
         w = (np.zeros(n_sets * n) + ph["half_width_counts"]).reshape(n_sets, n)
         out = np.empty_like(pot)
@@ -503,16 +521,19 @@ def _pot(pot: np.ndarray, post: dict, n_sets: int, n: int, t: np.ndarray) -> np.
         q = (np.zeros(n_sets * n) + pq["step_counts"]).reshape(n_sets, n, 1)
         safe = np.where(q > 0, q, 1.0)
         pot = np.where(q > 0, safe * np.rint(pot / safe), pot)
-    if "pot_saturation" in post:
-        pot = pot_distort(pot, t[None], None, _per_set(post, "pot_saturation", "limit_counts", n_sets, n))
+    clamped = _on(post, "pot_saturation", "limit_counts", n_sets, n)
+    if clamped.size:
+        limit = _per_set(post, "pot_saturation", "limit_counts", n_sets, n)[clamped]
+        pot[clamped] = pot_distort(pot[clamped], t[None], None, limit)
     return pot
 
 
-def _cell_hysteresis(cell: np.ndarray, tip: np.ndarray, par: dict, n_sets: int, n: int) -> np.ndarray:
-    """The load cell's reads (sets, trials, samples) plus each set element's hysteresis h z, z driven by the
-    noise-free tip force's change per reading from the first (sim.hysteresis_step), after its other terms."""
-    h, w, k = ((np.zeros(n_sets * n) + par[p]).reshape(n_sets, n) for p in ("force_n", "width_n", "shape"))
-    z = np.zeros((n_sets, n))
+def _cell_hysteresis(cell: np.ndarray, tip: np.ndarray, par: dict[str, np.ndarray]) -> np.ndarray:
+    """The load cell's reads (sets, trials, samples) plus each set element's hysteresis h z (par: its
+    parameters, (sets, trials)), z driven by the noise-free tip force's change per reading from the first
+    (sim.hysteresis_step), after its other terms."""
+    h, w, k = (par[p] for p in ("force_n", "width_n", "shape"))
+    z = np.zeros(cell.shape[:2])
     out = cell.copy()
     for j in range(1, cell.shape[2]):
         z = hysteresis_step(z, tip[:, :, j] - tip[:, :, j - 1], w, k)
