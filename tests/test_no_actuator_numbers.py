@@ -47,6 +47,10 @@ ALLOWED: dict[tuple[str, float], str] = {
         "seagen/plant/kernel.py",
         28,
     ): "a row index of the compiled kernel's parameter table, not linkage.angle_max_deg",
+    (
+        "seagen/plant/kernel.py",
+        36,
+    ): "a row index of the compiled kernel's parameter table, not linkage.cb_mm",
     ("seagen/discrepancy/signature.py", 0.025): "the signature's 'under load' band as a share of the force "
     "range (the paper's 0.5 N of 20 N), not control.margin_mm",
 }
