@@ -36,9 +36,10 @@ def test_shipped_parameters_are_the_defaults():
 
 def test_search_space_is_the_papers_on_the_paper_and_carried_to_another_design():
     """The paper's ranges on its own actuator (the shipped search unchanged); on the example, widened: the
-    gains' by the ratio of the nut's speed per volt, the margin's by the springs', the limit's like the
-    calibration pushes' volts, within the supply; at a fast loop the derivative gain's top is what the
-    C's Q12 int32 holds."""
+    gains' by the ratio of the nut's speed per volt, kp's and ki's also by the compression the stalled
+    motor holds per volt, the margin's top moved by the springs' ratio (the same force), its bottom
+    widened, the limit's like the calibration pushes' volts, within the supply; at a fast loop the
+    derivative gain's top is what the C's Q12 int32 holds."""
     import dataclasses
 
     from seagen.actuator import default_actuator, load_actuator
@@ -57,10 +58,12 @@ def test_search_space_is_the_papers_on_the_paper_and_carried_to_another_design()
     def widened(lo: float, hi: float, by: float) -> tuple[float, float]:
         return lo * min(by, 1.0), hi * max(by, 1.0)
 
-    assert gain != pytest.approx(1.0, abs=0.05)
-    assert space["kp_v_mm"] == pytest.approx(widened(20, 40, gain))
+    hold = (150.0 / 12.0 / 4.2) / (ex.motor.stall_force_n / ex.motor.supply_v / ex.stiffness_n_per_mm)
+    assert gain != pytest.approx(1.0, abs=0.05) and hold > gain > 1.0
+    assert space["kp_v_mm"] == pytest.approx(widened(20, 40, hold))
+    assert space["ki_v_mm_s"] == pytest.approx(widened(2, 8, hold))
     assert space["kd_v_s_mm"] == pytest.approx(widened(0.5, 1.2, gain))
-    assert space["margin_mm"] == pytest.approx(widened(0.02, 0.05, 4.2 / 8.4))
+    assert space["margin_mm"] == pytest.approx((0.02 * 4.2 / 8.4, 0.05 * 4.2 / 8.4))
     lim = volts_scale(ex) * force_scale(ex)
     assert lim != pytest.approx(1.0, abs=0.05)
     assert space["limit_v"] == pytest.approx(tuple(min(v, 24.0) for v in widened(6, 10, lim)))
@@ -70,6 +73,28 @@ def test_search_space_is_the_papers_on_the_paper_and_carried_to_another_design()
     slow = dataclasses.replace(ex, motor=dataclasses.replace(ex.motor, no_load_rpm=600.0), loop_hz=1000.0)
     top_1k = GAIN_HEADROOM * gain_max_si(1e-3)["kd_v_s_mm"]  # a slow motor's range reaches above it
     assert search_space(slow)["kd_v_s_mm"] == pytest.approx((0.5, top_1k)) and top_1k < 1.2
+
+
+def test_the_margin_dead_band_stays_inside_the_settling_band_on_every_design():
+    """The margin is a dead band on the compression error: the loop stops where it enters it. Its top in
+    force (margin x spring) is the paper's top, 0.21 N, 70 % of the +-0.3 N settling band, on every
+    shipped design and the paper's (fast_48v's search reached 0.05 mm, 0.59 N on its 12 N/mm spring, and
+    its SF loop stopped 0.46-0.48 N off); the paper's exactly 0.05 mm."""
+    from pathlib import Path
+
+    from seagen.actuator import default_actuator, load_actuator
+    from seagen.control.experiment import BAND_N
+    from seagen.control.tune import MARGIN_TOP_N, search_space
+
+    assert abs(MARGIN_TOP_N - 0.21) < 1e-12 and MARGIN_TOP_N <= 0.7 * BAND_N + 1e-12
+    assert search_space(default_actuator())["margin_mm"][1] == 0.05
+    examples = sorted((Path(__file__).parents[1] / "examples" / "actuators").glob("*.toml"))
+    assert len(examples) >= 3
+    for path in examples:
+        act = load_actuator(path)
+        lo, hi = search_space(act)["margin_mm"]
+        assert 0 < lo < hi and hi * act.stiffness_n_per_mm == pytest.approx(MARGIN_TOP_N), path.name
+        assert act.control.margin_mm * act.stiffness_n_per_mm <= MARGIN_TOP_N + 1e-9, path.name
 
 
 def test_a_gain_the_c_cannot_hold_is_refused_naming_the_field_and_its_bound(tmp_path, capsys):

@@ -40,6 +40,9 @@ PAPER_SPACE = {
     "margin_mm": (0.02, 0.05),
     "limit_v": (6.0, 10.0),
 }
+# The margin's top as a force on the spring: the paper's 0.05 mm on its 4.2 N/mm, 0.21 N, 70 % of the
+# settling band (experiment.BAND_N): a dead band wider than the band stops the loop outside it.
+MARGIN_TOP_N = PAPER_SPACE["margin_mm"][1] * default_actuator().stiffness_n_per_mm
 GAIN_HEADROOM = 0.99  # the search's gains stay this share of the largest the C holds
 LIMIT_STEP_V = 0.5  # the limit's grid on the paper's actuator (scaled with the range)
 
@@ -47,32 +50,46 @@ LIMIT_STEP_V = 0.5  # the limit's grid on the paper's actuator (scaled with the 
 def search_space(act: Actuator) -> dict[str, tuple[float, float]]:
     """PAPER_SPACE carried to `act` (the paper's own for it), widened rather than moved, since how the
     loop settles depends on more than these ratios: the gains' range stretched by the ratio of the nut's
-    speed per volt (the paper's over `act`'s: the same loop gain at that end), the margin's by the
-    springs' ratio (the same force band), the command limit's up to the calibration pushes' volts
-    (data.protocol: the same stall margin at the same share of the force range); the limit within the
-    supply and the gains within what the C's Q12 int32 holds at the loop rate."""
+    speed per volt (the paper's over `act`'s: the same loop gain while the nut moves) and kp's and ki's
+    also by the ratio of the spring compression the stalled motor holds per volt (the same static loop
+    gain while it holds a force: the proportional droop and the integrator's time to remove it), the
+    command limit's up to the calibration pushes' volts (data.protocol: the same stall margin at the same
+    share of the force range); the limit within the supply and the gains within what the C's Q12 int32
+    holds at the loop rate. The margin's range is moved with the springs' ratio at its top, so its dead
+    band is at most the paper's top as a force (MARGIN_TOP_N, inside the settling band), and widened at
+    its bottom."""
     paper = default_actuator()
-
-    def per_volt(a: Actuator) -> float:
-        return Motor.of(a).v_max_mm_s / a.motor.supply_v
-
-    gain = per_volt(paper) / per_volt(act)
+    gain, hold = _speed_per_volt(paper) / _speed_per_volt(act), _held_per_volt(paper) / _held_per_volt(act)
+    springs = paper.stiffness_n_per_mm / act.stiffness_n_per_mm
     scale = {
-        "kp_v_mm": gain,
-        "ki_v_mm_s": gain,
-        "kd_v_s_mm": gain,
-        "d_alpha": 1.0,
-        "margin_mm": paper.stiffness_n_per_mm / act.stiffness_n_per_mm,
-        "limit_v": volts_scale(act) * force_scale(act),
+        "kp_v_mm": (gain, hold),
+        "ki_v_mm_s": (gain, hold),
+        "kd_v_s_mm": (gain,),
+        "d_alpha": (1.0,),
+        "limit_v": (volts_scale(act) * force_scale(act),),
     }
     top = {"limit_v": act.motor.supply_v} | {
         k: GAIN_HEADROOM * v for k, v in gain_max_si(1.0 / act.loop_hz).items()
     }
     out = {}
     for k, (lo, hi) in PAPER_SPACE.items():
+        if k == "margin_mm":  # the top in force: exactly the paper's on its spring (springs == 1.0)
+            out[k] = (lo * min(springs, 1.0), hi * springs)
+            continue
         cap = top.get(k, np.inf)
-        out[k] = (min(lo * min(scale[k], 1.0), cap), min(hi * max(scale[k], 1.0), cap))
+        out[k] = (min(lo * min(*scale[k], 1.0), cap), min(hi * max(*scale[k], 1.0), cap))
     return out
+
+
+def _speed_per_volt(a: Actuator) -> float:
+    """The nut's no-load speed per volt of supply (mm/s per V)."""
+    return Motor.of(a).v_max_mm_s / a.motor.supply_v
+
+
+def _held_per_volt(a: Actuator) -> float:
+    """The spring compression the stalled motor holds per volt (mm per V: stall force per volt over the
+    spring rate): with kp, the static loop gain that sets the proportional droop F / (1 + gain)."""
+    return a.motor.stall_force_n / a.motor.supply_v / a.stiffness_n_per_mm
 
 
 def mean_settling(
