@@ -107,8 +107,8 @@ def test_retracts_are_raised_on_a_slow_design_like_the_pushes():
 @pytest.mark.slow  # ~5-18 s: a micro_6v trial at the plant's 1 ms step
 def test_a_raised_retract_unloads_within_its_estimate_and_the_trial():
     """On micro_6v the quickest push's retract (at the supply) unloads the spring within the paced trial
-    cap, in at most the estimate (reach.retract_time: the plant's retract friction is lower) and at least
-    half of it."""
+    cap, in at most the estimate (reach.retract_time: the plant's retract friction is lower; scaled to the
+    plant's whole deflection, spring and structure) and at least half of it."""
     from seagen.data.protocol import PUSH_MOVES, scaled_move, trial_cap_s
     from seagen.data.reach import retract_time
 
@@ -118,5 +118,14 @@ def test_a_raised_retract_unloads_within_its_estimate_and_the_trial():
     top = int(df["force_n"].idxmax())
     assert df["force_n"].iloc[top] >= m.peak_n and df["force_n"].iloc[-1] < 0.4
     t_back = float(df["t_s"].iloc[-1] - df["t_s"].iloc[top])
-    est = retract_time(act, m.retract_v, m.peak_n)
+    # The estimate unloads the spring alone; the plant unloads its structure too (series_compliance, at the
+    # design's scale since 18e1b86: on micro_6v 14.3 N/mm and beta 0.010 mm/N^2), so the time scales with the
+    # whole deflection at the peak over the spring's.
+    sc, f = PlantConfig(actuator=act).effects.series_compliance, float(df["force_n"].iloc[top])
+    spring = f / act.stiffness_n_per_mm
+    est = (
+        retract_time(act, m.retract_v, m.peak_n)
+        * (spring + f / sc.k_n_per_mm + sc.beta_mm_per_n2 * f**2)
+        / spring
+    )
     assert 0.5 * est <= t_back <= est and df["t_s"].iloc[-1] < trial_cap_s(act)
