@@ -46,23 +46,28 @@ def test_stick_slip_trial_is_erratic_and_smooth_ones_are_not():
 def test_verdict_on_the_stick_slip_draw_claims_nothing_and_leaves_out_only_what_it_says():
     """The same case through identify. Its held-out trials slide slowly in contact, where the massless
     shaft's stick-slip hangs on the last bits of the replay (and so of the fit, which goes through BLAS and
-    LAPACK, whose kernels differ by CPU): the fit left the 18 deg trial at 2.7 sigma and the other five at
-    the floor on one machine (explained, with that trial left out and said), 1.87 sigma over all six and no
-    trial erratic at the fit on another (unexplained). What is promised on every CPU: Stribeck named first
-    as the closest change, not claimed; any recalibration compensation only; an `explained` verdict only
-    with the erratic trial named in the note and the rest at the floor; the residual finite."""
+    LAPACK, whose kernels differ by CPU). With the structure at the paper's 30 N/mm the fit left the 18 deg
+    trial at 2.7 sigma and the other five at the floor on one machine (explained, that trial left out and
+    said), 1.87 sigma over all six on another (unexplained), Stribeck never claimed. With the structure at
+    stiff_24v's own scale (60 N/mm, since 18e1b86) the same draw ends explained here with Stribeck claimed and
+    all six trials at the floor (0.994 sigma, floor 1.018), no trial left out. What is promised on every CPU:
+    nothing but the hidden Stribeck named or claimed; any recalibration compensation only; `explained` only
+    at the floor, over all six with Stribeck claimed or with the erratic trial named in the note and the rest
+    at the floor; `unexplained` claims nothing; the residual finite."""
     case = make_case(("stribeck_friction",), 3, act=load_actuator(EXAMPLE_ACTUATOR))
     res = W.identify(case.runs, case.base)
     assert res.verdict in ("explained", "unexplained")
-    assert res.rms_after > W.AT_FLOOR * res.noise_floor  # over all six trials it is never at the floor
-    note = [n for n in res.notes if "left out of the verdict" in n]
-    if res.verdict == "explained":
-        assert len(note) == 1 and " deg left out" in note[0] and "stick-slip" in note[0]
-    else:
-        assert not note
     assert res.effects and res.effects[0].name == "stribeck_friction"
-    assert not res.effects[0].claimed and res.effects[0].why.startswith("closest, not claimed")
+    assert all(not n.claimed for n in res.effects[1:])
     assert all(n.why.startswith("compensation only") for n in res.recalibrated)
+    note = [n for n in res.notes if "left out of the verdict" in n]
+    at_floor = res.rms_after <= W.AT_FLOOR * res.noise_floor
+    if res.verdict == "explained" and not note:
+        assert at_floor and res.effects[0].claimed
+    elif res.verdict == "explained":
+        assert len(note) == 1 and " deg left out" in note[0] and "stick-slip" in note[0] and not at_floor
+    else:
+        assert not note and not res.effects[0].claimed
     assert not np.isnan(res.rms_after)
 
 
