@@ -181,8 +181,10 @@ def test_own_logs_pin_the_command_timing_on_the_fine_encoder() -> None:
 def test_undeclared_timing_is_fitted_again_once_physics_is_named() -> None:
     """The same kind of data without a declared timing (a log that does not say): the lag fitted with the
     base lacking the compliance is off, and once the compliance is named it is fitted again with it, said in
-    the notes, and ends at seagen's convention (lag 1) with only the hidden effect (~10 s)."""
-    case = dbench.make_case(("series_compliance",), 4, act=load_actuator(STIFF))
+    the notes, and ends at seagen's convention (lag 1) with only the hidden effect (~15 s). Seed 1: since
+    the structure's draws are at the design's scale (18e1b86) seed 4's compliance no longer pulls the first
+    lag off (of seeds 0-19, 1 and 19 do)."""
+    case = dbench.make_case(("series_compliance",), 1, act=load_actuator(STIFF))
     runs = dataclasses.replace(case.runs, declared=None)
     res = dbench.identify(runs, case.base)
     assert res.timing.pinned is None and res.timing.lag == 1.0

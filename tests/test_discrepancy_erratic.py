@@ -27,12 +27,14 @@ def _erratic(case, held, sig_h):
 
 
 def test_stick_slip_trial_is_erratic_and_smooth_ones_are_not():
-    """stiff_24v's Stribeck draw of seed 3 slides slowly in contact, where the massless shaft's stick-slip
-    timing hangs on the last digits: a trial's twin moves by sigmas (18 deg on this machine; which trial may
-    depend on the last bits of exp), at most a third of them. The same draw on the paper's actuator, and a
-    backlash, move no trial beyond a hundredth of the threshold."""
+    """stiff_24v's Stribeck draw of seed 11 slides slowly in contact, where the massless shaft's stick-slip
+    timing hangs on the last digits: a trial's twin moves by sigmas (4.8 sigma here; which trial may depend on
+    the last bits of exp), at most a third of them. (Seed 3 was that draw until the structure went to the
+    design's scale, 18e1b86: its twins now move 7e-6 sigma; of seeds 0-39 on stiff_24v, 17 have one such
+    trial.) The paper's seed-3 Stribeck draw, and a backlash on stiff_24v, move no trial beyond a hundredth of
+    the threshold."""
     stiff = load_actuator(EXAMPLE_ACTUATOR)
-    case = make_case(("stribeck_friction",), 3, act=stiff)
+    case = make_case(("stribeck_friction",), 11, act=stiff)
     held, sig_h = _held(case)
     bad, moved = _erratic(case, held, sig_h)
     assert 1 <= bad.sum() <= bad.size / 3 and moved.max() > 10 * ERRATIC
@@ -44,16 +46,16 @@ def test_stick_slip_trial_is_erratic_and_smooth_ones_are_not():
 
 @pytest.mark.slow
 def test_verdict_on_the_stick_slip_draw_claims_nothing_and_leaves_out_only_what_it_says():
-    """The same case through identify. Its held-out trials slide slowly in contact, where the massless
-    shaft's stick-slip hangs on the last bits of the replay (and so of the fit, which goes through BLAS and
-    LAPACK, whose kernels differ by CPU). With the structure at the paper's 30 N/mm the fit left the 18 deg
-    trial at 2.7 sigma and the other five at the floor on one machine (explained, that trial left out and
-    said), 1.87 sigma over all six on another (unexplained), Stribeck never claimed. With the structure at
-    stiff_24v's own scale (60 N/mm, since 18e1b86) the same draw ends explained here with Stribeck claimed and
-    all six trials at the floor (0.994 sigma, floor 1.018), no trial left out. What is promised on every CPU:
-    nothing but the hidden Stribeck named or claimed; any recalibration compensation only; `explained` only
-    at the floor, over all six with Stribeck claimed or with the erratic trial named in the note and the rest
-    at the floor; `unexplained` claims nothing; the residual finite."""
+    """The seed-3 draw of the test above through identify. Its held-out trials slide slowly in contact, where
+    the massless shaft's stick-slip hangs on the last bits of the replay (and so of the fit, which goes
+    through BLAS and LAPACK, whose kernels differ by CPU). With the structure at the paper's 30 N/mm the fit
+    left the 18 deg trial at 2.7 sigma and the other five at the floor on one machine (explained, that trial
+    left out and said), 1.87 sigma over all six on another (unexplained), Stribeck never claimed. With the
+    structure at stiff_24v's own scale (60 N/mm, since 18e1b86) the same draw ends explained here with
+    Stribeck claimed and all six trials at the floor (0.994 sigma, floor 1.018), no trial left out. What is
+    promised on every CPU: nothing but the hidden Stribeck named or claimed; any recalibration compensation
+    only; `explained` only at the floor, over all six with Stribeck claimed or with the erratic trial named
+    in the note and the rest at the floor; `unexplained` claims nothing; the residual finite."""
     case = make_case(("stribeck_friction",), 3, act=load_actuator(EXAMPLE_ACTUATOR))
     res = W.identify(case.runs, case.base)
     assert res.verdict in ("explained", "unexplained")
