@@ -16,7 +16,7 @@ from seagen.discrepancy.residuals import SCORE_CHANNELS, noise_sigma, zscores
 from seagen.discrepancy.workflow import Result, identify
 from seagen.geometry import geometry
 from seagen.plant import PlantConfig
-from seagen.plant.config import CATALOGUE, counts_range, design_factor, pot_full_scale
+from seagen.plant.config import CATALOGUE, counts_range, pot_full_scale
 
 # Ranges the hidden parameters are drawn from (realistic for the paper's actuator). Those of pot counts
 # (POT_SHARES' keys) are shares of the pot's full scale here: 60 to 200 counts on a 12-bit pot.
@@ -60,22 +60,13 @@ class Case:
     hidden: ParamSet
 
 
-def _scaled(effect: str, param: str, span: tuple[float, float], act: Actuator) -> tuple[float, float]:
-    """A TRUTH range at `act`'s scale (the paper's own on it)."""
-    f = design_factor(effect, param, act)
-    return span if f == 1.0 else (span[0] * f, span[1] * f)
-
-
 def draw(effect: str, rng: np.random.Generator, act: Actuator | None = None) -> dict[str, float]:
     """Random parameters for a hidden effect of actuator `act` (the paper's when None; pot counts in its
     ADC's; forces, lengths and stiffnesses at its scale, like the search's boxes: design_factor), offset
     sign random."""
     act = act or default_actuator()
     fs = pot_full_scale(act)
-    p = {
-        k: float(rng.uniform(*counts_range(effect, k, _scaled(effect, k, span, act), fs)))
-        for k, span in TRUTH[effect].items()
-    }
+    p = {k: float(rng.uniform(*counts_range(effect, k, span, fs, act))) for k, span in TRUTH[effect].items()}
     if effect == "load_cell_offset":
         p["offset_n"] *= float(rng.choice([-1.0, 1.0]))
     return p

@@ -16,7 +16,7 @@ from seagen.discrepancy.replay import ParamSet, Runs, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS, chi2_per_trial, zscores
 from seagen.discrepancy.terms import TERM_SPACE
 from seagen.plant import PlantConfig
-from seagen.plant.config import CATALOGUE, counts_range, design_factor, pot_full_scale
+from seagen.plant.config import CATALOGUE, counts_range, pot_full_scale
 
 # Fit box per effect parameter: (low, high, log-scaled). Realistic for a compact SEA; wide on purpose. Those
 # at a design's scale (plant.config.DESIGN_UNITS: N, mm, N/mm, ...) are the paper's here, and a candidate
@@ -69,10 +69,7 @@ def box(effect: str, param: str, scale: float, act: Actuator | None = None) -> t
     """(low, high, log-scaled) of a parameter's box in the plant's units, for a pot of `scale` counts, on the
     actuator `act` (a parameter at a design's scale times its design_factor; the paper's when None)."""
     lo, hi, log = BOXES[effect][param]
-    k = 1.0 if act is None else design_factor(effect, param, act)
-    if k != 1.0:
-        lo, hi = lo * k, hi * k
-    return (*counts_range(effect, param, (lo, hi), scale), log)
+    return (*counts_range(effect, param, (lo, hi), scale, act), log)
 
 
 @dataclass

@@ -21,7 +21,7 @@ from seagen.discrepancy.candidates import (
 )
 from seagen.discrepancy.replay import ParamSet, Runs
 from seagen.plant import PlantConfig
-from seagen.plant.config import PAPER_POT_FULL_SCALE, counts_range, design_factor
+from seagen.plant.config import PAPER_POT_FULL_SCALE, counts_range
 
 # Plausible values for a compact SEA like the paper's (documented in the README). The fit may move a
 # parameter anywhere in its wider SPACE box; a value outside these ranges is reported as implausible.
@@ -49,11 +49,7 @@ def plausible_range(
 ) -> tuple[float, float]:
     """(low, high) of a parameter's plausible range, for a pot of `scale` counts (the paper's by default), on
     the actuator `act` (a parameter at a design's scale times its design_factor; the paper's when None)."""
-    lo, hi = PLAUSIBLE_SHARES[effect][param]
-    k = 1.0 if act is None else design_factor(effect, param, act)
-    if k != 1.0:
-        lo, hi = lo * k, hi * k
-    return counts_range(effect, param, (lo, hi), scale)
+    return counts_range(effect, param, PLAUSIBLE_SHARES[effect][param], scale, act)
 
 
 # The ranges in the plant's units on the paper's pot (20 to 400 counts per unit current on its 12-bit ADC).

@@ -156,12 +156,16 @@ PAPER_POT_FULL_SCALE = pot_full_scale(default_actuator())
 
 
 def counts_range(
-    effect: str, param: str, span: tuple[float, float], full_scale: float
+    effect: str, param: str, span: tuple[float, float], full_scale: float, act: Actuator | None = None
 ) -> tuple[float, float]:
     """A parameter's (low, high) range in its units: given as shares of the pot's full scale (`full_scale`
-    counts) for a parameter in pot counts (POT_SHARES' keys), as is for any other (boxes, plausible and
-    drawn ranges)."""
-    k = full_scale if (effect, param) in POT_SHARES else 1.0
+    counts) for a parameter in pot counts (POT_SHARES' keys), as the paper's value times design_factor on
+    `act` for one at a design's scale (DESIGN_UNITS; as is when `act` is None), as is for any other (boxes,
+    plausible and drawn ranges)."""
+    if (effect, param) in POT_SHARES:
+        k = full_scale
+    else:
+        k = 1.0 if act is None else design_factor(effect, param, act)
     return span[0] * k, span[1] * k
 
 
