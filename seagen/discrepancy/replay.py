@@ -509,7 +509,7 @@ def _pot(pot: np.ndarray, post: dict, n_sets: int, n: int, t: np.ndarray) -> np.
         )
         pot[drifting] = pot_distort(pot[drifting], t[None], tuple(drift))
     if ph:
-        w = (np.zeros(n_sets * n) + ph["half_width_counts"]).reshape(n_sets, n)
+        w = _per_set(post, "pot_hysteresis", "half_width_counts", n_sets, n)[:, :, 0]
         out = np.empty_like(pot)
         h = pot[:, :, 0]
         out[:, :, 0] = h
@@ -518,7 +518,7 @@ def _pot(pot: np.ndarray, post: dict, n_sets: int, n: int, t: np.ndarray) -> np.
             out[:, :, j] = h
         pot = out
     if pq:
-        q = (np.zeros(n_sets * n) + pq["step_counts"]).reshape(n_sets, n, 1)
+        q = _per_set(post, "pot_quantisation", "step_counts", n_sets, n)
         safe = np.where(q > 0, q, 1.0)
         pot = np.where(q > 0, safe * np.rint(pot / safe), pot)
     clamped = _on(post, "pot_saturation", "limit_counts", n_sets, n)

@@ -159,10 +159,10 @@ class Plant:
         self._h, self._w, self._travel, self._vsign, self._cell = (np.zeros(n) for _ in range(5))
         self._pot_h: np.ndarray | None = None  # the pot's play state, from its first reading
         self._pot_l = self._pot_angle() if cfg.on("pot_lag") else np.zeros(n)
-        # the pot's whole reading behind a lag and the time of its last reading (pot_reading_lag); the load
-        # cell's hysteresis state and the tip force it last saw (cell_hysteresis); both from the first reading
         # breakaway_friction's lagged speed; spring_bouc_wen's state and the compression it last saw
         self._wb, self._bz, self._bd = (np.zeros(n) for _ in range(3))
+        # the pot's whole reading behind a lag and the time of its last reading (pot_reading_lag); the load
+        # cell's hysteresis state and the tip force it last saw (cell_hysteresis); both from the first reading
         self._pot_r: np.ndarray | None = None
         self._t_read = 0.0
         self._cell_z: np.ndarray | None = None
