@@ -21,6 +21,7 @@ from seagen.plant.sim import (
     lag_step,
     learned_correction,
     pot_distort,
+    pot_ripple,
     reading_alpha,
 )
 
@@ -65,6 +66,13 @@ NEUTRAL: dict[str, dict[str, float]] = {
     "cell_hysteresis": {"force_n": 0.0, "width_n": 1.0, "shape": 1.0},
     "breakaway_friction": {"extra_n": 0.0, "v_s_mm_s": 1.0, "time_constant_s": 0.01, "shape": 2.0},
     "spring_bouc_wen": {"force_n": 0.0, "width_mm": 1.0, "shape": 1.0},
+    "load_friction": {"mu": 0.0},
+    "position_friction": {"extra_n": 0.0, "center_mm": 0.0, "width_mm": 1.0, "shape": 2.0},
+    "spring_knee": {"dk_n_per_mm": 0.0, "onset_mm": 0.0},
+    "drive_gain_drift": {"share": 0.0, "time_constant_s": 1.0},
+    "current_limit": {"limit_share": 1e12},
+    "cell_gain_drift": {"share": 0.0, "time_constant_s": 1.0},
+    "pot_ripple": {"amplitude_counts": 0.0, "period_counts": 100.0, "phase_rad": 0.0},
 }
 ParamSet = dict[str, dict[str, float]]
 SWITCH_V = 0.5  # a command change this large is a switch (its instant's uncertainty moves the encoder)
@@ -385,6 +393,10 @@ def simulate(
             seen = np.minimum(traj.shaft_mm[mel], plant.y_contact[mel, None])
             pl.lag(plant.geo.pot_from_angle(plant.geo.angle_from_shaft(seen)), np.arange(mel.size))
             pot0 = pl.read(ks, pot0)
+    if "pot_ripple" in post:  # periodic in the pot's angle reading, before its voltage drop
+        pr = post["pot_ripple"]
+        per = [(zero + pr[p])[r] for p in ("amplitude_counts", "period_counts", "phase_rad")]
+        pot0 = pot0 + pot_ripple(pot0, *per)
     pot = pot0 + (drops if drops is not None else zero[r])
     readings = {
         "enc": motor_mm / plant.geo.mm_per_count - 0.5,  # E[floored count]
@@ -456,8 +468,8 @@ def _cell(reading: np.ndarray, t: np.ndarray, post: dict, r: np.ndarray, n: int)
     """The load-cell reads with the term library's sensor distortions of each read's set element (rows r,
     of n) at the reads' times t (sim.cell_distort); unchanged when none is in the replay."""
     cd, cs, cq = (post.get(e) for e in ("cell_drift", "cell_saturation", "cell_quantisation"))
-    ss = post.get("cell_soft_saturation")
-    if not (cd or cs or cq or ss):
+    ss, cg = post.get("cell_soft_saturation"), post.get("cell_gain_drift")
+    if not (cd or cs or cq or ss or cg):
         return reading
 
     def per(x):  # a parameter (scalar or per element) at every read
@@ -470,6 +482,7 @@ def _cell(reading: np.ndarray, t: np.ndarray, post: dict, r: np.ndarray, n: int)
         per(cs["limit_n"]) if cs else None,
         per(cq["step_n"]) if cq else None,
         (per(ss["limit_n"]), per(ss["sharpness"])) if ss else None,
+        (per(cg["share"]), per(cg["time_constant_s"])) if cg else None,
     )
 
 

@@ -191,6 +191,56 @@ LIBRARY: dict[str, Term] = {
             "the spring force on loading versus unloading",
             "actuator_friction (a band on the shaft's motion, not on the spring's compression)",
         ),
+        Term(
+            "load_friction",
+            "state_friction",
+            "F_friction += mu |F|, F the force the structure carried at the last step (Coulomb's mu N)",
+            "the shaft's friction band under load",
+            "actuator_friction (a constant band, not one that grows with the load)",
+        ),
+        Term(
+            "position_friction",
+            "state_friction",
+            "F_friction += A exp(-|(y - c) / w|^n), y the shaft's advance (n = 2 a bump, large n a flat "
+            "rough stretch)",
+            "the shaft's friction band along its travel",
+            "linkage_friction (a smooth quadratic in the linkage angle, not a local stretch)",
+        ),
+        Term(
+            "spring_knee",
+            "nonlinear_stiffness",
+            "F = k d + dk max(d - d0, 0) (a stiffness step at compression d0)",
+            "the spring force beyond a compression",
+            "spring_nonlinearity (a smooth hardening cube, not a step in stiffness)",
+        ),
+        Term(
+            "drive_gain_drift",
+            "drift",
+            "V_motor = V (1 + s (1 - exp(-t / tau))), t the time into the trial",
+            "the motor's speed per volt over a trial (encoder), then force",
+            "viscous_friction (a drag at speed, not a gain that changes in time)",
+        ),
+        Term(
+            "current_limit",
+            "saturation",
+            "V_motor = clip(V, V_s (v / v_max - i), V_s (v / v_max + i)) (the current within i of stall)",
+            "the motor's force and its acceleration at large commands",
+            "drive_saturation (a limit on the volts, not on the current)",
+        ),
+        Term(
+            "cell_gain_drift",
+            "drift",
+            "F_cell = F (1 + s (1 - exp(-t / tau))), t the time into the trial",
+            "the load cell's sensitivity",
+            "load_cell_offset (a constant zero, not a gain that settles in time)",
+        ),
+        Term(
+            "pot_ripple",
+            "periodic",
+            "pot += A cos(2 pi c / P + phi), c the pot's angle reading (counts)",
+            "the pot along its travel (a gear pair driving it, a wavy track)",
+            "pot_noise (a random error, not a ripple periodic in the angle)",
+        ),
     )
 }
 assert set(LIBRARY) == set(TERMS) and all(t.form in CLASSES for t in LIBRARY.values())
@@ -245,6 +295,22 @@ TERM_SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
         "width_mm": (0.005, 1.0, True),
         "shape": (0.5, 30.0, True),
     },
+    "load_friction": {"mu": (0.002, 0.5, True)},
+    "position_friction": {
+        "extra_n": (0.1, 5.0, True),
+        "center_mm": (-1.0, 20.0, False),
+        "width_mm": (0.05, 5.0, True),
+        "shape": (1.0, 8.0, True),
+    },
+    "spring_knee": {"dk_n_per_mm": (-3.0, 8.0, False), "onset_mm": (0.05, 10.0, True)},
+    "drive_gain_drift": {"share": (-0.5, 0.5, False), "time_constant_s": (0.1, 30.0, True)},
+    "current_limit": {"limit_share": (0.02, 1.0, True)},
+    "cell_gain_drift": {"share": (-0.3, 0.3, False), "time_constant_s": (0.1, 30.0, True)},
+    "pot_ripple": {
+        "amplitude_counts": (0.5, 100.0, True),
+        "period_counts": (5.0, 1000.0, True),
+        "phase_rad": (-6.5, 6.5, False),
+    },
 }
 # Start grids: this many points along a parameter whose objective has many valleys (a period, a phase).
 DENSE = {
@@ -252,6 +318,10 @@ DENSE = {
     ("cogging", "period_mm"): 24,
     ("lead_error", "phase_rad"): 4,
     ("cogging", "phase_rad"): 4,
+    ("pot_ripple", "period_counts"): 24,
+    ("pot_ripple", "phase_rad"): 4,
+    ("position_friction", "center_mm"): 8,
+    ("spring_knee", "onset_mm"): 6,
 }
 STARTS = 3  # start points along every other parameter (its box's 1/6, 1/2 and 5/6)
 

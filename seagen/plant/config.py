@@ -469,6 +469,70 @@ class SpringBoucWen(Effect):
 
 
 @dataclass
+class LoadFriction(Effect):
+    """Friction that grows with the load carried (Coulomb's mu N): the band on the shaft gains mu |F|, F the
+    force the structure carried at the last step."""
+
+    mu: float = 0.05
+
+
+@dataclass
+class PositionFriction(Effect):
+    """Friction varying along the shaft's travel: a stretch of extra friction A exp(-|(y - c) / w|^n), y the
+    shaft's advance (n = 2 a Gaussian bump, a large n a flat-topped rough stretch of half-width w)."""
+
+    extra_n: float = 1.0
+    center_mm: float = 2.0
+    width_mm: float = 0.5
+    shape: float = 2.0
+
+
+@dataclass
+class SpringKnee(Effect):
+    """A stiffness that steps at a compression: F += dk max(d - d0, 0) (coils closing, a second spring or
+    a stop engaging: dk > 0; a buckling element letting go: dk < 0)."""
+
+    dk_n_per_mm: float = 1.0
+    onset_mm: float = 2.0
+
+
+@dataclass
+class DriveGainDrift(Effect):
+    """A drive whose gain drifts during a trial: the motor sees V (1 + share (1 - exp(-t / tau))) (a
+    battery's sag, a warming amplifier), t the time into the trial."""
+
+    share: float = -0.1
+    time_constant_s: float = 2.0
+
+
+@dataclass
+class CurrentLimit(Effect):
+    """A drive with a current limit: the command clipped so that the stall-normalised current |V / V_s -
+    v / v_max| stays within the limit (the motor's force capped at that share of stall)."""
+
+    limit_share: float = 0.3
+
+
+@dataclass
+class CellGainDrift(Effect):
+    """A load cell whose sensitivity drifts during a trial: reading x (1 + share (1 - exp(-t / tau))), t the
+    time into the trial (a bridge's gain settling, a mount's creep)."""
+
+    share: float = 0.05
+    time_constant_s: float = 2.0
+
+
+@dataclass
+class PotRipple(Effect):
+    """A pot reading with a ripple periodic in its own angle: pot += A cos(2 pi c / P + phi), c the pot's
+    angle reading in counts (a gear pair driving the pot, a wiper track's waviness)."""
+
+    amplitude_counts: float = 10.0
+    period_counts: float = 100.0
+    phase_rad: float = 0.0
+
+
+@dataclass
 class Effects:
     """The catalogue of DESIGN.md §3 (EFFECT_NAMES: exactly these names), then the term library (TERMS)."""
 
@@ -507,6 +571,13 @@ class Effects:
     cell_hysteresis: CellHysteresis = field(default_factory=CellHysteresis)
     breakaway_friction: BreakawayFriction = field(default_factory=BreakawayFriction)
     spring_bouc_wen: SpringBoucWen = field(default_factory=SpringBoucWen)
+    load_friction: LoadFriction = field(default_factory=LoadFriction)
+    position_friction: PositionFriction = field(default_factory=PositionFriction)
+    spring_knee: SpringKnee = field(default_factory=SpringKnee)
+    drive_gain_drift: DriveGainDrift = field(default_factory=DriveGainDrift)
+    current_limit: CurrentLimit = field(default_factory=CurrentLimit)
+    cell_gain_drift: CellGainDrift = field(default_factory=CellGainDrift)
+    pot_ripple: PotRipple = field(default_factory=PotRipple)
 
     @classmethod
     def of(cls, act: Actuator) -> Effects:
@@ -551,6 +622,13 @@ TERMS: tuple[str, ...] = (
     "cell_hysteresis",
     "breakaway_friction",
     "spring_bouc_wen",
+    "load_friction",
+    "position_friction",
+    "spring_knee",
+    "drive_gain_drift",
+    "current_limit",
+    "cell_gain_drift",
+    "pot_ripple",
 )
 ALL_EFFECTS: tuple[str, ...] = tuple(f.name for f in fields(Effects))
 EFFECT_NAMES: tuple[str, ...] = tuple(e for e in ALL_EFFECTS if e not in TERMS)

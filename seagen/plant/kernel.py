@@ -60,6 +60,16 @@ PARAMS = (
     ("spring_bouc_wen", "force_n"),
     ("spring_bouc_wen", "width_mm"),
     ("spring_bouc_wen", "shape"),
+    ("load_friction", "mu"),
+    ("position_friction", "extra_n"),
+    ("position_friction", "center_mm"),
+    ("position_friction", "width_mm"),
+    ("position_friction", "shape"),
+    ("spring_knee", "dk_n_per_mm"),
+    ("spring_knee", "onset_mm"),
+    ("drive_gain_drift", "share"),
+    ("drive_gain_drift", "time_constant_s"),
+    ("current_limit", "limit_share"),
 )
 FLAGS = (
     "actuator_friction",
@@ -80,6 +90,11 @@ FLAGS = (
     "drive_saturation",
     "breakaway_friction",
     "spring_bouc_wen",
+    "load_friction",
+    "position_friction",
+    "spring_knee",
+    "drive_gain_drift",
+    "current_limit",
 )
 SENSOR_SIDE = (
     "pot_voltage_drop",
@@ -99,6 +114,8 @@ SENSOR_SIDE = (
     "pot_reading_lag",
     "cell_soft_saturation",
     "cell_hysteresis",
+    "cell_gain_drift",
+    "pot_ripple",
 )
 
 
@@ -188,13 +205,17 @@ def _spring_slope(d, k_spring, k_stop, nl, k3):
 
 def _spring_x(d, k_spring, k_stop, nl, k3, pre, f0, tx):
     """Plant.spring_force of one element with the term library's spring terms: tx = (drift flag, drift
-    factor now, poly flag, k2, k3, hysteresis flag, k_h, w, h, Bouc-Wen flag, its h times its state z)."""
+    factor now, poly flag, k2, k3, hysteresis flag, k_h, w, h, Bouc-Wen flag, its h times its state z, knee
+    flag, its dk, its onset)."""
     f = k_spring * d if d >= 0 else k_stop * d
     if tx[0] and d >= 0:
         f = f + k_spring * tx[1] * d
     if tx[2]:
         dp = d if d > 0.0 else 0.0
         f = f + (tx[3] + tx[4] * dp) * (dp * dp)
+    if tx[11]:
+        x = d - tx[13]
+        f = f + tx[12] * (x if x > 0.0 else 0.0)
     if tx[5]:
         h = min(max(tx[8], d - tx[7]), d + tx[7])
         f = f + tx[6] * (d - h)
@@ -216,6 +237,8 @@ def _spring_slope_x(d, k_spring, k_stop, nl, k3, tx):
     if tx[2]:
         dp = d if d > 0.0 else 0.0
         s = s + (2 * tx[3] + 3 * tx[4] * dp) * dp
+    if tx[11]:
+        s = s + (tx[12] if d > tx[13] else 0.0)
     if tx[5] and abs(d - tx[8]) > tx[7]:
         s = s + tx[6]
     if nl:
@@ -270,7 +293,8 @@ def _loop(volts, y_contact, par, flags, consts, out):
         flags[14],
     )
     brk, bw = flags[16], flags[17]
-    terms = lead or cog or drift or rate or bristle or hyst or poly or brk or bw
+    lfr, pfr, knee, gdr, clim = flags[18], flags[19], flags[20], flags[21], flags[22]
+    terms = lead or cog or drift or rate or bristle or hyst or poly or brk or bw or knee
     rad2deg = 180.0 / math.pi
     n, k_max = volts.shape
     n_sig = out.shape[0]
@@ -292,11 +316,13 @@ def _loop(volts, y_contact, par, flags, consts, out):
         sat = flags[15]
         kx, kvs, ktau, kdl = par[31, i], par[32, i], par[33, i], par[34, i]
         bh, bwd, bn = par[35, i], par[36, i], par[37, i]
+        mu, pa, pc, pw, pn = par[38, i], par[39, i], par[40, i], par[41, i], par[42, i]
+        kdk, kd0, gs, gtau, climit = par[43, i], par[44, i], par[45, i], par[46, i], par[47, i]
         hstate = wstate = travel = vsign = t = 0.0
         kstate = bz = bd = 0.0
         ralpha = min(dt / rtau, 1.0) if rate else 0.0
         kalpha = min(dt / ktau, 1.0) if brk else 0.0
-        tx = (drift, 0.0, poly, pk2, pk3, hyst, hk, hw, hstate, bw, bh * bz)
+        tx = (drift, 0.0, poly, pk2, pk3, hyst, hk, hw, hstate, bw, bh * bz, knee, kdk, kd0)
         yc = y_contact[i]
         a = 1.0 / kc if sc else 0.0
         b = bv / dt if visc else 0.0
@@ -308,11 +334,16 @@ def _loop(volts, y_contact, par, flags, consts, out):
         for k in range(k_max):
             v = volts[i, k]
             v = min(max(v, -supply), supply)
+            if gdr:
+                v = v * (1.0 + gs * (1.0 - math.exp(-t / gtau)))
             if sat:
                 v = min(max(v, -vsat), vsat)
+            if clim:
+                back = v_motor / v_max
+                v = min(max(v, supply * (back - climit)), supply * (back + climit))
             if terms:
                 dfac = ds * (1.0 - math.exp(-t / dtau)) if drift else 0.0
-                tx = (drift, dfac, poly, pk2, pk3, hyst, hk, hw, hstate, bw, bh * bz)
+                tx = (drift, dfac, poly, pk2, pk3, hyst, hk, hw, hstate, bw, bh * bz, knee, kdk, kd0)
                 load = _spring_x(nut - shaft, k_spring, k_stop, nl, k3, pre, f0, tx)
                 if cog:
                     load = load + ca * math.cos(2 * math.pi * motor / cp + cph)
@@ -350,6 +381,12 @@ def _loop(volts, y_contact, par, flags, consts, out):
                 fwd, rev = fwd + boost, rev + boost
             if bristle:
                 band = ba * (1.0 - math.exp(-travel / bx0))
+                fwd, rev = fwd + band, rev + band
+            if lfr:  # the structure's force at the last step
+                band = mu * abs(force)
+                fwd, rev = fwd + band, rev + band
+            if pfr:
+                band = pa * math.exp(-(abs((y0 - pc) / pw) ** pn))
                 fwd, rev = fwd + band, rev + band
             d0 = nut - y0
             fl, sl = _structure(y0, yc, sc, k_rigid, a, beta)

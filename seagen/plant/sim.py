@@ -61,6 +61,7 @@ def learned_correction(eff, values: dict[str, np.ndarray]) -> np.ndarray:
 def cell_terms(e, load_cell: np.ndarray, t) -> np.ndarray:
     """The term library's load-cell distortions (cell_distort) of the effects e that are on, at time t."""
     cd, cs, cq, ss = e.cell_drift, e.cell_saturation, e.cell_quantisation, e.cell_soft_saturation
+    cg = e.cell_gain_drift
     return cell_distort(
         load_cell,
         t,
@@ -68,13 +69,20 @@ def cell_terms(e, load_cell: np.ndarray, t) -> np.ndarray:
         cs.limit_n if cs.enabled else None,
         cq.step_n if cq.enabled else None,
         (ss.limit_n, ss.sharpness) if ss.enabled else None,
+        (cg.share, cg.time_constant_s) if cg.enabled else None,
     )
 
 
-def cell_distort(load_cell: np.ndarray, t, drift=None, limit=None, step=None, soft=None) -> np.ndarray:
-    """A load-cell reading at time t (s into the trial) with a drifting zero A (1 - exp(-t / tau)) (drift =
-    (A, tau)), saturated at +-limit, through a knee (soft = (L, n): soft_clip), then read in steps (each None
-    when off; scalars or arrays like the reading; a step of 0 reads as is)."""
+def cell_distort(
+    load_cell: np.ndarray, t, drift=None, limit=None, step=None, soft=None, gain=None
+) -> np.ndarray:
+    """A load-cell reading at time t (s into the trial) times a drifting sensitivity 1 + s (1 - exp(-t /
+    tau)) (gain = (s, tau)), with a drifting zero A (1 - exp(-t / tau)) (drift = (A, tau)), saturated at
+    +-limit, through a knee (soft = (L, n): soft_clip), then read in steps (each None when off; scalars or
+    arrays like the reading; a step of 0 reads as is)."""
+    if gain is not None:
+        tau = np.asarray(gain[1], float)
+        load_cell = load_cell * (1.0 + gain[0] * (1.0 - fmath.exp(-np.asarray(t, float) / tau)))
     if drift is not None:
         tau = np.asarray(drift[1], float)
         load_cell = load_cell + drift[0] * (1.0 - fmath.exp(-np.asarray(t, float) / tau))
@@ -87,6 +95,11 @@ def cell_distort(load_cell: np.ndarray, t, drift=None, limit=None, step=None, so
         safe = np.where(q > 0, q, 1.0)
         load_cell = np.where(q > 0, safe * np.rint(load_cell / safe), load_cell)
     return load_cell
+
+
+def pot_ripple(c: np.ndarray, amplitude, period, phase) -> np.ndarray:
+    """pot_ripple's part of the pot's reading at angle reading c (counts): A cos(2 pi c / P + phi)."""
+    return amplitude * fmath.cos(2 * np.pi * c / period + phase)
 
 
 def lag_step(state: np.ndarray, x: np.ndarray, alpha) -> np.ndarray:
@@ -179,6 +192,9 @@ class Plant:
         if e.spring_poly.enabled:
             sp, dp = e.spring_poly, np.maximum(d, 0.0)
             f = f + (pick(sp.k2_n_per_mm2, idx) + pick(sp.k3_n_per_mm3, idx) * dp) * (dp * dp)
+        if e.spring_knee.enabled:
+            sk = e.spring_knee
+            f = f + pick(sk.dk_n_per_mm, idx) * np.maximum(d - pick(sk.onset_mm, idx), 0.0)
         if e.spring_hysteresis.enabled:
             sh = e.spring_hysteresis
             w, h = pick(sh.half_width_mm, idx), pick(self._h, idx)
@@ -201,6 +217,9 @@ class Plant:
         if e.spring_poly.enabled:
             sp, dp = e.spring_poly, np.maximum(d, 0.0)
             s = s + (2 * pick(sp.k2_n_per_mm2, idx) + 3 * pick(sp.k3_n_per_mm3, idx) * dp) * dp
+        if e.spring_knee.enabled:
+            sk = e.spring_knee
+            s = s + np.where(d > pick(sk.onset_mm, idx), pick(sk.dk_n_per_mm, idx), 0.0)
         if e.spring_hysteresis.enabled:
             sh = e.spring_hysteresis
             w, h = pick(sh.half_width_mm, idx), pick(self._h, idx)
@@ -269,9 +288,17 @@ class Plant:
         volts = np.minimum(np.maximum(np.asarray(motor_v, dtype=float), -m.supply_v), m.supply_v)
         if volts.shape != self.nut_mm.shape:
             volts = np.broadcast_to(volts, self.nut_mm.shape)
+        if cfg.effects.drive_gain_drift.enabled:
+            gd = cfg.effects.drive_gain_drift
+            volts = volts * (
+                1.0 + gd.share * (1.0 - fmath.exp(-self.t / np.asarray(gd.time_constant_s, float)))
+            )
         if cfg.effects.drive_saturation.enabled:
             lim = cfg.effects.drive_saturation.limit_v
             volts = np.minimum(np.maximum(volts, -lim), lim)
+        if cfg.effects.current_limit.enabled:  # |V / V_s - v / v_max| <= the limit's share of stall
+            back, cl = self.v_motor / self.v_max, cfg.effects.current_limit.limit_share
+            volts = np.minimum(np.maximum(volts, m.supply_v * (back - cl)), m.supply_v * (back + cl))
         load = self.spring_force(self.nut_mm - self.shaft_mm)
         if cfg.effects.cogging.enabled:
             cg = cfg.effects.cogging
@@ -380,6 +407,14 @@ class Plant:
             bf = e.bristle_friction
             band = bf.force_n * (1.0 - fmath.exp(-self._travel / bf.x0_mm))
             fwd, rev = fwd + band, rev + band
+        if e.load_friction.enabled:  # the force the structure carried at the last step (its history)
+            band = e.load_friction.mu * np.abs(self._history[0])
+            fwd, rev = fwd + band, rev + band
+        if e.position_friction.enabled:
+            pf = e.position_friction
+            q = np.abs((y0 - pf.center_mm) / pf.width_mm)
+            band = pf.extra_n * fmath.exp(-np.power(q, np.asarray(pf.shape, float)))
+            fwd, rev = fwd + band, rev + band
         n0, s0 = self._net_force(y0)
         b = self.viscous_n_s_per_mm() / dt
         target = np.where(n0 > fwd, fwd, np.where(n0 < -rev, -rev, n0))
@@ -459,6 +494,9 @@ class Plant:
         cfg, e, n = self.cfg, self.cfg.effects, self.nut_mm.size
         enc = np.floor(self.motor_mm / self.geo.mm_per_count + 1e-9).astype(np.int64)
         pot = self._pot_l if e.pot_lag.enabled else self._pot_angle()
+        if e.pot_ripple.enabled:
+            pr = e.pot_ripple
+            pot = pot + pot_ripple(pot, pr.amplitude_counts, pr.period_counts, pr.phase_rad)
         if e.pot_voltage_drop.enabled:
             pot = pot + self.pot_drop
         if e.pot_reading_lag.enabled:
