@@ -162,3 +162,78 @@ def run_in_workers(
         return out
     finally:
         bar.close()
+
+
+class Helper:
+    """One worker process started now (fork where the platform has it) that runs fn(*args) calls sent to it
+    one at a time, for as long as its `helpers` block lasts; it ignores SIGINT and dies with its parent."""
+
+    def __init__(self) -> None:
+        ctx = _context()
+        self._conn, child = ctx.Pipe()
+        self.process = ctx.Process(target=_serve, args=(child, os.getpid()), daemon=True)  # type: ignore[attr-defined]
+        self.process.start()
+        child.close()
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> None:
+        """Send one call (fn and args must be picklable); its value comes from `result`."""
+        self._conn.send((fn, args))
+
+    def result(self) -> Any:
+        """The value of the call sent last (its exception raised here)."""
+        ok, value = self._conn.recv()
+        if not ok:
+            raise value
+        return value
+
+    def close(self, kill: bool = False) -> None:
+        """Stop the process (at once when `kill`) and wait, briefly, until it is gone."""
+        with contextlib.suppress(OSError, ValueError, BrokenPipeError):
+            if kill:
+                self.process.kill()
+            else:
+                self._conn.send(None)
+        self.process.join(JOIN_S)
+        if self.process.is_alive():
+            with contextlib.suppress(OSError, ValueError):
+                self.process.kill()
+            self.process.join(JOIN_S)
+        self._conn.close()
+
+
+def _serve(conn: Any, parent: int) -> None:
+    """A Helper's loop: run each call received, send back (True, value) or (False, exception)."""
+    _init_worker(parent)
+    while True:
+        try:
+            call = conn.recv()
+        except EOFError:
+            return
+        if call is None:
+            return
+        fn, args = call
+        try:
+            reply = (True, fn(*args))
+        except Exception as exc:  # handed to the parent, which raises it
+            reply = (False, exc)
+        conn.send(reply)
+
+
+@contextlib.contextmanager
+def helpers(n: int) -> Iterator[list[Helper]]:
+    """n Helper processes (none when n <= 0) for the block: started at its entry (before any thread of the
+    caller's block exists: a fork then copies one thread), stopped at its end, killed at once if the block
+    stops by an exception, Ctrl-C or SIGTERM (under `stop_on_sigterm`)."""
+    started: list[Helper] = []
+    try:
+        for _ in range(max(n, 0)):
+            started.append(Helper())
+        yield started
+    except BaseException:
+        with uninterrupted():
+            for h in started:
+                h.close(kill=True)
+        raise
+    else:
+        for h in started:
+            h.close()

@@ -11,6 +11,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from seagen.actuator import Actuator
+from seagen.discrepancy.parallel import chunked
 from seagen.discrepancy.rendezvous import Rendezvous
 from seagen.discrepancy.replay import ParamSet, Runs, simulate
 from seagen.discrepancy.residuals import SCORE_CHANNELS, chi2_per_trial, zscores
@@ -185,7 +186,13 @@ def pair(cfg: PlantConfig, a: Candidate, b: Candidate) -> Candidate:
 
 def objective(cfg: PlantConfig, sets: list[ParamSet], runs: Runs, sigma: dict) -> np.ndarray:
     """Chi-square per set and trial, shape (len(sets), n_trials); infinite where a set's replay is not
-    finite on a real sample (a term of the library driven out of its solver's range: never a fit)."""
+    finite on a real sample (a term of the library driven out of its solver's range: never a fit). A batch
+    is replayed in chunks over the processes of parallel.replays, when inside one."""
+    return chunked(_chi, sets, cfg, runs, sigma)
+
+
+def _chi(sets: list[ParamSet], cfg: PlantConfig, runs: Runs, sigma: dict) -> np.ndarray:
+    """objective's chi-square per set and trial, from one batched replay of sets."""
     z = zscores(runs, simulate(cfg, sets, runs), sigma)
     chi = chi2_per_trial(z)
     bad = np.zeros(chi.shape, dtype=bool)
@@ -258,13 +265,18 @@ def residual_vectors(
     cfg: PlantConfig, jobs: list[tuple[Candidate, list[np.ndarray]]], runs: Runs, sigma: dict
 ) -> list[list[np.ndarray]]:
     """Flattened residual vectors (scored channels, real samples) of every (candidate, unit points) job,
-    all from one batched replay."""
+    all from one batched replay (in chunks over the processes of parallel.replays, when inside one)."""
     sets = [c.params(u) for c, us in jobs for u in us]
-    z = zscores(runs, simulate(cfg, sets, runs), sigma)
-    flat = [np.concatenate([z[ch][k][runs.mask] for ch in SCORE_CHANNELS]) for k in range(len(sets))]
-    flat = [np.where(np.isfinite(f), f, NOT_FINITE) for f in flat]  # a replay out of range: a large misfit
+    flat = list(chunked(_flat, sets, cfg, runs, sigma))
     ends = np.cumsum([len(us) for _, us in jobs])
     return [flat[e - len(us) : e] for (_, us), e in zip(jobs, ends, strict=True)]
+
+
+def _flat(sets: list[ParamSet], cfg: PlantConfig, runs: Runs, sigma: dict) -> np.ndarray:
+    """The flattened residual vectors of sets (one row each), from one batched replay."""
+    z = zscores(runs, simulate(cfg, sets, runs), sigma)
+    flat = [np.concatenate([z[ch][k][runs.mask] for ch in SCORE_CHANNELS]) for k in range(len(sets))]
+    return np.stack([np.where(np.isfinite(f), f, NOT_FINITE) for f in flat])  # out of range: a large misfit
 
 
 def jacobian_points(u: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
