@@ -308,8 +308,9 @@ def _register_tune(sub: argparse._SubParsersAction) -> None:
         "description's own settings. Prints the best as [control] "
         "lines to paste into the description (then regenerate the data and retrain: the description's "
         "hash changes). With --model: your control model's MCU configuration; without, on another "
-        "design: kin_mcu (the kinematics baseline), scored on settling to the force's final level, as its "
-        "estimate is biased; on the paper's "
+        "design: kin_mcu (the kinematics baseline), scored on settling to the force's final level with the "
+        "loop's measured compression within the band (as a force) of its setpoint, as its estimate is "
+        "biased; on the paper's "
         "actuator without --model: the search behind the shipped gains (the shipped MLP and SF).",
     )
     p.add_argument("--model", metavar="CONTROL_MODEL", type=model_arg, help="your control model to tune for")
@@ -352,11 +353,12 @@ def cmd_tune(args: argparse.Namespace) -> int:
         name = next(n for n in mine if n.endswith("_mcu"))
         setup = mine[name]
     elif not is_default(act):
-        name, metric = "kin_mcu", "settling_final_s"
+        name, metric = "kin_mcu", "settling_held_s"
         setup = model_free_setups(act)[name]
         print(
             f"seagen tune: {act.source}: tuning kin_mcu (no --model given) on its settling to the force's "
-            "final level (its estimate is biased, so it need not reach the target's band)",
+            "final level with the loop at its own setpoint (its estimate is biased, so the force need not "
+            "reach the target's band; a loop held off its setpoint does not settle)",
             file=sys.stderr,
         )
     seeds = tuple(10 * k for k in range(args.seeds))
@@ -391,7 +393,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
         )
     else:
         print(f"tuned {name} on {act.name} over {args.trials} trials x {args.seeds} seeds")
-        to = " to the final level" if metric == "settling_final_s" else ""
+        to = " to the final level, held" if metric == "settling_held_s" else ""
         for label, trial in (("best", settling), ("first trial: the description's own", first)):
             for k, d in trial.items():
                 print(f"mean settling s{to} ({k}), {label}:", ", ".join(f"{t} N {v}" for t, v in d.items()))

@@ -12,6 +12,7 @@ from seagen.control.predictors import kinematic_mcu
 from seagen.data.reach import pace
 from seagen.plant import PlantConfig
 from seagen.runtime.control import ControlConfig
+from seagen.runtime.fixed import COMP_FRAC_BITS
 
 # The grid, per actuator description: targets at these fractions of its desired-force range (control.
 # force_max_n: 5, 10, 15 N on the paper's 20 N), N_CONTACT contact angles evenly over its linkage range less
@@ -87,19 +88,38 @@ def settling(t: np.ndarray, f: np.ndarray, ref: np.ndarray, start: np.ndarray) -
     return np.maximum(settle - t[start], 0.0)
 
 
-def metrics(rec: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+def metrics(rec: dict[str, np.ndarray], spring_n_per_mm: float | None = None) -> dict[str, np.ndarray]:
     """Per actuator, on the smoothed reference force: settling time to the target band from contact,
-    settling time to a band around the force's own final mean, and mean |error| over the last window."""
+    settling time to a band around the force's own final mean, and mean |error| over the last window; with
+    the spring's rate also settling_held_s (held_settling)."""
     t, f = rec["t_s"][:, 0], smoothed(rec)
     target = rec["target_n"]
     contact = np.argmax(rec["true_force_n"] > 0, axis=0)
     win = t >= t[-1] - ERROR_WINDOW_S
     final = f[win].mean(axis=0)
-    return {
+    out = {
         "settling_s": settling(t, f, target, contact),
         "settling_final_s": settling(t, f, np.broadcast_to(final, f.shape), contact),
         "error_avg_n": np.abs(f[win] - target[win]).mean(axis=0),
     }
+    if spring_n_per_mm is not None:
+        out["settling_held_s"] = held_settling(rec, spring_n_per_mm, out["settling_final_s"], contact)
+    return out
+
+
+def held_settling(
+    rec: dict[str, np.ndarray], spring_n_per_mm: float, final_s: np.ndarray, contact: np.ndarray
+) -> np.ndarray:
+    """Per column: the later of `final_s` (the force settled to its own final level) and the loop's own
+    settling: the compression it measures (comp) within the band, as a force on the spring, of the
+    compression it is asked for (desired, both Q16 mm, smoothed like the force) for good; NaN if either
+    never does. A loop held off its setpoint (a proportional droop, a dead band wider than the band, a
+    command at its limit) does not settle however steady its force, whatever the predictor's bias."""
+    per_q = spring_n_per_mm / float(1 << COMP_FRAC_BITS)  # N per Q16 mm of compression
+    off = {"t_s": rec["t_s"], "n": (rec["desired"] - rec["comp"]) * per_q}
+    t = rec["t_s"][:, 0]
+    loop = settling(t, smoothed(off, "n"), np.zeros_like(off["n"]), contact)
+    return np.where(np.isnan(loop) | np.isnan(final_s), np.nan, np.maximum(loop, final_s))
 
 
 def _mean_or_none(x: np.ndarray) -> float | None:

@@ -19,7 +19,7 @@ from seagen.control.experiment import (
     runs,
     targets_n,
 )
-from seagen.data.protocol import force_scale, volts_scale
+from seagen.data.protocol import PUSH_MOVES, force_scale, scaled_move, volts_scale
 from seagen.plant import PlantConfig
 from seagen.plant.config import Motor
 from seagen.runtime.actq import ActQ, act_q_of
@@ -66,7 +66,7 @@ def search_space(act: Actuator) -> dict[str, tuple[float, float]]:
         "ki_v_mm_s": (gain, hold),
         "kd_v_s_mm": (gain,),
         "d_alpha": (1.0,),
-        "limit_v": (volts_scale(act) * force_scale(act),),
+        "limit_v": (volts_scale(act) * force_scale(act), _push_raise(act)),
     }
     top = {"limit_v": act.motor.supply_v} | {
         k: GAIN_HEADROOM * v for k, v in gain_max_si(1.0 / act.loop_hz).items()
@@ -79,6 +79,13 @@ def search_space(act: Actuator) -> dict[str, tuple[float, float]]:
         cap = top.get(k, np.inf)
         out[k] = (min(lo * min(*scale[k], 1.0), cap), min(hi * max(*scale[k], 1.0), cap))
     return out
+
+
+def _push_raise(a: Actuator) -> float:
+    """The most the calibration protocol raises a push's volts over the paper's same move on `a` (its
+    stall force per volt and range, raised where the push would be slower than the paper's: reach.push_volts;
+    the supply on a design paced slower, whose experiment runs are paced by pushes at full supply)."""
+    return max(scaled_move(0.0, m, a).push_v / m[0] for m in PUSH_MOVES)
 
 
 def _speed_per_volt(a: Actuator) -> float:
@@ -108,7 +115,8 @@ def mean_settling(
     never = NEVER_S * duration_s(plant_cfg.actuator) / DURATION_S  # the whole run
     for seed in seeds:
         for target, rec in runs(pred, cfg, seed=seed, plant_cfg=plant_cfg):
-            out[target].append(float(np.nan_to_num(metrics(rec)[metric], nan=never).mean()))
+            got = metrics(rec, plant_cfg.actuator.stiffness_n_per_mm)[metric]
+            out[target].append(float(np.nan_to_num(got, nan=never).mean()))
     return {t: float(np.mean(v)) for t, v in out.items()}
 
 
@@ -149,8 +157,9 @@ def tune(
     `setup`: the search of `shipped` (setups.shipped.CONFIGS: the MLP's settling, its prediction average
     searched too, the SF within +-50 % of the paper's Table II; the first trial is what ships). Otherwise
     `setup` (a configuration factory, `name`: your control model, or kin_mcu) on `act`, its `metric`
-    (experiment.metrics: settling to the target, or to the force's own final level for a biased estimate
-    such as kin_mcu's) scored by worst_plus_mean; the first trial is the description's own [control]."""
+    (experiment.metrics: settling to the target, or for a biased estimate such as kin_mcu's
+    settling_held_s: to the force's own final level with the loop at its own setpoint) scored by
+    worst_plus_mean; the first trial is the description's own [control]."""
     import optuna
 
     act = act or default_actuator()
@@ -178,6 +187,8 @@ def tune(
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(sampler=optuna.samplers.TPESampler(seed=sampler_seed))
     study.enqueue_trial(SHIPPED if paper else own_trial(act))
+    if not paper and carried_trial(act) != own_trial(act):
+        study.enqueue_trial(carried_trial(act))
     study.optimize(trial_fn, n_trials=trials, show_progress_bar=progress)
     return study
 
@@ -185,8 +196,32 @@ def tune(
 def own_trial(act: Actuator) -> dict[str, float]:
     """The description's own [control] PID settings as a trial of its search space (clipped into it, the
     limit onto its grid): the baseline a search starts from."""
-    space, own = search_space(act), pid_si(act.control)
-    out = {k: float(np.clip(own[k], *space[k])) for k in PAPER_SPACE}
+    return _onto(act, pid_si(act.control))
+
+
+def carried_trial(act: Actuator) -> dict[str, float]:
+    """The paper's shipped settings carried to `act` by the ratios that widen its search space (kp and ki
+    by the compression the stalled motor holds per volt: the same static loop gain; kd by the nut's speed
+    per volt; the margin by the springs: the same force; the limit by the calibration pushes' volts), into
+    the space and the limit onto its grid: the second trial, after the description's own (a description
+    that leaves [control] out has the paper's settings, made for its 12 V motor and 4.2 N/mm spring)."""
+    paper = default_actuator()
+    hold = _held_per_volt(paper) / _held_per_volt(act)
+    ratio = {
+        "kp_v_mm": hold,
+        "ki_v_mm_s": hold,
+        "kd_v_s_mm": _speed_per_volt(paper) / _speed_per_volt(act),
+        "d_alpha": 1.0,
+        "margin_mm": paper.stiffness_n_per_mm / act.stiffness_n_per_mm,
+        "limit_v": max(volts_scale(act) * force_scale(act), _push_raise(act)),
+    }
+    return _onto(act, {k: DEFAULT_PID_SI[k] * ratio[k] for k in PAPER_SPACE})
+
+
+def _onto(act: Actuator, si: dict[str, float]) -> dict[str, float]:
+    """Settings `si` clipped into `act`'s search space, the limit onto its grid."""
+    space = search_space(act)
+    out = {k: float(np.clip(si[k], *space[k])) for k in PAPER_SPACE}
     lo, hi = space["limit_v"]
     if hi > lo:
         step = _limit_step(lo, hi)
