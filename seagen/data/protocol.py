@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 
 from seagen.actuator import Actuator, default_actuator
+from seagen.data.coverage import REACH
 from seagen.data.reach import pace, push_volts, reach_problem, retract_volts, stretch
 from seagen.errors import UserError
 from seagen.geometry import Geometry, geometry
@@ -199,10 +200,15 @@ def collect(
     moves: tuple[tuple[float, ...], ...],
     total: int,
     seed: int,
+    reach_n: float | None = None,
 ) -> pd.DataFrame:
-    """Trials per angle, cycling through `moves`, until each angle's row quota is met (last trial cut)."""
+    """Trials per angle, cycling through `moves`, until each angle's row quota is met (last trial cut).
+
+    With `reach_n`: where no kept row reaches that force (a held-out split cut before any push got there,
+    on a design slower than its push-time estimate says), every angle's first trial is kept whole."""
     quotas = _quotas(total, len(angles))
     per_angle: list[list[pd.DataFrame]] = [[] for _ in angles]
+    first: dict[int, pd.DataFrame] = {}  # every angle's first trial, whole
     have = [0] * len(angles)
     round_ = 0
     while any(h < q for h, q in zip(have, quotas, strict=True)):
@@ -212,7 +218,11 @@ def collect(
             take = min(len(df), quotas[i] - have[i])
             per_angle[i].append(df.iloc[:take])
             have[i] += take
+            first.setdefault(i, df)
         round_ += 1
+    if reach_n is not None and not any((df["force_n"] >= reach_n).any() for t in per_angle for df in t):
+        for i, whole in first.items():
+            per_angle[i][0] = whole
     frames = []
     for trials in per_angle:
         frames.extend(trials)
@@ -249,8 +259,10 @@ def generate(
 ) -> dict[str, pd.DataFrame]:
     """The three splits of the paper: train and test at 12 angles, validation at one random extra angle; on a
     design slower than the paper's, each split longer by reach.pace (the same trials, each longer) and each
-    angle given at least half the paced trial cap (a whole push; the paper's 1.4 s validation trial is cut);
-    a design that cannot push to its force range within reach.MAX_PUSH_S is refused."""
+    angle given at least half the paced trial cap (a whole push; the paper's 1.4 s validation trial is cut),
+    the held-out splits at least their first move's push-time ratio to the paper's and, where no trial of
+    one reaches coverage.REACH of the range within that, with each angle's first trial whole; a design
+    that cannot push to its force range within reach.MAX_PUSH_S is refused."""
     problem = reach_problem(cfg.actuator)
     if problem:
         raise UserError(f"{cfg.actuator.name}: {problem}")
@@ -271,5 +283,6 @@ def generate(
         if progress:
             progress(split)
         total = _split_rows(cfg.actuator, split, len(at), moves)
-        out[split] = collect(cfg, at, moves, total, seed=seed * 10 + k)
+        need = REACH * cfg.actuator.control.force_max_n if split in HELD_OUT else None
+        out[split] = collect(cfg, at, moves, total, seed=seed * 10 + k, reach_n=need)
     return out
