@@ -8,6 +8,36 @@ it acts on ("force": the load cell; "position": encoder and/or pot; "both") and 
 parameters (units in the key names) were written here before any run of the discovery.
 
 Designs: the paper's default, and examples/actuators/{stiff_24v,micro_6v,fast_48v}.toml.
+
+Each form's effect on the logged signals (effect_rms; `python -m seagen.discrepancy.blindforms3`): a short
+session of the protocol (bench.measure, fast) from the truth plant, its logged command replayed open loop
+through the truth plant and through the base plant with the same seed (the same sensor noise); RMS of the
+difference over the logged rows, in the design's own sensor sigmas (sensor_sigma: encoder and pot rounding
+1/sqrt(12) count, pot noise, the load cell mount's sigma), seeds 0 / 1 / 2. The encoder's sigma is its
+rounding alone (0.29 count), so any change of the motion shows there as a large number (nonlin_stiffness:
+nonlinear_stiffness).
+
+| form | design | class | enc | pot | load_cell_n |
+| --- | --- | --- | ---: | ---: | ---: |
+| screw_pitch_error | default | periodic | 3.6 / 4.3 / 3.0 | 2.2 / 1.1 / 1.3 | 2.1 / 2.2 / 1.6 |
+| carrier_runout | fast_48v | periodic | 8.1 / 10.4 / 11.0 | 0.6 / 0.6 / 0.4 | 0.9 / 1.2 / 1.3 |
+| pot_track_ripple | stiff_24v | periodic | 0.0 / 0.0 / 0.0 | 2.5 / 1.5 / 2.1 | 0.0 / 0.0 / 0.0 |
+| bearing_defect | stiff_24v | periodic | 519.4 / 461.0 / 676.5 | 1.4 / 1.6 / 2.1 | 2.7 / 2.6 / 3.4 |
+| pot_supply_sag | micro_6v | drift | 0.0 / 0.0 / 0.0 | 2.1 / 2.5 / 2.4 | 0.0 / 0.0 / 0.0 |
+| grease_run_in | default | drift | 24.5 / 26.9 / 34.9 | 4.2 / 4.9 / 6.1 | 4.3 / 4.6 / 6.0 |
+| motor_heat_cell_zero | fast_48v | drift | 0.0 / 0.0 / 0.0 | 0.0 / 0.0 / 0.0 | 2.9 / 2.9 / 1.5 |
+| load_friction | default | state_friction | 47.6 / 28.3 / 20.3 | 2.0 / 1.4 / 1.0 | 10.1 / 6.3 / 4.7 |
+| screw_misalignment | fast_48v | state_friction | 63.7 / 29.0 / 85.9 | 0.2 / 0.3 / 0.2 | 3.1 / 1.2 / 4.2 |
+| ageing_friction | default | state_friction | 7.9 / 2.0 / 2.0 | 6.5 / 2.1 / 2.2 | 1.7 / 0.3 / 0.4 |
+| cell_play_hysteresis | default | hysteresis | 0.0 / 0.0 / 0.0 | 0.0 / 0.0 / 0.0 | 2.7 / 3.1 / 3.5 |
+| iwan_spring | micro_6v | hysteresis | 164.4 / 220.7 / 110.2 | 3.1 / 4.0 / 2.1 | 3.4 / 4.6 / 2.3 |
+| coil_seating | stiff_24v | nonlin_stiffness | 1200.9 / 844.0 / 1646.2 | 0.7 / 0.4 / 0.9 | 5.0 / 3.5 / 6.9 |
+| cell_filter2 | fast_48v | sensor_lag | 0.0 / 0.0 / 0.0 | 0.0 / 0.0 / 0.0 | 36.8 / 23.8 / 23.2 |
+| cell_quantised | micro_6v | quantisation | 0.0 / 0.0 / 0.0 | 0.0 / 0.0 / 0.0 | 2.8 / 2.4 / 1.9 |
+| drive_current_limit | stiff_24v | saturation | 6165 / 3909 / 4085 | 5.0 / 3.2 / 3.3 | 5.8 / 3.9 / 4.0 |
+| wiper_dropouts | micro_6v | other | 0.0 / 0.0 / 0.0 | 9.0 / 8.8 / 9.9 | 0.0 / 0.0 / 0.0 |
+| current_crosstalk | default | other | 0.0 / 0.0 / 0.0 | 0.0 / 0.0 / 0.0 | 2.4 / 3.4 / 3.7 |
+| cell_span_error | default | other | 0.0 / 0.0 / 0.0 | 0.0 / 0.0 / 0.0 | 6.1 / 6.2 / 5.4 |
 """
 
 from __future__ import annotations
