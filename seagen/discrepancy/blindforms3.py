@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -443,6 +444,7 @@ class Form:
     fixed: dict[str, float] = field(default_factory=dict)
     signed: tuple[str, ...] = ()  # parameters whose sign is drawn (+ or -) after the magnitude
     seeds: tuple[str, ...] = ()  # integer seeds of the form's own random draws (not physical)
+    derived: dict[str, Callable[[dict[str, float]], float]] = field(default_factory=dict)  # more truth
 
 
 TWO_PI = 2 * math.pi
@@ -540,6 +542,7 @@ FORMS: dict[str, Form] = {
         "sensor_lag",
         "force",
         {"cutoff_hz": (15.0, 40.0), "damping": (0.6, 0.9)},
+        derived={"lag_s": lambda p: 2 * p["damping"] / (2 * math.pi * p["cutoff_hz"])},  # low-frequency delay
     ),
     "cell_quantised": Form(CellQuantised, "micro_6v", "quantisation", "force", {"step_n": (0.35, 0.7)}),
     "drive_current_limit": Form(
@@ -592,6 +595,7 @@ def blind_case(name: str, seed: int) -> tuple[type[Plant], PlantConfig, PlantCon
     cls = type(f"{form.cls.__name__}_{seed}", (form.cls,), dict(params))
     cfg = PlantConfig(actuator=design_actuator(form.design))
     truth = {k: v for k, v in params.items() if k not in form.seeds}
+    truth |= {k: float(f(params)) for k, f in form.derived.items()}
     info = {
         "expected_class": form.expected_class,
         "channels": form.channels,
