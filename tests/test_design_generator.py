@@ -12,7 +12,8 @@ import tomli_w
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from seagen.actuator import actuator_from_dict, default_actuator
+from seagen.actuator import Actuator, actuator_from_dict, default_actuator
+from seagen.control.tune import hold_problem
 from seagen.data.protocol import PUSH_MOVES, TRIAL_CAP_S, VALIDATION_MOVES, scaled_move
 from seagen.data.reach import pace, push_time, reach_problem, retract_time
 from seagen.errors import UserError
@@ -50,15 +51,16 @@ def designs(draw) -> dict:
     return d
 
 
-def judged(d: dict) -> tuple[object, str | None]:
+def judged(d: dict) -> tuple[Actuator | None, str | None]:
     """(the description, None) when accepted; (None, the reason) when refused where a description is
-    given: the loader's checks, the C's fixed-point formats and gains, the protocol's reach."""
+    given: the loader's checks, the C's fixed-point formats and gains, the protocol's reach, the force
+    loop's resolution (a pot step within the settling band)."""
     try:
         act = actuator_from_dict(d, "drawn.toml")
         ControlConfig.for_act(act_q(act))
     except UserError as e:
         return None, str(e)
-    problem = reach_problem(act)
+    problem = reach_problem(act) or hold_problem(act)
     return (None, problem) if problem else (act, None)
 
 
@@ -109,7 +111,7 @@ def _pipeline(d: dict, tmp: Path, run_cli) -> dict:
     d["control"].update(tomllib.loads(json.loads(out)["control"]))
     f.write_text(tomli_w.dumps(d))
     code, _, err = run_cli("data", "generate", "--actuator", str(f), "--out", str(tmp / "data"))
-    assert code == 0, err  # the coverage check passed: 75 % of the range in train, 50 % held out
+    assert code == 0, err  # the coverage check passed: 75 % of the range in every split
     for task in ("calibration", "control"):
         args = [
             "--data",
@@ -121,7 +123,9 @@ def _pipeline(d: dict, tmp: Path, run_cli) -> dict:
             "--out",
             str(tmp / f"{task}.pt"),
         ]
-        code, _, err = run_cli("train", *args)
+        # the control SF with the paper's MAE loss: it follows the loading branch, where the loop ends
+        # (least squares sits between the branches of the friction loop: docs/actuator.md)
+        code, _, err = run_cli("train", *args, *(["--loss", "mae"] if task == "control" else []))
         assert code == 0, err
     code, out, err = run_cli("simulate", "--model", str(tmp / "control.pt"), "--seeds", "1", "--json")
     assert code == 0, err
@@ -133,9 +137,12 @@ def _pipeline(d: dict, tmp: Path, run_cli) -> dict:
 @settings(derandomize=True, max_examples=6, deadline=None, suppress_health_check=list(HealthCheck))
 @given(d=designs())
 def test_accepted_designs_get_data_a_model_and_a_loop_that_settles(d, tmp_path_factory):
-    """Each accepted drawn design: tuned gains, data that pass the coverage check, an SF control model with
-    finite metrics, and its closed loop on the simulated design settling (to its final level) at 25, 50 and
-    75 % of force_max_n."""
+    """Each accepted drawn design: tuned gains, data that pass the coverage check (75 % of force_max_n in
+    every split), an SF control model (MAE) with finite metrics, and its closed loop on the simulated design
+    settling within the experiment's +-0.3 N band of the target at 25, 50 and 75 % of force_max_n: at
+    least 9 of the 10 contact angles, under 0.3 N off on average (as tests/test_shipped_sf_loop.py asks of
+    the shipped designs)."""
+    from seagen.control.experiment import BAND_N
     from seagen.modelfile import load_model
     from tests.conftest import run_cli
 
@@ -150,7 +157,7 @@ def test_accepted_designs_get_data_a_model_and_a_loop_that_settles(d, tmp_path_f
     (rows,) = [v for k, v in got["table"].items() if k.endswith("_mcu")]
     assert len(rows) == 3
     for target, row in rows.items():
-        assert row["settling_final_s"] is not None, (target, row)
+        assert row["settled"] >= 0.9 * row["angles"] and row["error_avg_n"] < BAND_N, (d, target, row)
 
 
 @pytest.mark.slow
@@ -221,7 +228,7 @@ def test_misset_stiffness_on_the_corner_draw_is_deterministic_and_recovered():
 
     def misset(act) -> dict:
         truth = PlantConfig(actuator=act)
-        k = float(truth.effect("series_compliance").k_n_per_mm)
+        k = float(truth.effect("series_compliance").k_n_per_mm)  # type: ignore[attr-defined]
         base = truth.with_effect("series_compliance", True, k_n_per_mm=0.7 * k)
         res = identify(measure(truth, seed=6, fast=True), base)
         return {"k": k, **{f"{n.name}.{p}": v for n in res.recalibrated for p, v in n.params.items()}}

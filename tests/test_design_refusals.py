@@ -258,3 +258,28 @@ def test_discrepancy_classes_scale_with_the_design():
     assert not np.array_equal(mine["force"], features(runs, paper, 2 * top)["force"])
     a, b = region_labels(runs, paper, top)["speed"], region_labels(runs, fast, top)["speed"]
     assert (b == "still").sum() > (a == "still").sum()
+
+
+def test_a_pot_too_coarse_to_hold_the_band_is_refused_at_the_description(tmp_path, capsys):
+    """A 17.9 N/mm spring read by a 10-bit pot over 140 deg (a drawn design: its MAE SF loop settled 0 of 10
+    at every target, 0.6-3.6 N off): one pot count is 0.81 N of spring force at the top angle, more than the
+    0.18 N the +-0.3 N band leaves beside the dead band, so every command refuses it where the description
+    is given (exit 2, one line naming the fields and the numbers, nothing written); the shipped designs'
+    steps are 0.011-0.032 N."""
+    from seagen.actuator import actuator_from_dict
+    from seagen.control.tune import hold_problem, pot_step_n
+
+    d = load_actuator(EXAMPLE).to_dict()
+    d["spring"]["stiffness_n_per_mm"] = 17.9
+    d["pot"].update(full_scale_deg=140.0, adc_bits=10)
+    d["linkage"]["cb_mm"] = 40.3
+    d["control"]["force_max_n"] = 31.8
+    bad = tmp_path / "coarse.toml"
+    bad.write_text(to_toml(actuator_from_dict(d, "coarse.toml")))
+    out = tmp_path / "data"
+    err = _exit_2(capsys, "data", "generate", "--actuator", str(bad), "--out", str(out))
+    assert str(bad) in err and "one pot count is 0.81 N of spring force" in err and not out.exists()
+    assert "pot.adc_bits" in err and "pot.full_scale_deg" in err and "spring.stiffness_n_per_mm" in err
+    roots = [EXAMPLE.parent / f"{n}.toml" for n in ("stiff_24v", "micro_6v", "fast_48v")] + [SLOW]
+    for act in [default_actuator(), *map(load_actuator, roots)]:
+        assert hold_problem(act) is None and pot_step_n(act) < 0.05, act.name

@@ -24,14 +24,16 @@ def add_actuator(p: argparse.ArgumentParser, help: str = ACTUATOR_HELP) -> None:
 
 
 def given_actuator(args: argparse.Namespace) -> Actuator | None:
-    """The description --actuator names, proven (runtime.control.proven_actuator) and able to push to its
-    force range in the calibration protocol's time (data.reach), or None."""
+    """The description --actuator names, proven (runtime.control.proven_actuator), able to push to its
+    force range in the calibration protocol's time (data.reach) and to read a force finely enough to hold
+    it within the settling band (control.tune.hold_problem), or None."""
     from seagen.actuator import ActuatorError
+    from seagen.control.tune import hold_problem
     from seagen.data.reach import reach_problem
     from seagen.runtime.control import proven_actuator
 
     act = proven_actuator(getattr(args, "actuator", None))
-    if act is not None and (problem := reach_problem(act)):
+    if act is not None and (problem := reach_problem(act) or hold_problem(act)):
         raise ActuatorError(f"{act.source} ('{act.name}'): {problem}")
     return act
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
@@ -10,6 +11,7 @@ import numpy as np
 
 from seagen.actuator import Actuator, default_actuator, is_default
 from seagen.control.experiment import (
+    BAND_N,
     DURATION_S,
     PAPER_TABLE2,
     Setup,
@@ -45,6 +47,34 @@ PAPER_SPACE = {
 MARGIN_TOP_N = PAPER_SPACE["margin_mm"][1] * default_actuator().stiffness_n_per_mm
 GAIN_HEADROOM = 0.99  # the search's gains stay this share of the largest the C holds
 LIMIT_STEP_V = 0.5  # the limit's grid on the paper's actuator (scaled with the range)
+
+
+def pot_step_n(act: Actuator) -> float:
+    """The spring force one pot count spans at the top of `act`'s linkage range, where it is widest (Eq. 2:
+    the compression moves by CB sin(angle) per radian of the pot's angle): the finest step in which the
+    force loop reads a force."""
+    lk = act.linkage
+    per_rad = lk.cb_mm * math.sin(math.radians(lk.angle_max_deg))
+    return act.stiffness_n_per_mm * per_rad * math.radians(act.pot_deg_per_count)
+
+
+def hold_problem(act: Actuator) -> str | None:
+    """Why the force loop on `act` cannot hold a force within the settling band, with the numbers, or None:
+    the band (+-experiment.BAND_N) holds the margin's dead band (up to MARGIN_TOP_N) and half a pot step
+    either side, so a pot step may be at most 2 x (BAND_N - MARGIN_TOP_N) of spring force."""
+    step, most = pot_step_n(act), 2.0 * (BAND_N - MARGIN_TOP_N)
+    if step <= most:
+        return None
+    p, lk = act.pot, act.linkage
+    return (
+        f"one pot count is {step:.2g} N of spring force at the linkage's top angle {lk.angle_max_deg:g} deg "
+        f"(pot.full_scale_deg {p.full_scale_deg:g} over pot.adc_bits {p.adc_bits}: "
+        f"{act.pot_deg_per_count:.3g} deg a count, through linkage.cb_mm {lk.cb_mm:g} onto the "
+        f"{act.stiffness_n_per_mm:g} N/mm spring), more than the {most:.2g} N the +-{BAND_N:g} N settling "
+        f"band leaves beside the controller's dead band (up to {MARGIN_TOP_N:.2g} N): the force loop cannot "
+        "hold a force within the band: a finer pot "
+        "(pot.adc_bits), a smaller pot.full_scale_deg or a softer spring (spring.stiffness_n_per_mm)"
+    )
 
 
 def search_space(act: Actuator) -> dict[str, tuple[float, float]]:
