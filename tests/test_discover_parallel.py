@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from seagen.discrepancy import parallel
 from seagen.discrepancy.bench import measure
 from seagen.discrepancy.candidates import Candidate, objective, residual_vectors, start
 from seagen.discrepancy.parallel import chunked, replays
@@ -31,11 +32,23 @@ def test_a_helper_error_is_raised_and_the_next_batch_is_its_own() -> None:
         assert np.array_equal(chunked(_fail_on_negative, [1, 2, 3, 4, 5])[:, 0], [2, 4, 6, 8, 10])
 
 
+def test_helpers_stop_with_their_block_and_are_killed_by_an_error() -> None:
+    """The helpers of a block are gone after it, at once when it ends by an exception."""
+    with replays(2):
+        procs = [h.process for h in parallel._HELPERS]
+        assert len(procs) == 1 and procs[0].is_alive()
+    assert not procs[0].is_alive() and not parallel._HELPERS
+    with pytest.raises(KeyError), replays(3):
+        procs = [h.process for h in parallel._HELPERS]
+        raise KeyError("stop")
+    assert len(procs) == 2 and not any(p.is_alive() for p in procs)
+
+
 def test_a_batch_of_every_term_and_effect_is_the_same_over_two_processes() -> None:
     """objective and residual_vectors of a batch (the plant alone, every catalogue effect and every term of
-    the library at its start) on three trials: np.array_equal with 1 and with 2 processes."""
+    the library at its start) on two trials: np.array_equal with 1 and with 2 processes."""
     cfg = PlantConfig()
-    runs = measure(cfg.with_effect("cell_lag", True, time_constant_s=0.04), seed=3, fast=True).take([0, 5, 9])
+    runs = measure(cfg.with_effect("cell_lag", True, time_constant_s=0.04), seed=3, fast=True).take([0, 9])
     sig = noise_sigma(runs)
     cands = [start(cfg, e) for e in CATALOGUE if e != "pot_noise"]
     cands += [Candidate((t,), np.full(len(TERM_SPACE[t]), 0.3)) for t in LIBRARY]

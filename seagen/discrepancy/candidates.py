@@ -292,13 +292,26 @@ def polish(
     every running solver waits for a value and Jacobian, one batched replay answers them all."""
     meet = Rendezvous(len(cands))
     errors: list[BaseException] = []
+    # One solver computes at a time (between its requests): the solvers' own linear algebra in BLAS at once
+    # from many threads made OpenBLAS's threads contend (5x the polish's CPU); each solver's numbers and the
+    # batches (formed when every live solver waits) are the same either way.
+    turn = threading.Lock()
+
+    def ask(i: int, us: list[np.ndarray]) -> list[np.ndarray]:
+        turn.release()
+        try:
+            return meet.ask(i, us)
+        finally:
+            turn.acquire()
 
     def run(i: int) -> None:
+        turn.acquire()
         try:
-            _least_squares(cands[i], nfev, lambda us: meet.ask(i, us))
+            _least_squares(cands[i], nfev, lambda us: ask(i, us))
         except BaseException as exc:  # handed to the caller below
             errors.append(exc)
         finally:
+            turn.release()
             meet.leave(i)
 
     threads = [threading.Thread(target=run, args=(i,), daemon=True) for i in range(len(cands))]
