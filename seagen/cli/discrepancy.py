@@ -47,7 +47,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="bench --families: quick moves (about half the time); bench --rig: nothing-hidden cases only",
     )
-    p.add_argument("--jobs", type=int, default=2, help="bench: worker processes")
+    p.add_argument(
+        "--jobs",
+        type=int,
+        help="processes: the batched replays of the search split over them (the same results with any "
+        "number; default: the cores, at most 2); bench: worker processes (default 2)",
+    )
     p.add_argument(
         "--cases",
         metavar="NAMES",
@@ -63,12 +68,14 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
     from seagen.errors import UserError
 
     if args.action == "bench":
+        args.jobs = 2 if args.jobs is None else args.jobs
         return cmd_bench(args)
     if not args.measured or not args.out:
         raise UserError("discrepancy: --measured and --out are required (or use `discrepancy bench`)")
     from seagen.atomic import locked_folder
     from seagen.cli.data import given_actuator
     from seagen.data.schema import data_actuator
+    from seagen.discrepancy.parallel import default_jobs, keep_freed_memory, replays
     from seagen.discrepancy.replay import load_measured, load_timing, runs_from_frames
     from seagen.discrepancy.report import discovered_lines, summary, unpinned_words, write_report
     from seagen.discrepancy.workflow import identify
@@ -79,7 +86,10 @@ def cmd_discrepancy(args: argparse.Namespace) -> int:
     base = load_config(args.base, act) if args.base else PlantConfig(actuator=act)
     timing = load_timing(args.measured)
     runs = runs_from_frames(load_measured(args.measured), timing)
-    res = identify(runs, base)  # the lag the folder declares (timing.json) is pinned: Runs.declared
+    jobs = default_jobs() if args.jobs is None else max(1, args.jobs)
+    keep_freed_memory()  # before the helpers start: they inherit it
+    with replays(jobs):  # the lag the folder declares (timing.json) is pinned: Runs.declared
+        res = identify(runs, base)
     with locked_folder(Path(args.out).resolve().parent):  # another report onto --out waits, then replaces
         write_report(res, args.out, str(args.measured))
     s = summary(res)
