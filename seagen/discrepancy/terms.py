@@ -308,7 +308,7 @@ TERM_SPACE: dict[str, dict[str, tuple[float, float, bool]]] = {
     "cell_gain_drift": {"share": (-0.3, 0.3, False), "time_constant_s": (0.1, 30.0, True)},
     "pot_ripple": {
         "amplitude_counts": (0.5, 100.0, True),
-        "period_counts": (5.0, 1000.0, True),
+        "period_counts": (40.0, 1500.0, True),
         "phase_rad": (-6.5, 6.5, False),
     },
 }
@@ -318,7 +318,7 @@ DENSE = {
     ("cogging", "period_mm"): 24,
     ("lead_error", "phase_rad"): 4,
     ("cogging", "phase_rad"): 4,
-    ("pot_ripple", "period_counts"): 24,
+    ("pot_ripple", "period_counts"): 96,
     ("pot_ripple", "phase_rad"): 4,
     ("position_friction", "center_mm"): 8,
     ("spring_knee", "onset_mm"): 6,
