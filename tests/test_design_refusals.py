@@ -264,10 +264,12 @@ def test_a_pot_too_coarse_to_hold_the_band_is_refused_at_the_description(tmp_pat
     """A 17.9 N/mm spring read by a 10-bit pot over 140 deg (a drawn design: its MAE SF loop settled 0 of 10
     at every target, 0.6-3.6 N off): one pot count is 0.81 N of spring force at the top angle, more than the
     0.18 N the +-0.3 N band leaves beside the dead band, so every command refuses it where the description
-    is given (exit 2, one line naming the fields and the numbers, nothing written); the shipped designs'
-    steps are 0.011-0.032 N."""
+    is given (exit 2, one line naming the fields and the numbers, nothing written); so is a 16-count
+    encoder behind 4:1 and a 2.93 mm lead on a 7.77 N/mm spring, 0.36 N a count (a drawn design whose loop
+    held its setpoint and settled 2 / 3 / 0 of 10, 0.43-0.46 N off); the shipped designs' two steps
+    together are 0.012-0.035 N."""
     from seagen.actuator import actuator_from_dict
-    from seagen.control.tune import hold_problem, pot_step_n
+    from seagen.control.tune import enc_step_n, hold_problem, pot_step_n
 
     d = load_actuator(EXAMPLE).to_dict()
     d["spring"]["stiffness_n_per_mm"] = 17.9
@@ -278,8 +280,18 @@ def test_a_pot_too_coarse_to_hold_the_band_is_refused_at_the_description(tmp_pat
     bad.write_text(to_toml(actuator_from_dict(d, "coarse.toml")))
     out = tmp_path / "data"
     err = _exit_2(capsys, "data", "generate", "--actuator", str(bad), "--out", str(out))
-    assert str(bad) in err and "one pot count is 0.81 N of spring force" in err and not out.exists()
+    assert str(bad) in err and "one pot count 0.81 N at the linkage's top angle 28 deg" in err
     assert "pot.adc_bits" in err and "pot.full_scale_deg" in err and "spring.stiffness_n_per_mm" in err
+    assert not out.exists()
     roots = [EXAMPLE.parent / f"{n}.toml" for n in ("stiff_24v", "micro_6v", "fast_48v")] + [SLOW]
     for act in [default_actuator(), *map(load_actuator, roots)]:
-        assert hold_problem(act) is None and pot_step_n(act) < 0.05, act.name
+        assert hold_problem(act) is None and pot_step_n(act) + enc_step_n(act) < 0.05, act.name
+    d = default_actuator().to_dict()  # a drawn design: 3.7 V, 4:1, 16 counts, 2.93 mm lead, 7.77 N/mm
+    d["motor"].update(
+        supply_v=3.7, no_load_rpm=3640.0, gear_ratio=4.0, counts_per_rev=16, stall_force_n=162.0
+    )
+    d["transmission"]["lead_mm"] = 2.93
+    d["spring"]["stiffness_n_per_mm"] = 7.77
+    d["control"]["force_max_n"] = 73.8
+    why = hold_problem(actuator_from_dict(d, "coarse_enc.toml"))
+    assert why and "one encoder count 0.36 N" in why and "motor.counts_per_rev" in why

@@ -58,22 +58,31 @@ def pot_step_n(act: Actuator) -> float:
     return act.stiffness_n_per_mm * per_rad * math.radians(act.pot_deg_per_count)
 
 
+def enc_step_n(act: Actuator) -> float:
+    """The spring force one encoder count spans (Eq. 3: the nut moves lead / (gear x counts) a count)."""
+    return act.stiffness_n_per_mm * act.mm_per_count
+
+
 def hold_problem(act: Actuator) -> str | None:
-    """Why the force loop on `act` cannot hold a force within the settling band, with the numbers, or None:
-    the band (+-experiment.BAND_N) holds the margin's dead band (up to MARGIN_TOP_N) and half a pot step
-    either side, so a pot step may be at most 2 x (BAND_N - MARGIN_TOP_N) of spring force."""
-    step, most = pot_step_n(act), 2.0 * (BAND_N - MARGIN_TOP_N)
-    if step <= most:
+    """Why the force loop on `act` cannot hold a force within the settling band, with the numbers, or None.
+    It reads the compression from an encoder count and a pot count (Eq. 2-5), each off by up to half its
+    step; the band (+-experiment.BAND_N) must hold those and the margin's dead band (up to MARGIN_TOP_N), so
+    the two steps together may be at most 2 x (BAND_N - MARGIN_TOP_N) of spring force."""
+    enc, pot = enc_step_n(act), pot_step_n(act)
+    most = 2.0 * (BAND_N - MARGIN_TOP_N)
+    if enc + pot <= most:
         return None
-    p, lk = act.pot, act.linkage
+    m, p, lk = act.motor, act.pot, act.linkage
     return (
-        f"one pot count is {step:.2g} N of spring force at the linkage's top angle {lk.angle_max_deg:g} deg "
-        f"(pot.full_scale_deg {p.full_scale_deg:g} over pot.adc_bits {p.adc_bits}: "
-        f"{act.pot_deg_per_count:.3g} deg a count, through linkage.cb_mm {lk.cb_mm:g} onto the "
-        f"{act.stiffness_n_per_mm:g} N/mm spring), more than the {most:.2g} N the +-{BAND_N:g} N settling "
-        f"band leaves beside the controller's dead band (up to {MARGIN_TOP_N:.2g} N): the force loop cannot "
-        "hold a force within the band: a finer pot "
-        "(pot.adc_bits), a smaller pot.full_scale_deg or a softer spring (spring.stiffness_n_per_mm)"
+        f"the force loop reads the spring force in steps of {enc + pot:.2g} N: one encoder count "
+        f"{enc:.2g} N (transmission.lead_mm {act.lead_mm:g} / (motor.gear_ratio {m.gear_ratio:g} x "
+        f"motor.counts_per_rev {m.counts_per_rev}) on the {act.stiffness_n_per_mm:g} N/mm spring) and one "
+        f"pot count {pot:.2g} N at the linkage's top angle {lk.angle_max_deg:g} deg (pot.full_scale_deg "
+        f"{p.full_scale_deg:g} over pot.adc_bits {p.adc_bits}, through linkage.cb_mm {lk.cb_mm:g}), more "
+        f"than the {most:.2g} N the +-{BAND_N:g} N settling band leaves beside the controller's dead band "
+        f"(up to {MARGIN_TOP_N:.2g} N): it cannot hold a force within the band: a finer encoder or pot "
+        "(motor.counts_per_rev, pot.adc_bits), a higher motor.gear_ratio, a finer transmission.lead_mm, a "
+        "smaller pot.full_scale_deg or a softer spring (spring.stiffness_n_per_mm)"
     )
 
 
