@@ -141,7 +141,8 @@ UNSETTLED = {
     "stays up to 0.6 N above at some angles, the loop mostly at its setpoint; cause not found",
     (12.0, 66.7, 13.0, 1.0): "10 / 7 / 3 of 10, 0.07 / 0.22 / 0.56 N off: its loop holds its setpoint "
     "(settling_held 2.7 / 6 / 9-10 s of the 21 s run) but the force ends 0.17-0.97 N below 9.75 N, most at "
-    "the top angles: the SF asks too little compression there (this slow drive pushes at its supply)",
+    "the top angles: the SF asks too little compression there; not the pot's voltage drop in its moving "
+    "rows (data made without it: the same -0.16 to -0.93 N); cause not found",
 }
 
 
