@@ -91,6 +91,18 @@ PARAMS2: Mapping = {
     "cell_loop_hysteresis": {"half_height_n": ("cell_hysteresis", "force_n", None)},
     "cell_adc_truncation": {"step_n": ("cell_quantisation", "step_n", None)},
     "amp_soft_rail": {"asymptote_n": ("cell_soft_saturation", "limit_n", None)},
+    # the terms added after set 2 was read (in-sample): the true laws' parameters of the same meaning
+    "load_friction": {"mu": ("load_friction", "mu", None)},
+    "rough_spot": {
+        "extra_n": ("position_friction", "extra_n", None),
+        "center_mm": ("position_friction", "center_mm", None),
+        "width_mm": ("position_friction", "width_mm", None),
+    },
+    "coil_contact": {
+        "extra_k_n_per_mm": ("spring_knee", "dk_n_per_mm", None),
+        "onset_mm": ("spring_knee", "onset_mm", None),
+    },
+    "current_limit": {"limit_share": ("current_limit", "limit_share", None)},
 }
 PARAMS_OF = {1: PARAMS, 2: PARAMS2}
 
