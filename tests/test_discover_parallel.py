@@ -32,6 +32,23 @@ def test_a_helper_error_is_raised_and_the_next_batch_is_its_own() -> None:
         assert np.array_equal(chunked(_fail_on_negative, [1, 2, 3, 4, 5])[:, 0], [2, 4, 6, 8, 10])
 
 
+def _interrupt_here(sets: list[int]) -> np.ndarray:
+    """A chunk function interrupted (Ctrl-C) in the caller's own chunk, not in a helper's."""
+    if sets[0] == 1:
+        raise KeyboardInterrupt
+    return np.array(sets, dtype=float)[:, None]
+
+
+def test_an_interrupt_stops_the_busy_helpers_at_once() -> None:
+    """A Ctrl-C in the caller's chunk does not wait for the helpers: they are killed and not used again."""
+    with replays(2):
+        h = parallel._HELPERS[0]
+        with pytest.raises(KeyboardInterrupt):
+            chunked(_interrupt_here, [1, 2, 3, 4])
+        assert not h.process.is_alive() and not parallel._HELPERS
+        assert np.array_equal(chunked(_interrupt_here, [2, 3, 4, 5])[:, 0], [2, 3, 4, 5])
+
+
 def test_helpers_stop_with_their_block_and_are_killed_by_an_error() -> None:
     """The helpers of a block are gone after it, at once when it ends by an exception."""
     with replays(2):

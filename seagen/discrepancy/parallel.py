@@ -72,8 +72,18 @@ def chunked(fn: Callable[..., np.ndarray], sets: list, *args: Any) -> np.ndarray
         h.submit(fn, sets[a:b], *args)
     try:
         parts: list[Any] = [fn(sets[: cuts[1]], *args)]
-    finally:  # every helper's answer is read (an error too), so the next call's answers are its own
+    except Exception:  # every helper's answer is read, so the next call's answers are its own
+        for h in busy:
+            _answer(h)
+        raise
+    except BaseException:  # Ctrl-C or SIGTERM: not waited for, the helpers are stopped at once
+        _drop(busy)
+        raise
+    try:
         answers = [_answer(h) for h in busy]
+    except BaseException:
+        _drop(busy)
+        raise
     for a in answers:
         if isinstance(a, BaseException):
             raise a
@@ -86,3 +96,11 @@ def _answer(h: Helper) -> Any:
         return h.result()
     except Exception as exc:
         return exc
+
+
+def _drop(busy: list[Helper]) -> None:
+    """Kill helpers whose answers will not be read and use them no more (later batches go without them)."""
+    for h in busy:
+        h.close(kill=True)
+        if h in _HELPERS:
+            _HELPERS.remove(h)
