@@ -103,6 +103,7 @@ PARAMS2: Mapping = {
         "onset_mm": ("spring_knee", "onset_mm", None),
     },
     "current_limit": {"limit_share": ("current_limit", "limit_share", None)},
+    "pot_gear_ripple": {"amplitude_counts": ("pot_ripple", "amplitude_counts", None)},
 }
 PARAMS_OF = {1: PARAMS, 2: PARAMS2}
 
