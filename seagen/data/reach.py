@@ -23,7 +23,7 @@ from collections.abc import Callable
 
 from seagen.actuator import Actuator, default_actuator
 from seagen.geometry import geometry
-from seagen.plant.config import ActuatorFriction, Motor
+from seagen.plant.config import Motor
 
 MAX_PUSH_S = 60.0  # longest push to force_max_n (at full supply) a calibration protocol may ask for
 REFERENCE_MOVE = (2.5, 17.0)  # the paper's first push: volts, peak N (85 % of its 20 N range)
@@ -33,10 +33,9 @@ SLACK = 1.5
 
 
 def friction_n(act: Actuator) -> float:
-    """The friction a push works against on `act`: its transmission.friction_n, or the simulated plant's
-    default actuator friction where that is larger (the paper's 2.7 N on every design: plant.config), as
-    `data generate` runs the protocol on the simulated plant."""
-    return max(act.friction_n, ActuatorFriction().force_n)
+    """The friction a push works against on `act`: its transmission.friction_n, which is also the simulated
+    plant's actuator friction on that design (plant.config.Effects.of)."""
+    return act.friction_n
 
 
 def push_time(act: Actuator, volts: float, peak_n: float) -> float:

@@ -173,9 +173,9 @@ def counts_range(
 # unit: N (1, 0), mm (0, 1), N/mm (1, -1), mm/N^2 (-2, 1), N/mm^3 (1, -3), N s/mm (1, -1). The discrepancy
 # search's boxes of them are the paper's times design_factor (a design far from the paper's is searched
 # around its own scale); of the plant's defaults, the structure's (series_compliance: a share of the
-# spring's deflection like the paper's) and those of the effects off by default. Frictions and offsets the
-# plant has on by default stay absolute (the description's transmission.friction_n is the kinematics
-# baseline's and the same 2.7 N). Exactly 1.0 on the paper's actuator: its numbers are unchanged.
+# spring's deflection like the paper's) and those of the effects off by default. The actuator friction is
+# the description's transmission.friction_n (Effects.of); the other frictions and offsets the plant has on by
+# default stay absolute. Exactly 1.0 on the paper's actuator: its numbers are unchanged.
 DESIGN_UNITS: dict[tuple[str, str], tuple[int, int]] = {
     ("actuator_friction", "force_n"): (1, 0),
     ("linkage_friction", "c0_n"): (1, 0),
@@ -584,6 +584,8 @@ class Effects:
         """The default catalogue for an actuator: its pot effects at their shares of its pot's full scale, the
         structure's and the effects off by default at its scale (DESIGN_UNITS, PLANT_SCALED)."""
         out, fs = cls(), pot_full_scale(act)
+        # the actuator friction is the description's (transmission.friction_n; 2.7 N on the paper's)
+        out.actuator_friction = dataclasses.replace(out.actuator_friction, force_n=act.friction_n)
         for (name, param), share in POT_SHARES.items():
             setattr(out, name, dataclasses.replace(getattr(out, name), **{param: share * fs}))
         for name, param in DESIGN_UNITS:
