@@ -214,3 +214,27 @@ def test_tunes_second_trial_is_the_papers_settings_carried_to_the_design():
         micro, motor=dataclasses.replace(micro.motor, supply_v=24.0, stall_force_n=600.0)
     )
     assert pace(slow) > 1.0 and search_space(slow)["limit_v"][1] == 24.0 == carried_trial(slow)["limit_v"]
+
+
+def test_the_limit_grid_keeps_its_top_and_optuna_takes_it_whole():
+    """The limit's grid runs LIMIT_STEPS steps down from the range's top (the supply on a paced design)
+    in decimals optuna finds divisible: before, a drawn 3.7 V design's 2.3125-3.7 V range by 0.1734375 V
+    was cut to 3.53 V by optuna (a warning), and the paper's settings carried there (3.7 V) fell outside it.
+    The paper's grid is exactly 6-10 V by 0.5 V."""
+    import warnings
+
+    from optuna.distributions import FloatDistribution
+
+    from seagen.control.tune import LIMIT_STEPS, _limit_grid
+
+    assert _limit_grid(6.0, 10.0) == (6.0, 10.0, 0.5)
+    for lo, hi in ((2.3125, 3.7), (2.0368377483443716, 3.7), (6.0, 38.828467590189966), (1.0, 1.00001)):
+        low, high, step = _limit_grid(lo, hi)
+        assert lo <= low <= high <= hi and hi - high < 1e-4
+        if step == 0:
+            assert hi - lo < LIMIT_STEPS * 1e-4
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            d = FloatDistribution(low, high, step=step)
+        assert d.high == high and high - low == pytest.approx(LIMIT_STEPS * step)

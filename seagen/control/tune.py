@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import replace
+from decimal import ROUND_FLOOR, Decimal
 from typing import Any
 
 import numpy as np
@@ -46,7 +47,7 @@ PAPER_SPACE = {
 # settling band (experiment.BAND_N): a dead band wider than the band stops the loop outside it.
 MARGIN_TOP_N = PAPER_SPACE["margin_mm"][1] * default_actuator().stiffness_n_per_mm
 GAIN_HEADROOM = 0.99  # the search's gains stay this share of the largest the C holds
-LIMIT_STEP_V = 0.5  # the limit's grid on the paper's actuator (scaled with the range)
+LIMIT_STEPS = 8  # the limit's grid: 0.5 V steps over the paper's 6-10 V (as many steps on any range)
 
 
 def pot_step_n(act: Actuator) -> float:
@@ -176,8 +177,8 @@ def _pid(trial: Any, space: dict[str, tuple[float, float]], aq: ActQ) -> PidPara
     from the paper's), quantized at the tick and within the motor range of actuator `aq`."""
     widened = {k for k in PAPER_SPACE if k != "limit_v" and space[k] != PAPER_SPACE[k] and space[k][0] > 0}
     si = {k: trial.suggest_float(k, *space[k], log=k in widened) for k in PAPER_SPACE if k != "limit_v"}
-    lo, hi = space["limit_v"]
-    si["limit_v"] = trial.suggest_float("limit_v", lo, hi, step=_limit_step(lo, hi)) if hi > lo else hi
+    lo, hi, step = _limit_grid(*space["limit_v"])
+    si["limit_v"] = trial.suggest_float("limit_v", lo, hi, step=step) if step > 0 else hi
     return PidParams.from_si(**si, max_mv=aq.motor_max_mv, tick_s=1.0 / aq.loop_hz)
 
 
@@ -261,16 +262,22 @@ def _onto(act: Actuator, si: dict[str, float]) -> dict[str, float]:
     """Settings `si` clipped into `act`'s search space, the limit onto its grid."""
     space = search_space(act)
     out = {k: float(np.clip(si[k], *space[k])) for k in PAPER_SPACE}
-    lo, hi = space["limit_v"]
-    if hi > lo:
-        step = _limit_step(lo, hi)
-        out["limit_v"] = float(min(lo + round((out["limit_v"] - lo) / step) * step, hi))
+    lo, hi, step = _limit_grid(*space["limit_v"])
+    if step > 0:
+        k = min(max(round((out["limit_v"] - lo) / step), 0), LIMIT_STEPS)
+        out["limit_v"] = float(Decimal(str(lo)) + k * Decimal(str(step)))
     return out
 
 
-def _limit_step(lo: float, hi: float) -> float:
-    """The limit's grid step on a range carried from the paper's (LIMIT_STEP_V there)."""
-    return LIMIT_STEP_V * (hi - lo) / (PAPER_SPACE["limit_v"][1] - PAPER_SPACE["limit_v"][0])
+def _limit_grid(lo: float, hi: float) -> tuple[float, float, float]:
+    """The limit's grid on a range carried from the paper's: (low, high, step), LIMIT_STEPS steps down from
+    `hi` (to 0.1 mV, never above it) to about `lo`, in decimals whose range optuna finds divisible by the
+    step (it compares them as Decimal(str(x)) and otherwise cuts the top, the supply, off the search); the
+    paper's 6-10 V by 0.5 V exactly. A step of 0: a range too narrow for a grid (search `hi` alone)."""
+    q = Decimal("0.0001")
+    top = Decimal(str(hi)).quantize(q, rounding=ROUND_FLOOR)
+    step = max((top - Decimal(str(lo))) / LIMIT_STEPS, Decimal(0)).quantize(q, rounding=ROUND_FLOOR)
+    return float(top - LIMIT_STEPS * step), float(top), float(step)
 
 
 def control_table(params: dict[str, float]) -> str:
