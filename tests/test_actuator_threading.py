@@ -200,7 +200,9 @@ EXPECTED = {
     "motor.stall_force_n": MOTOR,
     "motor.time_constant_s": MOTOR,
     "transmission.lead_mm": GEOMETRY | {"verify"},
-    "transmission.friction_n": {"kinematics", "data_folder"},  # and data summary's kinematics error
+    # the simulated plant's actuator friction (and so the protocol's push estimates), the kinematics
+    # baseline's, and data summary's kinematics error
+    "transmission.friction_n": MOTOR | {"kinematics", "data_folder"},
     "spring.stiffness_n_per_mm": MOTOR | {"kinematics", "verify", "data_folder"},  # and its friction
     "linkage.cb_mm": GEOMETRY | {"verify"},
     "linkage.home_deg": GEOMETRY | {"verify"},
