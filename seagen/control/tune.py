@@ -98,15 +98,14 @@ def search_space(act: Actuator) -> dict[str, tuple[float, float]]:
     holds at the loop rate. The margin's range is moved with the springs' ratio at its top, so its dead
     band is at most the paper's top as a force (MARGIN_TOP_N, inside the settling band), and widened at
     its bottom."""
-    paper = default_actuator()
-    gain, hold = _speed_per_volt(paper) / _speed_per_volt(act), _held_per_volt(paper) / _held_per_volt(act)
-    springs = paper.stiffness_n_per_mm / act.stiffness_n_per_mm
+    r = _ratios(act)
+    gain, hold, springs = r["gain"], r["hold"], r["springs"]
     scale = {
         "kp_v_mm": (gain, hold),
         "ki_v_mm_s": (gain, hold),
         "kd_v_s_mm": (gain,),
         "d_alpha": (1.0,),
-        "limit_v": (volts_scale(act) * force_scale(act), _push_raise(act)),
+        "limit_v": (r["volts"], r["push"]),
     }
     top = {"limit_v": act.motor.supply_v} | {
         k: GAIN_HEADROOM * v for k, v in gain_max_si(1.0 / act.loop_hz).items()
@@ -119,6 +118,21 @@ def search_space(act: Actuator) -> dict[str, tuple[float, float]]:
         cap = top.get(k, np.inf)
         out[k] = (min(lo * min(*scale[k], 1.0), cap), min(hi * max(*scale[k], 1.0), cap))
     return out
+
+
+def _ratios(act: Actuator) -> dict[str, float]:
+    """The paper's settings' ratios to `act` that carry them (search_space widens by them, carried_trial
+    moves by them): gain (the nut's speed per volt, the paper's over act's), hold (the compression the
+    stalled motor holds per volt, likewise), springs (the paper's spring over act's), volts (the protocol's
+    volts and force scale) and push (the calibration pushes' most raised volts)."""
+    paper = default_actuator()
+    return {
+        "gain": _speed_per_volt(paper) / _speed_per_volt(act),
+        "hold": _held_per_volt(paper) / _held_per_volt(act),
+        "springs": paper.stiffness_n_per_mm / act.stiffness_n_per_mm,
+        "volts": volts_scale(act) * force_scale(act),
+        "push": _push_raise(act),
+    }
 
 
 def _push_raise(a: Actuator) -> float:
@@ -226,9 +240,10 @@ def tune(
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(sampler=optuna.samplers.TPESampler(seed=sampler_seed))
-    study.enqueue_trial(SHIPPED if paper else own_trial(act))
-    if not paper and carried_trial(act) != own_trial(act):
-        study.enqueue_trial(carried_trial(act))
+    own = SHIPPED if paper else own_trial(act)
+    study.enqueue_trial(own)
+    if not paper and (carried := carried_trial(act)) != own:
+        study.enqueue_trial(carried)
     study.optimize(trial_fn, n_trials=trials, show_progress_bar=progress)
     return study
 
@@ -245,15 +260,14 @@ def carried_trial(act: Actuator) -> dict[str, float]:
     per volt; the margin by the springs: the same force; the limit by the calibration pushes' volts), into
     the space and the limit onto its grid: the second trial, after the description's own (a description
     that leaves [control] out has the paper's settings, made for its 12 V motor and 4.2 N/mm spring)."""
-    paper = default_actuator()
-    hold = _held_per_volt(paper) / _held_per_volt(act)
+    r = _ratios(act)
     ratio = {
-        "kp_v_mm": hold,
-        "ki_v_mm_s": hold,
-        "kd_v_s_mm": _speed_per_volt(paper) / _speed_per_volt(act),
+        "kp_v_mm": r["hold"],
+        "ki_v_mm_s": r["hold"],
+        "kd_v_s_mm": r["gain"],
         "d_alpha": 1.0,
-        "margin_mm": paper.stiffness_n_per_mm / act.stiffness_n_per_mm,
-        "limit_v": max(volts_scale(act) * force_scale(act), _push_raise(act)),
+        "margin_mm": r["springs"],
+        "limit_v": max(r["volts"], r["push"]),
     }
     return _onto(act, {k: DEFAULT_PID_SI[k] * ratio[k] for k in PAPER_SPACE})
 
