@@ -32,16 +32,10 @@ REFERENCE_MOVE = (2.5, 17.0)  # the paper's first push: volts, peak N (85 % of i
 SLACK = 1.5
 
 
-def friction_n(act: Actuator) -> float:
-    """The friction a push works against on `act`: its transmission.friction_n, which is also the simulated
-    plant's actuator friction on that design (plant.config.Effects.of)."""
-    return act.friction_n
-
-
 def push_time(act: Actuator, volts: float, peak_n: float) -> float:
     """Estimated seconds from rest to `peak_n` at `volts` on `act` (infinite when the motor stalls first)."""
     m, geo = Motor.of(act), geometry(act)
-    a, f_f, f_p = volts / m.supply_v, friction_n(act) / m.stall_force_n, peak_n / m.stall_force_n
+    a, f_f, f_p = volts / m.supply_v, act.friction_n / m.stall_force_n, peak_n / m.stall_force_n
     if a - f_f - f_p <= 0:
         return math.inf
     v_max = m.v_max_mm_s
@@ -62,7 +56,7 @@ def retract_time(act: Actuator, volts: float, peak_n: float) -> float:
     v_max (a + (F - F_f) / F_stall) and t = F_stall / (k v_max) ln((a - f_f + f_p) / (a - f_f)) (infinite
     where the motor cannot overcome the friction once the spring is slack)."""
     m = Motor.of(act)
-    a, f_f, f_p = abs(volts) / m.supply_v, friction_n(act) / m.stall_force_n, peak_n / m.stall_force_n
+    a, f_f, f_p = abs(volts) / m.supply_v, act.friction_n / m.stall_force_n, peak_n / m.stall_force_n
     if a - f_f <= 0:
         return math.inf
     return m.stall_force_n / (act.stiffness_n_per_mm * m.v_max_mm_s) * math.log((a - f_f + f_p) / (a - f_f))
